@@ -1,0 +1,12 @@
+# Compile settings every Loam target shares: warnings are errors on our own code.
+function(loam_target_defaults target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Werror -Wshadow -Wconversion
+                                           -Wno-sign-conversion)
+  target_include_directories(${target} PUBLIC ${PROJECT_SOURCE_DIR})
+endfunction()
+
+# Code whose floating-point results must be identical on every compiler and platform
+# (stamp profile tables, quantization): no fused multiply-add contraction.
+function(loam_exact_fp target)
+  target_compile_options(${target} PRIVATE -ffp-contract=off -fno-fast-math)
+endfunction()

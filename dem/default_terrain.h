@@ -1,0 +1,12 @@
+// The embedded default terrain (data/default_terrain.png + .json, compiled into the binary
+// so no runtime path lookup is needed). See data/README.md for its provenance and scale.
+#pragma once
+
+#include "dem/dem_import.h"
+
+namespace loam {
+
+// Loads and imports the embedded default terrain.
+Result<ImportedWorld> load_default_terrain(const ImportOptions& options = {});
+
+}  // namespace loam

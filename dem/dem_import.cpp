@@ -1,0 +1,157 @@
+#include "dem/dem_import.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace loam {
+
+std::string ImportReport::summary() const {
+  char buf[1024];
+  std::snprintf(buf, sizeof buf,
+                "source            %s (scale from %s)\n"
+                "samples           %lld x %lld -> %d x %d tiles of %d\n"
+                "heights           %.3f .. %.3f m, %lld NoData filled with %.3f m\n"
+                "quantization      offset %.6f m, %.6g m/unit, %.6g m/sample%s\n"
+                "headroom          %.1f m below, %.1f m above\n"
+                "error             max %.6g m, rms %.6g m%s\n",
+                source.c_str(), scale_source.c_str(), (long long)width, (long long)height, tiles_x, tiles_y,
+                kTileSize, min_m, max_m, (long long)nodata_count, nodata_fill_m, height_offset,
+                meters_per_unit, meters_per_sample, anisotropy != 1.0 ? " (source samples not square)" : "",
+                headroom_below_m, headroom_above_m, max_error_m, rms_error_m, exact ? " (exact)" : "");
+  return buf;
+}
+
+Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& options) {
+  const std::string& name = dem.name;
+  if (!std::isfinite(options.headroom) || options.headroom < 0 || options.headroom > 10) {
+    return make_error(ErrorCode::kInvalidArgument, "headroom", "must be in 0..10");
+  }
+  RectI crop{0, 0, dem.width, dem.height};
+  if (options.crop) {
+    crop = *options.crop;
+    if (crop.empty() || !RectI{0, 0, dem.width, dem.height}.contains(crop)) {
+      return make_error(ErrorCode::kInvalidArgument, name, "crop lies outside the image");
+    }
+    if (crop.width() < 2 || crop.height() < 2) {
+      return make_error(ErrorCode::kInvalidArgument, name, "crop must be at least 2x2");
+    }
+  }
+  const auto at = [&](int64_t x, int64_t y) { return dem.meters[size_t(y * dem.width + x)]; };
+
+  double lo = INFINITY, hi = -INFINITY;
+  int64_t nodata = 0;
+  for (int64_t y = crop.y0; y < crop.y1; ++y) {
+    for (int64_t x = crop.x0; x < crop.x1; ++x) {
+      const double v = at(x, y);
+      if (std::isnan(v)) {
+        ++nodata;
+        continue;
+      }
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  }
+  if (!(lo <= hi))
+    return make_error(ErrorCode::kInvalidArgument, name, "no valid sample in the imported area");
+  if (std::fabs(lo) > 1e6 || std::fabs(hi) > 1e6) {
+    return make_error(ErrorCode::kInvalidArgument, name, "heights beyond +-1000 km are not terrain");
+  }
+
+  WorldParams p;
+  p.meters_per_sample = dem.meters_per_sample;
+  p.detail_factor = options.detail_factor;
+  p.origin_tile_x = options.origin_tile_x;
+  p.origin_tile_y = options.origin_tile_y;
+  p.tiles_x = int32_t(ceil_div(crop.width(), kTileSize));
+  p.tiles_y = int32_t(ceil_div(crop.height(), kTileSize));
+
+  const double range = std::max(hi - lo, 1e-3);
+  if (dem.loam_world && !options.crop && dem.loam_world->params.tiles_x == p.tiles_x &&
+      dem.loam_world->params.tiles_y == p.tiles_y) {
+    // A Loam export: keep its quantization so the round trip is exact.
+    const WorldParams& w = dem.loam_world->params;
+    p.height_offset = w.height_offset;
+    p.meters_per_unit = w.meters_per_unit;
+    p.detail_factor = w.detail_factor;
+    p.detail_meters_per_unit = w.detail_meters_per_unit;
+    p.meters_per_sample = w.meters_per_sample;
+  } else if (dem.integer_source && dem.vertical_step > 0) {
+    // Integer source: a power-of-two fraction (or multiple) of its step keeps every source
+    // value exact whenever the range with headroom fits 16 bits.
+    const double units = range / dem.vertical_step;
+    const double needed = units * (1.0 + 2.0 * options.headroom);
+    int k = 0;
+    while (k < 16 && needed * std::ldexp(1.0, k + 1) <= 65535.0) ++k;
+    while (k > -32 && needed * std::ldexp(1.0, k) > 65535.0) --k;
+    p.meters_per_unit = std::ldexp(dem.vertical_step, -k);
+    const double data_units = std::round(range / p.meters_per_unit);
+    const double below = std::floor((65535.0 - data_units) / 2.0);
+    p.height_offset = lo - below * p.meters_per_unit;
+  } else {
+    p.meters_per_unit = range * (1.0 + 2.0 * options.headroom) / 65535.0;
+    p.height_offset = lo - options.headroom * range;
+  }
+  if (p.detail_meters_per_unit <= 0 || !dem.loam_world) {
+    p.detail_meters_per_unit =
+        options.detail_meters_per_unit > 0 ? options.detail_meters_per_unit : p.meters_per_unit / 4.0;
+  }
+  if (dem.loam_world && !options.crop)
+    p.detail_meters_per_unit = dem.loam_world->params.detail_meters_per_unit;
+  if (const Status st = p.validate(); !st.ok()) {
+    return make_error(st.error().code, name, "derived world parameters invalid: " + st.error().describe());
+  }
+
+  // Quantize, fill NoData with the minimum, pad by repeating the edge samples.
+  const RectI world = p.sample_rect();
+  const int64_t ww = world.width(), wh = world.height();
+  std::vector<uint16_t> samples(size_t(ww * wh));
+  double max_err = 0, sum_sq = 0;
+  int64_t valid = 0;
+  const uint16_t fill_q = quantize_height(p, lo);
+  for (int64_t y = 0; y < wh; ++y) {
+    const int64_t sy = crop.y0 + std::min(y, crop.height() - 1);
+    for (int64_t x = 0; x < ww; ++x) {
+      const int64_t sx = crop.x0 + std::min(x, crop.width() - 1);
+      const double v = at(sx, sy);
+      uint16_t q = fill_q;
+      if (!std::isnan(v)) {
+        q = quantize_height(p, v);
+        if (x < crop.width() && y < crop.height()) {
+          const double err = std::fabs(p.height_meters(q) - v);
+          max_err = std::max(max_err, err);
+          sum_sq += err * err;
+          ++valid;
+        }
+      }
+      samples[size_t(y * ww + x)] = q;
+    }
+  }
+  auto built = World::from_samples(p, samples);
+  if (!built) return built.error();
+
+  ImportReport r;
+  r.source = name;
+  r.width = crop.width();
+  r.height = crop.height();
+  r.tiles_x = p.tiles_x;
+  r.tiles_y = p.tiles_y;
+  r.min_m = lo;
+  r.max_m = hi;
+  r.nodata_count = nodata;
+  r.nodata_fill_m = p.height_meters(fill_q);
+  r.meters_per_sample = p.meters_per_sample;
+  r.meters_per_unit = p.meters_per_unit;
+  r.height_offset = p.height_offset;
+  r.headroom_below_m = lo - p.height_offset;
+  r.headroom_above_m = p.height_meters(65535) - hi;
+  r.max_error_m = max_err;
+  r.rms_error_m = valid ? std::sqrt(sum_sq / double(valid)) : 0.0;
+  // Exact when every error is within double rounding of the heights themselves.
+  r.exact = max_err <= 1e-9 * std::max(1.0, std::max(std::fabs(lo), std::fabs(hi)));
+  r.scale_source = dem.scale_source;
+  r.anisotropy = dem.anisotropy;
+  return ImportedWorld{std::move(*built), r};
+}
+
+}  // namespace loam

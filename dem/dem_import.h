@@ -1,0 +1,50 @@
+// Turning a DEM raster into a Loam world: choosing the quantization (offset and meters per
+// unit with headroom above and below the data), padding to whole tiles, filling NoData, and
+// reporting the error that quantization introduced.
+#pragma once
+
+#include <optional>
+#include <string>
+
+#include "dem/dem_raster.h"
+#include "protocol/world.h"
+
+namespace loam {
+
+struct ImportOptions {
+  // Fraction of the data's height range kept free below its minimum and above its maximum,
+  // so digging and building do not saturate at once. 0.25 = a quarter of the range each side.
+  double headroom = 0.25;
+  int32_t detail_factor = 4;
+  double detail_meters_per_unit = 0.0;  // 0: a quarter of the coarse meters_per_unit
+  int32_t origin_tile_x = 0;
+  int32_t origin_tile_y = 0;
+  // Optional crop of the raster before import: x, y, width, height in source samples.
+  std::optional<RectI> crop;
+};
+
+struct ImportReport {
+  std::string source;
+  int64_t width = 0, height = 0;     // samples imported (after crop)
+  int32_t tiles_x = 0, tiles_y = 0;  // world extent; padding repeats the edge samples
+  double min_m = 0, max_m = 0;       // valid data range
+  int64_t nodata_count = 0;
+  double nodata_fill_m = 0;  // NoData samples are filled with the data minimum
+  double meters_per_sample = 0, meters_per_unit = 0, height_offset = 0;
+  double headroom_below_m = 0, headroom_above_m = 0;
+  double max_error_m = 0, rms_error_m = 0;  // quantization error over valid samples
+  bool exact = false;                       // every valid sample is represented exactly
+  std::string scale_source;
+  double anisotropy = 1.0;
+
+  std::string summary() const;  // multi-line human text
+};
+
+struct ImportedWorld {
+  World world;
+  ImportReport report;
+};
+
+Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& options = {});
+
+}  // namespace loam

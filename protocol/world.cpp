@@ -1,0 +1,321 @@
+#include "protocol/world.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cstring>
+
+#include "protocol/tile_hash.h"
+
+namespace loam {
+
+World::World(const WorldParams& params, uint16_t fill)
+    : params_(params), samples_(params.sample_rect()), detail_samples_(params.detail_sample_rect()) {
+  assert(params.validate().ok());
+  const int32_t mips = params_.mip_count();
+  mips_.resize(size_t(mips));
+  const uint64_t fill_hash = [&] {
+    std::vector<uint16_t> t(kTileSamples, fill);
+    return hash_coarse_tile(t);
+  }();
+  for (int32_t m = 0; m < mips; ++m) {
+    CoarseMip& mip = mips_[size_t(m)];
+    mip.tiles = params_.tile_range(m);
+    const size_t count = size_t(mip.tiles.area());
+    mip.data.assign(count, std::vector<uint16_t>(kTileSamples, fill));
+    mip.state.assign(count, TileState{0, fill_hash});
+  }
+}
+
+Result<World> World::from_samples(const WorldParams& params, std::span<const uint16_t> samples) {
+  LOAM_TRY(params.validate());
+  const RectI r = params.sample_rect();
+  if (samples.size() != size_t(r.area())) {
+    return make_error(ErrorCode::kInvalidArgument, "samples",
+                      "expected " + std::to_string(r.area()) + " samples for " +
+                          std::to_string(params.tiles_x) + "x" + std::to_string(params.tiles_y) +
+                          " tiles, got " + std::to_string(samples.size()));
+  }
+  World w(params, 0);
+  w.write_coarse(r, samples);
+  w.commit(0);
+  return w;
+}
+
+bool World::tile_in_range(int32_t mip, int32_t tx, int32_t ty) const {
+  if (mip < 0 || size_t(mip) >= mips_.size()) return false;
+  return mips_[size_t(mip)].tiles.contains(tx, ty);
+}
+
+size_t World::tile_index(int32_t mip, int32_t tx, int32_t ty) const {
+  const RectI& t = mips_[size_t(mip)].tiles;
+  return size_t((ty - t.y0) * t.width() + (tx - t.x0));
+}
+
+uint16_t World::coarse(int64_t gx, int64_t gy) const {
+  gx = std::clamp(gx, samples_.x0, samples_.x1 - 1);
+  gy = std::clamp(gy, samples_.y0, samples_.y1 - 1);
+  const int32_t tx = int32_t(gx >> kTileShift), ty = int32_t(gy >> kTileShift);
+  const auto& tile = mips_[0].data[tile_index(0, tx, ty)];
+  return tile[size_t((gy & (kTileSize - 1)) * kTileSize + (gx & (kTileSize - 1)))];
+}
+
+int8_t World::detail(int64_t dx, int64_t dy) const {
+  dx = std::clamp(dx, detail_samples_.x0, detail_samples_.x1 - 1);
+  dy = std::clamp(dy, detail_samples_.y0, detail_samples_.y1 - 1);
+  const auto it = detail_.find(key(int32_t(dx >> kTileShift), int32_t(dy >> kTileShift)));
+  if (it == detail_.end()) return 0;
+  return it->second[size_t((dy & (kTileSize - 1)) * kTileSize + (dx & (kTileSize - 1)))];
+}
+
+void World::read_coarse(const RectI& r, std::span<uint16_t> out) const {
+  assert(out.size() >= size_t(r.area()));
+  const int64_t w = r.width();
+  for (int64_t y = r.y0; y < r.y1; ++y) {
+    uint16_t* row = out.data() + (y - r.y0) * w;
+    const int64_t cy = std::clamp(y, samples_.y0, samples_.y1 - 1);
+    int64_t x = r.x0;
+    // Left clamp region, then whole runs inside tiles, then right clamp region.
+    for (; x < std::min(r.x1, samples_.x0); ++x) row[x - r.x0] = coarse(x, cy);
+    while (x < std::min(r.x1, samples_.x1)) {
+      const int32_t tx = int32_t(x >> kTileShift);
+      const int64_t run_end = std::min({r.x1, samples_.x1, (int64_t(tx) + 1) * kTileSize});
+      const auto& tile = mips_[0].data[tile_index(0, tx, int32_t(cy >> kTileShift))];
+      std::memcpy(row + (x - r.x0), tile.data() + (cy & (kTileSize - 1)) * kTileSize + (x & (kTileSize - 1)),
+                  size_t(run_end - x) * sizeof(uint16_t));
+      x = run_end;
+    }
+    for (; x < r.x1; ++x) row[x - r.x0] = coarse(x, cy);
+  }
+}
+
+void World::read_detail(const RectI& r, std::span<int8_t> out) const {
+  assert(out.size() >= size_t(r.area()));
+  const int64_t w = r.width();
+  for (int64_t y = r.y0; y < r.y1; ++y) {
+    for (int64_t x = r.x0; x < r.x1; ++x) out[size_t((y - r.y0) * w + (x - r.x0))] = detail(x, y);
+  }
+}
+
+int64_t World::write_coarse(const RectI& r, std::span<const uint16_t> in) {
+  assert(in.size() >= size_t(r.area()));
+  const RectI clipped = r.intersect(samples_);
+  int64_t changed = 0;
+  const RectI tiles = tiles_overlapping(clipped);
+  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+      const RectI part = clipped.intersect(tile_rect(int32_t(tx), int32_t(ty)));
+      auto& tile = mips_[0].data[tile_index(0, int32_t(tx), int32_t(ty))];
+      RectI dirty;
+      for (int64_t y = part.y0; y < part.y1; ++y) {
+        const uint16_t* src = in.data() + (y - r.y0) * r.width() + (part.x0 - r.x0);
+        uint16_t* dst = tile.data() + (y - ty * kTileSize) * kTileSize + (part.x0 - tx * kTileSize);
+        int64_t first = -1, last = -1;
+        for (int64_t i = 0; i < part.width(); ++i) {
+          if (dst[i] != src[i]) {
+            dst[i] = src[i];
+            if (first < 0) first = i;
+            last = i;
+            ++changed;
+          }
+        }
+        if (first >= 0) dirty = dirty.unite({part.x0 + first, y, part.x0 + last + 1, y + 1});
+      }
+      if (!dirty.empty()) mark_dirty(Layer::kCoarse, dirty);
+    }
+  }
+  return changed;
+}
+
+int64_t World::write_detail(const RectI& r, std::span<const int8_t> in) {
+  assert(in.size() >= size_t(r.area()));
+  const RectI clipped = r.intersect(detail_samples_);
+  int64_t changed = 0;
+  const RectI tiles = tiles_overlapping(clipped);
+  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+      const RectI part = clipped.intersect(tile_rect(int32_t(tx), int32_t(ty)));
+      const auto found = detail_.find(key(int32_t(tx), int32_t(ty)));
+      RectI dirty;
+      std::vector<int8_t>* tile = found == detail_.end() ? nullptr : &found->second;
+      for (int64_t y = part.y0; y < part.y1; ++y) {
+        const int8_t* src = in.data() + (y - r.y0) * r.width() + (part.x0 - r.x0);
+        for (int64_t i = 0; i < part.width(); ++i) {
+          const size_t at = size_t((y - ty * kTileSize) * kTileSize + (part.x0 + i - tx * kTileSize));
+          const int8_t old = tile ? (*tile)[at] : int8_t{0};
+          if (old == src[i]) continue;
+          if (!tile)
+            tile = &detail_.try_emplace(key(int32_t(tx), int32_t(ty)), kTileSamples, int8_t{0}).first->second;
+          (*tile)[at] = src[i];
+          dirty = dirty.unite({part.x0 + i, y, part.x0 + i + 1, y + 1});
+          ++changed;
+        }
+      }
+      if (!dirty.empty()) mark_dirty(Layer::kDetail, dirty);
+    }
+  }
+  return changed;
+}
+
+std::span<const uint16_t> World::coarse_tile(int32_t mip, int32_t tx, int32_t ty) const {
+  if (!tile_in_range(mip, tx, ty)) return {};
+  return mips_[size_t(mip)].data[tile_index(mip, tx, ty)];
+}
+
+std::span<uint16_t> World::coarse_tile_mut(int32_t tx, int32_t ty) {
+  if (!tile_in_range(0, tx, ty)) return {};
+  return mips_[0].data[tile_index(0, tx, ty)];
+}
+
+std::span<const int8_t> World::detail_tile(int32_t tx, int32_t ty) const {
+  const auto it = detail_.find(key(tx, ty));
+  if (it == detail_.end()) return {};
+  return it->second;
+}
+
+std::span<int8_t> World::detail_tile_mut(int32_t tx, int32_t ty) {
+  const RectI dtiles = tiles_overlapping(detail_samples_);
+  if (!dtiles.contains(tx, ty)) return {};
+  return detail_.try_emplace(key(tx, ty), kTileSamples, int8_t{0}).first->second;
+}
+
+void World::mark_dirty(Layer layer, const RectI& global_rect) {
+  const RectI clipped = global_rect.intersect(layer == Layer::kCoarse ? samples_ : detail_samples_);
+  const RectI tiles = tiles_overlapping(clipped);
+  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+      const RectI local =
+          clipped.intersect(tile_rect(int32_t(tx), int32_t(ty))).translated(-tx * kTileSize, -ty * kTileSize);
+      RectI& merged = pending_[TileCoord{layer, 0, int32_t(tx), int32_t(ty)}];
+      merged = merged.unite(local);
+    }
+  }
+}
+
+// Mip m sample (i, j) is mip-0 sample clamp(i * 2^m, j * 2^m). A mip-0 dirty rect affects
+// the mip samples whose clamped source lies inside it; at the world's edge that includes
+// every sample beyond the edge, which repeats the edge sample.
+void World::update_mips(const RectI& dirty0, std::unordered_map<TileCoord, RectI, TileCoordHash>& changed) {
+  for (int32_t m = 1; m < int32_t(mips_.size()); ++m) {
+    CoarseMip& mip = mips_[size_t(m)];
+    const int64_t step = int64_t(1) << m;
+    const RectI all = {mip.tiles.x0 * kTileSize, mip.tiles.y0 * kTileSize, mip.tiles.x1 * kTileSize,
+                       mip.tiles.y1 * kTileSize};
+    RectI affected = {ceil_div(dirty0.x0, step), ceil_div(dirty0.y0, step),
+                      floor_div(dirty0.x1 - 1, step) + 1, floor_div(dirty0.y1 - 1, step) + 1};
+    if (dirty0.x0 == samples_.x0) affected.x0 = all.x0;
+    if (dirty0.y0 == samples_.y0) affected.y0 = all.y0;
+    if (dirty0.x1 == samples_.x1) affected.x1 = all.x1;
+    if (dirty0.y1 == samples_.y1) affected.y1 = all.y1;
+    affected = affected.intersect(all);
+    if (affected.empty()) return;  // coarser mips are sparser still
+    const RectI tiles = tiles_overlapping(affected);
+    for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+      for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+        const RectI part = affected.intersect(tile_rect(int32_t(tx), int32_t(ty)));
+        auto& tile = mip.data[tile_index(m, int32_t(tx), int32_t(ty))];
+        RectI dirty;
+        for (int64_t j = part.y0; j < part.y1; ++j) {
+          for (int64_t i = part.x0; i < part.x1; ++i) {
+            const uint16_t v = coarse(i * step, j * step);
+            uint16_t& dst = tile[size_t((j - ty * kTileSize) * kTileSize + (i - tx * kTileSize))];
+            if (dst != v) {
+              dst = v;
+              dirty = dirty.unite({i, j, i + 1, j + 1});
+            }
+          }
+        }
+        if (!dirty.empty()) {
+          RectI& merged = changed[TileCoord{Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)}];
+          merged = merged.unite(dirty.translated(-tx * kTileSize, -ty * kTileSize));
+        }
+      }
+    }
+  }
+}
+
+std::vector<TileChange> World::commit(uint64_t seq) {
+  std::unordered_map<TileCoord, RectI, TileCoordHash> changed = std::move(pending_);
+  pending_.clear();
+  std::vector<RectI> coarse_dirty;
+  for (const auto& [c, r] : changed) {
+    if (c.layer == Layer::kCoarse)
+      coarse_dirty.push_back(r.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize));
+  }
+  for (const RectI& r : coarse_dirty) update_mips(r, changed);
+
+  std::vector<TileChange> out;
+  out.reserve(changed.size());
+  for (const auto& [c, r] : changed) {
+    TileChange change{c, r, 0, seq};
+    if (c.layer == Layer::kCoarse) {
+      const size_t i = tile_index(c.mip, c.tx, c.ty);
+      TileState& st = mips_[c.mip].state[i];
+      change.base_version = st.version;
+      st.version = seq;
+      st.hash = hash_coarse_tile(mips_[c.mip].data[i]);
+    } else {
+      TileState& st = detail_state_[key(c.tx, c.ty)];
+      change.base_version = st.version;
+      st.version = seq;
+      const auto it = detail_.find(key(c.tx, c.ty));
+      if (it != detail_.end() &&
+          std::all_of(it->second.begin(), it->second.end(), [](int8_t v) { return v == 0; })) {
+        detail_.erase(it);  // canonical sparse form: zero tiles are not stored
+        st.hash = zero_detail_tile_hash();
+      } else {
+        st.hash = it == detail_.end() ? zero_detail_tile_hash() : hash_detail_tile(it->second);
+      }
+    }
+    out.push_back(change);
+  }
+  std::sort(out.begin(), out.end(),
+            [](const TileChange& a, const TileChange& b) { return a.coord < b.coord; });
+  return out;
+}
+
+TileState World::tile_state(const TileCoord& c) const {
+  if (c.layer == Layer::kCoarse) {
+    if (!tile_in_range(c.mip, c.tx, c.ty)) return {};
+    return mips_[c.mip].state[tile_index(c.mip, c.tx, c.ty)];
+  }
+  if (c.mip != 0) return {};
+  const auto it = detail_state_.find(key(c.tx, c.ty));
+  if (it == detail_state_.end()) return TileState{0, zero_detail_tile_hash()};
+  return it->second;
+}
+
+std::vector<TileCoord> World::stored_detail_tiles() const {
+  std::vector<TileCoord> out;
+  out.reserve(detail_.size());
+  for (const auto& [k, tile] : detail_) {
+    out.push_back(TileCoord{Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
+  }
+  std::sort(out.begin(), out.end(),
+            [](const TileCoord& a, const TileCoord& b) { return a.ty != b.ty ? a.ty < b.ty : a.tx < b.tx; });
+  return out;
+}
+
+uint64_t World::world_hash() const {
+  WorldHasher h;
+  const CoarseMip& m0 = mips_[0];
+  for (int64_t ty = m0.tiles.y0; ty < m0.tiles.y1; ++ty) {
+    for (int64_t tx = m0.tiles.x0; tx < m0.tiles.x1; ++tx) {
+      h.add(uint8_t(Layer::kCoarse), int32_t(tx), int32_t(ty),
+            m0.state[tile_index(0, int32_t(tx), int32_t(ty))].hash);
+    }
+  }
+  // Detail tiles by committed state, so a tile created but never changed counts as absent.
+  std::vector<std::pair<TileCoord, uint64_t>> detail;
+  for (const auto& [k, st] : detail_state_) {
+    if (st.hash == zero_detail_tile_hash()) continue;
+    detail.push_back(
+        {TileCoord{Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))}, st.hash});
+  }
+  std::sort(detail.begin(), detail.end(), [](const auto& a, const auto& b) {
+    return a.first.ty != b.first.ty ? a.first.ty < b.first.ty : a.first.tx < b.first.tx;
+  });
+  for (const auto& [c, hash] : detail) h.add(uint8_t(Layer::kDetail), c.tx, c.ty, hash);
+  return h.finish();
+}
+
+}  // namespace loam

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Installs every build, test and benchmark dependency of Loam from Debian's packages.
+# Idempotent: when every package is already installed it does nothing (no apt-get update).
+set -euo pipefail
+
+PACKAGES=(
+  # toolchain
+  cmake ninja-build ccache g++ clang libclang-rt-14-dev clang-format pkg-config
+  # libraries
+  libasio-dev libglfw3-dev libglm-dev libzstd-dev libopenimageio-dev openimageio-tools
+  libegl-dev libegl-mesa0 libgl1-mesa-dri libgl-dev libepoxy-dev
+  libgtest-dev libgmock-dev libcli11-dev libxxhash-dev libimgui-dev liblerc-dev nlohmann-json3-dev
+  # test and benchmark tools
+  xvfb xauth gnuplot-nox gdal-bin
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "setup: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+echo "setup: installing ${missing[*]}"
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -q
+$SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+echo "setup: done"
