@@ -61,10 +61,11 @@ Status WorldParams::validate() const {
 }
 
 int32_t WorldParams::mip_count() const {
+  // Mips until one tile spans the whole world: then the world covers one tile when its origin
+  // is aligned to that mip's tiles, and at most 2 x 2 otherwise.
   int32_t count = 1;
-  while (count < kMaxMips) {
-    const RectI r = tile_range(count - 1);
-    if (r.width() <= 1 && r.height() <= 1) break;
+  while (count < kMaxMips &&
+         (int64_t(kTileSize) << (count - 1)) < int64_t(std::max(tiles_x, tiles_y)) * kTileSize) {
     ++count;
   }
   return count;

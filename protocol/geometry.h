@@ -116,7 +116,7 @@ struct WorldParams {
     const RectI r = sample_rect();
     return {r.x0 * detail_factor, r.y0 * detail_factor, r.x1 * detail_factor, r.y1 * detail_factor};
   }
-  // Number of coarse mips: mip 0 up to the first level where the world fits one tile.
+  // Number of coarse mips: mip 0 up to the first level whose tile spans the whole world.
   int32_t mip_count() const;
   // Tile range [tx0, tx1) x [ty0, ty1) of the coarse world at a mip.
   RectI tile_range(int32_t mip) const;

@@ -207,7 +207,8 @@ void World::update_mips(const RectI& dirty0, std::unordered_map<TileCoord, RectI
     if (dirty0.x1 == samples_.x1) affected.x1 = all.x1;
     if (dirty0.y1 == samples_.y1) affected.y1 = all.y1;
     affected = affected.intersect(all);
-    if (affected.empty()) return;  // coarser mips are sparser still
+    // No early exit: a coarser mip can have samples beyond the edge that a finer one lacks.
+    if (affected.empty()) continue;
     const RectI tiles = tiles_overlapping(affected);
     for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
       for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {

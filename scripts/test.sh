@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# The README's test command: sets up the machine, builds every test in one configuration
+# (GCC, AddressSanitizer + UndefinedBehaviorSanitizer, warnings as errors) and runs them
+# under ctest; then builds protocol/ with clang 14 and runs each libFuzzer target briefly.
+# Environment: LOAM_FUZZ_SECONDS (default 30), LOAM_SKIP_FUZZ=1 to skip the fuzzers.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+bash scripts/setup.sh
+
+export ASAN_OPTIONS="${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1}"
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$PWD/tests/lsan.supp:print_suppressions=0}"
+export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
+jobs=$(nproc)
+
+echo "== build (gcc, asan+ubsan)"
+cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLOAM_SANITIZE=ON >/dev/null
+ninja -C build/asan -j "$jobs"
+
+echo "== tests"
+(cd build/asan && ctest --output-on-failure -j "$jobs" --timeout 900)
+
+if [ "${LOAM_SKIP_FUZZ:-0}" != "1" ] && [ -f fuzz/CMakeLists.txt ]; then
+  echo "== fuzz (clang 14 build of protocol/, ${LOAM_FUZZ_SECONDS:-30} s per target)"
+  bash fuzz/run.sh all "${LOAM_FUZZ_SECONDS:-30}"
+fi
+echo "== all tests passed"
