@@ -285,6 +285,20 @@ TileState World::tile_state(const TileCoord& c) const {
   return it->second;
 }
 
+bool World::restore_version(const TileCoord& c, uint64_t version) {
+  if (c.layer == Layer::kCoarse) {
+    if (!tile_in_range(c.mip, c.tx, c.ty)) return false;
+    mips_[c.mip].state[tile_index(c.mip, c.tx, c.ty)].version = version;
+    return true;
+  }
+  if (c.mip != 0 || !tiles_overlapping(detail_samples_).contains(c.tx, c.ty)) return false;
+  TileState& st = detail_state_[key(c.tx, c.ty)];
+  const auto it = detail_.find(key(c.tx, c.ty));
+  st.hash = it == detail_.end() ? zero_detail_tile_hash() : hash_detail_tile(it->second);
+  st.version = version;
+  return true;
+}
+
 std::vector<TileCoord> World::stored_detail_tiles() const {
   std::vector<TileCoord> out;
   out.reserve(detail_.size());

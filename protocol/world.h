@@ -77,6 +77,9 @@ class World {
 
   // --- Versions and hashes (committed state) ---
   TileState tile_state(const TileCoord& c) const;
+  // Sets a tile's version without changing its content (loading a snapshot, which stores
+  // versions beside the samples). Returns false for a tile outside the world.
+  bool restore_version(const TileCoord& c, uint64_t version);
   // Hash of every mip-0 coarse tile and every stored detail tile, in canonical order.
   uint64_t world_hash() const;
   size_t detail_tile_count() const { return detail_.size(); }

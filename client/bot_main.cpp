@@ -1,0 +1,99 @@
+// loam-client: the client program. Today it has the headless bot (no GL): it joins a
+// session, subscribes to the world, deforms it with seeded random stamps at a steady rate,
+// checks its confirmed store against the server's TileHashes, and reports. The viewer and
+// the headless renderer join it with the rendering issue.
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <random>
+#include <thread>
+
+#include "client/net/terrain_client.h"
+#include "protocol/stamps/stamp_validate.h"
+
+namespace {
+
+using namespace loam;
+using namespace std::chrono_literals;
+
+QuantizedStamp bot_stamp(std::mt19937& rng, const WorldParams& w) {
+  const RectI r = w.sample_rect();
+  std::uniform_real_distribution<double> ux(double(r.x0) * w.meters_per_sample, double(r.x1 - 1) * w.meters_per_sample);
+  std::uniform_real_distribution<double> uy(double(r.y0) * w.meters_per_sample, double(r.y1 - 1) * w.meters_per_sample);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (;;) {
+    StampParams p;
+    const uint32_t pick = uint32_t(rng() % 10);
+    p.center_x = ux(rng);
+    p.center_y = uy(rng);
+    p.radius = 2.0 + 30.0 * unit(rng);
+    p.rotation = 6.28 * unit(rng);
+    p.intensity = -2.0 + 4.0 * unit(rng);
+    p.kind = StampKind::kGaussian;
+    if (pick < 4) p.kind = StampKind::kCrater, p.intensity = 0.5 + 2.0 * unit(rng), p.shape = 0.3;
+    if (pick == 4) p.kind = StampKind::kFootprint, p.intensity = 0.2, p.radius = 1.5;
+    if (pick == 5) p.kind = StampKind::kShockwave, p.radius = 6.0, p.intensity = 0.4, p.steps = 40, p.speed = 0.6, p.damping = 0.02;
+    if (pick == 6) p.kind = StampKind::kGaussian, p.layer = Layer::kDetail, p.radius = 1.0, p.intensity = 0.05;
+    auto q = validate_stamp(p, w);
+    if (q) return *q;
+  }
+}
+
+int run_bot(const std::string& host, uint16_t port, const std::string& name, uint32_t stamps, double rate,
+            uint32_t seed) {
+  client::TerrainClient c;
+  if (const Status st = c.connect(host, port, name, wire::Role::kBot); !st.ok()) {
+    std::fprintf(stderr, "loam-client bot: %s\n", st.error().describe().c_str());
+    return 1;
+  }
+  std::printf("bot %s: joined as client %u at sequence %llu\n", name.c_str(), c.welcome().client_id,
+              (unsigned long long)c.welcome().global_sequence);
+  if (!c.subscribe(c.all_coarse_tiles(0)).ok()) return 1;
+  std::mt19937 rng(seed);
+  std::vector<uint32_t> sent;
+  const auto period = std::chrono::duration<double>(1.0 / rate);
+  auto next = std::chrono::steady_clock::now();
+  for (uint32_t i = 0; i < stamps; ++i) {
+    auto s = c.deform(bot_stamp(rng, c.welcome().world));
+    if (!s) break;
+    sent.push_back(*s);
+    next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    while (std::chrono::steady_clock::now() < next) {
+      if (!c.pump(std::chrono::duration_cast<std::chrono::milliseconds>(next - std::chrono::steady_clock::now()) + 1ms).ok()) break;
+    }
+  }
+  c.wait_until([&] { return sent.empty() || c.ack(sent.back()).has_value(); }, 10s);
+  size_t accepted = 0;
+  for (uint32_t s : sent) accepted += c.ack(s) && c.ack(s)->accepted;
+  // Let the next TileHashes arrive so the report includes a comparison.
+  const size_t hashes = c.tile_hash_messages();
+  c.wait_until([&] { return c.tile_hash_messages() > hashes; }, 5s);
+  const auto& k = c.store().counters();
+  std::printf("bot %s: %zu/%zu stamps accepted; events applied %llu, regions %llu, hash checks %llu, mismatches %llu\n",
+              name.c_str(), accepted, sent.size(), (unsigned long long)k.events_applied, (unsigned long long)k.regions,
+              (unsigned long long)k.hash_checks, (unsigned long long)k.hash_mismatches);
+  (void)c.connection().send(wire::Bye{wire::ByeReason::kNormal, "bot done"});
+  return k.hash_mismatches == 0 ? 0 : 3;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"loam-client: Loam's client (bot today; viewer and renderer with the rendering issue)"};
+  app.require_subcommand(1);
+  std::string host = "127.0.0.1", name = "bot";
+  uint16_t port = 7878;
+  uint32_t stamps = 100, seed = 1;
+  double rate = 10.0;
+  auto* bot = app.add_subcommand("bot", "Join a session and deform it with random stamps");
+  bot->add_option("--host", host)->capture_default_str();
+  bot->add_option("--port", port)->capture_default_str();
+  bot->add_option("--name", name)->capture_default_str();
+  bot->add_option("--stamps", stamps, "How many stamps to send")->capture_default_str();
+  bot->add_option("--rate", rate, "Stamps per second")->capture_default_str()->check(CLI::Range(0.1, 1000.0));
+  bot->add_option("--seed", seed)->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  if (*bot) return run_bot(host, port, name, stamps, rate, seed);
+  return 0;
+}

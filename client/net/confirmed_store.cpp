@@ -1,0 +1,155 @@
+#include "client/net/confirmed_store.h"
+
+#include <algorithm>
+
+#include "protocol/stamps/stamp_apply.h"
+#include "protocol/tile_hash.h"
+
+namespace loam::client {
+
+ConfirmedStore::ConfirmedStore(const WorldParams& params) : mirror_(params, 0) {}
+
+void ConfirmedStore::forget(const TileCoord& c) {
+  wanted_.erase(c);
+  versions_.erase(c);
+  mip_tiles_.erase(c);
+}
+
+Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version, std::span<const uint16_t> samples) {
+  if (samples.size() != size_t(kTileSamples)) return make_error(ErrorCode::kInvalidArgument, "region", "not a whole tile");
+  if (c.layer != Layer::kCoarse) return make_error(ErrorCode::kInvalidArgument, "region.layer", "not a coarse tile");
+  const WorldParams& p = mirror_.params();
+  if (c.mip >= p.mip_count() || !p.tile_range(c.mip).contains(c.tx, c.ty)) {
+    return make_error(ErrorCode::kInvalidArgument, "region.tile", to_string(c) + " is not in the world");
+  }
+  if (c.mip == 0) {
+    mirror_.write_coarse(tile_rect(c.tx, c.ty), samples);
+    mirror_.commit(version);
+  } else {
+    mip_tiles_[c].assign(samples.begin(), samples.end());
+  }
+  versions_[c] = version;
+  after_region(version);
+  return {};
+}
+
+Status ConfirmedStore::replace_detail(const TileCoord& c, uint64_t version, std::span<const int8_t> samples) {
+  if (samples.size() != size_t(kTileSamples)) return make_error(ErrorCode::kInvalidArgument, "region", "not a whole tile");
+  if (c.layer != Layer::kDetail || c.mip != 0 ||
+      !tiles_overlapping(mirror_.params().detail_sample_rect()).contains(c.tx, c.ty)) {
+    return make_error(ErrorCode::kInvalidArgument, "region.tile", to_string(c) + " is not a detail tile of the world");
+  }
+  mirror_.write_detail(tile_rect(c.tx, c.ty), samples);
+  mirror_.commit(version);
+  versions_[c] = version;
+  after_region(version);
+  return {};
+}
+
+// Events at or below a region's version are already in its tile (the server covers every
+// tile such an event changed with a region), so they are dropped; later ones may now apply.
+void ConfirmedStore::after_region(uint64_t version) {
+  ++counters_.regions;
+  for (auto it = buffer_.begin(); it != buffer_.end();) {
+    if (it->first <= version) {
+      it = buffer_.erase(it);
+      ++counters_.events_dropped;
+    } else {
+      ++it;
+    }
+  }
+  retry_buffered(last_textures_);
+}
+
+bool ConfirmedStore::try_apply(const wire::DeformEvent& e, const TextureRegistry* textures) {
+  if (e.base_versions.empty()) return false;  // the server sends regions instead
+  bool holds_any = false;
+  for (const wire::TileVersion& bv : e.base_versions) {
+    if (bv.tile.mip != 0 || bv.tile.layer != e.stamp.layer) continue;
+    const auto it = versions_.find(bv.tile);
+    if (it == versions_.end()) {
+      if (e.stamp.kind == StampKind::kFootprint) return false;
+      continue;
+    }
+    if (it->second != bv.version) return false;
+    holds_any = true;
+  }
+  if (!holds_any) return true;  // nothing of ours changes: consumed
+  auto applied = apply_stamp(mirror_, e.stamp, textures);
+  const auto changes = mirror_.commit(e.global_seq);
+  if (!applied) return true;  // the server's stamp failed the same way: a no-op everywhere
+  for (const TileChange& c : changes) {
+    if (c.coord.mip != 0) continue;
+    const auto it = versions_.find(c.coord);
+    if (it != versions_.end()) it->second = e.global_seq;
+  }
+  return true;
+}
+
+void ConfirmedStore::retry_buffered(const TextureRegistry* textures) {
+  bool progress = true;
+  while (progress) {
+    progress = false;
+    for (auto it = buffer_.begin(); it != buffer_.end(); ++it) {
+      if (try_apply(it->second, textures)) {
+        buffer_.erase(it);
+        ++counters_.events_applied;
+        progress = true;
+        break;
+      }
+    }
+  }
+}
+
+EventOutcome ConfirmedStore::on_event(const wire::DeformEvent& e, const TextureRegistry* textures) {
+  last_textures_ = textures;
+  if (try_apply(e, textures)) {
+    ++counters_.events_applied;
+    retry_buffered(textures);
+    return EventOutcome::kApplied;
+  }
+  buffer_[e.global_seq] = e;
+  ++counters_.events_buffered;
+  return EventOutcome::kBuffered;
+}
+
+std::vector<TileCoord> ConfirmedStore::check_hashes(const wire::TileHashes& h) {
+  std::vector<TileCoord> mismatched;
+  for (const wire::TileHashEntry& e : h.entries) {
+    const auto v = version(e.tile);
+    if (!v || *v != e.version) continue;  // not comparable yet
+    ++counters_.hash_checks;
+    if (hash(e.tile) != e.hash) {
+      ++counters_.hash_mismatches;
+      mismatched.push_back(e.tile);
+    }
+  }
+  return mismatched;
+}
+
+std::optional<uint64_t> ConfirmedStore::version(const TileCoord& c) const {
+  const auto it = versions_.find(c);
+  if (it == versions_.end()) return std::nullopt;
+  return it->second;
+}
+
+std::span<const uint16_t> ConfirmedStore::coarse_samples(const TileCoord& c) const {
+  if (!versions_.count(c) || c.layer != Layer::kCoarse) return {};
+  if (c.mip == 0) return mirror_.coarse_tile(0, c.tx, c.ty);
+  return mip_tiles_.at(c);
+}
+
+uint64_t ConfirmedStore::hash(const TileCoord& c) const {
+  if (!versions_.count(c)) return 0;
+  if (c.layer == Layer::kCoarse) return hash_coarse_tile(coarse_samples(c));
+  const auto d = mirror_.detail_tile(c.tx, c.ty);
+  return d.empty() ? zero_detail_tile_hash() : hash_detail_tile(d);
+}
+
+std::vector<TileCoord> ConfirmedStore::held() const {
+  std::vector<TileCoord> out;
+  for (const auto& [c, v] : versions_) out.push_back(c);
+  return out;
+}
+
+}  // namespace loam::client

@@ -1,0 +1,74 @@
+// The client's confirmed store: the tiles it holds, each at a known server version, changed
+// only in sequence order — the state that is hashed and compared with the server's.
+//
+// Rules (ARCHITECTURE.md, Sync): a DeformEvent is applied with the shared CPU stamp code to
+// the held mip-0 tiles of the stamp's layer when every one of them that the event lists is
+// at exactly the listed base version (a footprint also needs every listed tile held, since
+// its contact reads them all); otherwise it is buffered. A RegionUpdate at version v replaces
+// a tile; buffered events at or below v are dropped (the server covers their effect with
+// regions) and the rest are tried again. Mip > 0 tiles change only through regions. Pure
+// logic: no sockets; the stamp arithmetic is protocol/'s.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "protocol/result.h"
+#include "protocol/stamps/texture_registry.h"
+#include "protocol/wire/messages.h"
+#include "protocol/world.h"
+
+namespace loam::client {
+
+enum class EventOutcome { kApplied, kBuffered, kIgnored };
+
+struct StoreCounters {
+  uint64_t events_applied = 0, events_buffered = 0, events_dropped = 0;
+  uint64_t regions = 0;
+  uint64_t hash_checks = 0, hash_mismatches = 0;
+};
+
+class ConfirmedStore {
+ public:
+  explicit ConfirmedStore(const WorldParams& params);
+
+  // The client wants this tile; it is not held until its first region arrives.
+  void want(const TileCoord& c) { wanted_[c] = true; }
+  void forget(const TileCoord& c);
+
+  // Replaces a whole tile with decoded samples at `version` (coarse: 65536 uint16; detail:
+  // 65536 int8 reinterpreted from the span of uint8).
+  Status replace_coarse(const TileCoord& c, uint64_t version, std::span<const uint16_t> samples);
+  Status replace_detail(const TileCoord& c, uint64_t version, std::span<const int8_t> samples);
+
+  EventOutcome on_event(const wire::DeformEvent& e, const TextureRegistry* textures = nullptr);
+
+  // Compares held tiles at the same version with the server's hashes; returns mismatches.
+  std::vector<TileCoord> check_hashes(const wire::TileHashes& h);
+
+  std::optional<uint64_t> version(const TileCoord& c) const;
+  uint64_t hash(const TileCoord& c) const;  // of the held samples (0 if not held)
+  std::vector<TileCoord> held() const;
+  size_t buffered() const { return buffer_.size(); }
+  const StoreCounters& counters() const { return counters_; }
+  // Samples of a held coarse tile (empty span if not held).
+  std::span<const uint16_t> coarse_samples(const TileCoord& c) const;
+
+ private:
+  bool try_apply(const wire::DeformEvent& e, const TextureRegistry* textures);
+  void retry_buffered(const TextureRegistry* textures);
+  void after_region(uint64_t version);
+
+  World mirror_;  // mip-0 samples of both layers; only held tiles are meaningful
+  std::map<TileCoord, uint64_t> versions_;               // held tiles
+  std::map<TileCoord, std::vector<uint16_t>> mip_tiles_; // held coarse tiles at mip > 0
+  std::map<TileCoord, bool> wanted_;
+  std::map<uint64_t, wire::DeformEvent> buffer_;         // by global sequence
+  const TextureRegistry* last_textures_ = nullptr;
+  StoreCounters counters_;
+};
+
+}  // namespace loam::client

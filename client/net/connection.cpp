@@ -1,0 +1,137 @@
+#include "client/net/connection.h"
+
+namespace loam::client {
+
+using asio::ip::tcp;
+
+Connection::Connection() : socket_(io_), assembler_(wire::kAbsoluteMaxFrameBytes) {}
+
+Connection::~Connection() { close(); }
+
+Result<wire::Welcome> Connection::connect(const std::string& host, uint16_t port, const wire::Hello& hello,
+                                          std::chrono::milliseconds timeout) {
+  asio::error_code ec;
+  tcp::resolver resolver(io_);
+  const auto endpoints = resolver.resolve(host, std::to_string(port), ec);
+  if (ec) return make_error(ErrorCode::kNotFound, host, "cannot resolve: " + ec.message());
+  asio::connect(socket_, endpoints, ec);
+  if (ec) return make_error(ErrorCode::kIo, host + ":" + std::to_string(port), "cannot connect: " + ec.message());
+  socket_.set_option(tcp::no_delay(true), ec);
+  work_.emplace(io_.get_executor());
+  start_read();
+  thread_ = std::thread([this] { io_.run(); });
+  LOAM_TRY(send(hello));
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (true) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) return make_error(ErrorCode::kIo, "welcome", "no Welcome within the timeout");
+    auto m = next(left);
+    if (!m) return m.error();
+    if (!m->has_value()) continue;
+    if (auto* w = std::get_if<wire::Welcome>(&**m)) return *w;
+    if (auto* e = std::get_if<wire::ErrorMsg>(&**m)) {
+      return make_error(wire::from_wire(e->code), e->field.empty() ? "server" : e->field, e->text);
+    }
+    // Anything else before Welcome is a protocol error on the server's side.
+    return make_error(ErrorCode::kCorrupt, "welcome",
+                      std::string("expected Welcome, got ") + wire::to_string(wire::message_type(**m)));
+  }
+}
+
+void Connection::start_read() {
+  socket_.async_read_some(asio::buffer(buffer_), [this](const asio::error_code& ec, size_t n) {
+    if (ec) {
+      push(make_error(ErrorCode::kIo, "connection", ec == asio::error::eof ? "server closed the connection" : ec.message()));
+      return;
+    }
+    bytes_in_ += n;
+    assembler_.feed(std::span(buffer_.data(), n));
+    while (true) {
+      auto m = assembler_.next_message();
+      if (!m) {
+        push(m.error());
+        return;
+      }
+      if (!m->has_value()) break;
+      push(std::move(**m));
+    }
+    if (!paused_) start_read();
+  });
+}
+
+void Connection::pause_reading() {
+  asio::post(io_, [this] { paused_ = true; });
+}
+
+void Connection::push(Result<wire::Message> m) {
+  std::lock_guard lock(mutex_);
+  if (m.ok()) {
+    inbox_.push_back(std::move(m.value()));
+  } else if (!closed_error_) {
+    closed_error_ = m.error();
+  }
+  cv_.notify_all();
+}
+
+Status Connection::send(const wire::Message& m) {
+  auto frame = wire::encode_frame(m, wire::kAbsoluteMaxFrameBytes);
+  if (!frame) return frame.error();
+  send_raw(std::move(*frame));
+  return {};
+}
+
+void Connection::send_raw(std::vector<uint8_t> bytes) {
+  asio::post(io_, [this, b = std::move(bytes)]() mutable {
+    out_.push_back(std::move(b));
+    do_write();
+  });
+}
+
+void Connection::do_write() {
+  if (writing_ || out_.empty() || !socket_.is_open()) return;
+  writing_ = true;
+  asio::async_write(socket_, asio::buffer(out_.front()), [this](const asio::error_code& ec, size_t n) {
+    writing_ = false;
+    if (ec) {
+      push(make_error(ErrorCode::kIo, "connection", "write failed: " + ec.message()));
+      return;
+    }
+    bytes_out_ += n;
+    out_.pop_front();
+    do_write();
+  });
+}
+
+Result<std::optional<wire::Message>> Connection::next(std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  cv_.wait_for(lock, timeout, [&] { return !inbox_.empty() || closed_error_.has_value(); });
+  if (!inbox_.empty()) {
+    wire::Message m = std::move(inbox_.front());
+    inbox_.pop_front();
+    return std::optional<wire::Message>(std::move(m));
+  }
+  if (closed_error_) return *closed_error_;
+  return std::optional<wire::Message>();
+}
+
+bool Connection::open() const {
+  std::lock_guard lock(mutex_);
+  return !closed_error_.has_value() && !closed_;
+}
+
+void Connection::close() {
+  {
+    std::lock_guard lock(mutex_);
+    if (closed_) return;
+    closed_ = true;
+  }
+  asio::post(io_, [this] {
+    asio::error_code ec;
+    socket_.shutdown(tcp::socket::shutdown_both, ec);
+    socket_.close(ec);
+  });
+  work_.reset();
+  if (thread_.joinable()) thread_.join();
+}
+
+}  // namespace loam::client

@@ -1,0 +1,146 @@
+#include "client/net/terrain_client.h"
+
+#include "protocol/codec/region_codec.h"
+
+namespace loam::client {
+
+Status TerrainClient::connect(const std::string& host, uint16_t port, const std::string& name, wire::Role role,
+                              std::optional<wire::SessionToken> token) {
+  wire::Hello hello;
+  hello.client_name = name;
+  hello.requested_role = role;
+  hello.session_token = token;
+  auto w = connection_.connect(host, port, hello);
+  if (!w) return w.error();
+  welcome_ = *w;
+  store_ = std::make_unique<ConfirmedStore>(welcome_.world);
+  last_seen_seq_ = welcome_.global_sequence;
+  return {};
+}
+
+std::vector<TileCoord> TerrainClient::all_coarse_tiles(int32_t mip) const {
+  std::vector<TileCoord> out;
+  const RectI t = welcome_.world.tile_range(mip);
+  for (int64_t ty = t.y0; ty < t.y1; ++ty) {
+    for (int64_t tx = t.x0; tx < t.x1; ++tx) out.push_back({Layer::kCoarse, uint8_t(mip), int32_t(tx), int32_t(ty)});
+  }
+  return out;
+}
+
+Status TerrainClient::subscribe(const std::vector<TileCoord>& tiles) {
+  wire::Subscribe sub;
+  for (const TileCoord& c : tiles) {
+    store_->want(c);
+    sub.entries.push_back({c, store_->version(c).value_or(0)});
+    if (sub.entries.size() == wire::kMaxSubscribeEntries) {
+      LOAM_TRY(connection_.send(sub));
+      sub.entries.clear();
+    }
+  }
+  if (!sub.entries.empty()) LOAM_TRY(connection_.send(sub));
+  return {};
+}
+
+Result<uint32_t> TerrainClient::deform(const QuantizedStamp& stamp) {
+  const uint32_t seq = next_client_seq_++;
+  LOAM_TRY(connection_.send(wire::Deform{seq, stamp}));
+  return seq;
+}
+
+Status TerrainClient::on_region_chunk(const wire::RegionUpdate& r) {
+  auto done = assemblers_[r.tile].add(r);
+  if (!done) return done.error();
+  if (!done->has_value()) return {};
+  const std::vector<uint8_t> payload = std::move(**done);
+  if (r.base_version != 0 || r.rect != RectI{0, 0, kTileSize, kTileSize}) {
+    return make_error(ErrorCode::kUnsupported, "region", "only whole-tile regions are handled by this client");
+  }
+  if (r.tile.layer == Layer::kCoarse) {
+    std::vector<uint16_t> samples;
+    if (r.encoding == wire::RegionEncoding::kRaw) {
+      if (payload.size() != size_t(kTileSamples) * 2) return make_error(ErrorCode::kCorrupt, "region.payload", "raw size");
+      samples.resize(kTileSamples);
+      std::memcpy(samples.data(), payload.data(), payload.size());
+    } else {
+      auto decoded = decode_region(payload, kTileSize, kTileSize);
+      if (!decoded) return decoded.error();
+      samples = std::move(*decoded);
+    }
+    return store_->replace_coarse(r.tile, r.new_version, samples);
+  }
+  std::vector<int8_t> samples;
+  if (r.encoding == wire::RegionEncoding::kRaw) {
+    if (payload.size() != size_t(kTileSamples)) return make_error(ErrorCode::kCorrupt, "region.payload", "raw size");
+    samples.assign(reinterpret_cast<const int8_t*>(payload.data()), reinterpret_cast<const int8_t*>(payload.data()) + payload.size());
+  } else {
+    auto decoded = decode_detail_region(payload, kTileSize, kTileSize);
+    if (!decoded) return decoded.error();
+    samples = std::move(*decoded);
+  }
+  return store_->replace_detail(r.tile, r.new_version, samples);
+}
+
+Status TerrainClient::handle(wire::Message& m) {
+  switch (wire::message_type(m)) {
+    case wire::MessageType::kRegionUpdate: return on_region_chunk(std::get<wire::RegionUpdate>(m));
+    case wire::MessageType::kDeformEvent: {
+      const auto& e = std::get<wire::DeformEvent>(m);
+      last_seen_seq_ = std::max(last_seen_seq_, e.global_seq);
+      store_->on_event(e);
+      return {};
+    }
+    case wire::MessageType::kDeformAck: {
+      const auto& a = std::get<wire::DeformAck>(m);
+      acks_[a.client_seq] = AckResult{a.accepted, a.global_seq, a.reject_code, a.field};
+      if (a.accepted) last_seen_seq_ = std::max(last_seen_seq_, a.global_seq);
+      return {};
+    }
+    case wire::MessageType::kTileHashes: {
+      ++tile_hash_messages_;
+      const auto bad = store_->check_hashes(std::get<wire::TileHashes>(m));
+      if (!bad.empty()) {
+        // Repair: ask for the tiles again as if we held nothing.
+        wire::Subscribe sub;
+        for (const TileCoord& c : bad) sub.entries.push_back({c, 0});
+        return connection_.send(sub);
+      }
+      return {};
+    }
+    case wire::MessageType::kError: errors_.push_back(std::get<wire::ErrorMsg>(m)); return {};
+    case wire::MessageType::kBye: bye_ = std::get<wire::Bye>(m); return {};
+    case wire::MessageType::kPing: return connection_.send(wire::Pong{std::get<wire::Ping>(m).client_time_us, 0});
+    default: return {};
+  }
+}
+
+Status TerrainClient::pump(std::chrono::milliseconds timeout) {
+  auto m = connection_.next(timeout);
+  while (true) {
+    if (!m) return m.error();
+    if (!m->has_value()) return {};
+    if (const Status st = handle(**m); !st.ok()) {
+      // A message we could not use (a region that fails its checks, say) is recorded and
+      // repaired by the next hash check; it does not end the session.
+      local_errors_.push_back(st.error());
+    }
+    m = connection_.next(std::chrono::milliseconds(0));
+  }
+}
+
+bool TerrainClient::wait_until(const std::function<bool()>& pred, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (!pred()) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) return false;
+    if (!pump(std::min(left, std::chrono::milliseconds(50))).ok()) return pred();
+  }
+  return true;
+}
+
+std::optional<AckResult> TerrainClient::ack(uint32_t client_seq) const {
+  const auto it = acks_.find(client_seq);
+  if (it == acks_.end()) return std::nullopt;
+  return it->second;
+}
+
+}  // namespace loam::client

@@ -1,0 +1,77 @@
+// TerrainClient: a connection plus the confirmed store — what tests, bots and the viewer
+// use. pump() handles incoming messages in order: Welcome state, regions (reassembled from
+// chunks, decoded with the region codec and checked), events (applied or buffered by the
+// store), acks (remembered by the client's own sequence), hashes (mismatches re-request the
+// tile), Bye/Error (recorded). Waiting is always for a condition with a timeout, never a sleep.
+#pragma once
+
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "client/net/confirmed_store.h"
+#include "client/net/connection.h"
+
+namespace loam::client {
+
+struct AckResult {
+  bool accepted = false;
+  uint64_t global_seq = 0;
+  wire::WireErrorCode code = wire::WireErrorCode::kInternal;
+  std::string field;
+};
+
+class TerrainClient {
+ public:
+  TerrainClient() = default;
+
+  Status connect(const std::string& host, uint16_t port, const std::string& name,
+                 wire::Role role = wire::Role::kPlayer, std::optional<wire::SessionToken> token = {});
+  const wire::Welcome& welcome() const { return welcome_; }
+  Connection& connection() { return connection_; }
+
+  // Subscribes to tiles (held versions from the store, so a reconnect resumes).
+  Status subscribe(const std::vector<TileCoord>& tiles);
+  // Every mip-0 coarse tile of the world.
+  std::vector<TileCoord> all_coarse_tiles(int32_t mip = 0) const;
+  // Sends a Deform; returns the client's own sequence number for it.
+  Result<uint32_t> deform(const QuantizedStamp& stamp);
+
+  // Handles messages for up to `timeout` (returns early when the inbox stays empty that long).
+  // An Error result means the connection is gone.
+  Status pump(std::chrono::milliseconds timeout);
+  // Pumps until pred() holds; false on timeout or a closed connection.
+  bool wait_until(const std::function<bool()>& pred, std::chrono::milliseconds timeout);
+  std::optional<AckResult> ack(uint32_t client_seq) const;
+
+  ConfirmedStore& store() { return *store_; }
+  uint64_t last_seen_seq() const { return last_seen_seq_; }
+  const std::vector<wire::ErrorMsg>& errors() const { return errors_; }
+  std::optional<wire::Bye> bye() const { return bye_; }
+  uint64_t hash_mismatches() const { return store_ ? store_->counters().hash_mismatches : 0; }
+  size_t tile_hash_messages() const { return tile_hash_messages_; }
+  // Messages this client could not use (failed decode or checks), oldest first.
+  const std::vector<Error>& local_errors() const { return local_errors_; }
+
+ private:
+  Status handle(wire::Message& m);
+  Status on_region_chunk(const wire::RegionUpdate& r);
+
+  Connection connection_;
+  wire::Welcome welcome_;
+  std::unique_ptr<ConfirmedStore> store_;
+  std::map<TileCoord, wire::RegionAssembler> assemblers_;
+  std::map<uint32_t, AckResult> acks_;
+  std::vector<wire::ErrorMsg> errors_;
+  std::vector<Error> local_errors_;
+  std::optional<wire::Bye> bye_;
+  uint32_t next_client_seq_ = 1;
+  uint64_t last_seen_seq_ = 0;
+  size_t tile_hash_messages_ = 0;
+};
+
+}  // namespace loam::client

@@ -1,0 +1,473 @@
+#include "gpu/gpu_stamper.h"
+
+#include <algorithm>
+#include <climits>
+#include <cstring>
+
+#include "gpu/gl_debug.h"
+#include "gpu/shader_library.h"
+#include "protocol/stamps/stamp_kernel.h"
+#include "protocol/world.h"
+
+namespace loam::gpu {
+
+namespace {
+
+// Mirrors StampParams in shaders/stamp_common.glsl (std430: int32 fields packed in order).
+struct StampUniforms {
+  int32_t rect_x0, rect_y0, rect_w, rect_h;
+  int32_t d0x, d0y, shift, radius_r;
+  int32_t cos_q15, sin_q15, intensity, target;
+  int32_t blend, tex_w, tex_h, aux0;
+  int32_t aux1, aux2, pad0, pad1;
+  int32_t table[kProfileEntries + 1];
+};
+static_assert(sizeof(StampUniforms) == (20 + kProfileEntries + 1) * 4);
+
+// Mirrors StampResult: the footprint contact.
+struct StampResultData {
+  int32_t contact_q8, has_contact;
+};
+constexpr StampResultData kResultInit{INT_MIN, 0};
+
+constexpr GLuint kGroup = 8;  // local_size_x/y of every stamp shader
+
+GLuint groups(int64_t n) { return GLuint((n + kGroup - 1) / kGroup); }
+
+GLenum pixel_type(Layer l) { return l == Layer::kCoarse ? GL_UNSIGNED_SHORT : GL_BYTE; }
+size_t pixel_size(Layer l) { return l == Layer::kCoarse ? 2 : 1; }
+
+// Bounding rect (rect-local) of the samples where `next` differs from `old`, both row-major
+// over a w x h rect; empty when none.
+template <typename T>
+RectI changed_bounds(const T* next, const T* old, int64_t w, int64_t h) {
+  RectI r;
+  for (int64_t y = 0; y < h; ++y) {
+    const T* a = next + y * w;
+    const T* b = old + y * w;
+    if (std::memcmp(a, b, size_t(w) * sizeof(T)) == 0) continue;
+    int64_t x0 = 0, x1 = w;
+    while (a[x0] == b[x0]) ++x0;
+    while (a[x1 - 1] == b[x1 - 1]) --x1;
+    r = r.unite(RectI{x0, y, x1, y + 1});
+  }
+  return r;
+}
+
+// Writes the part `changed` (rect-local) of a readback of `rect` into the world.
+template <typename T>
+void write_changed(World& world, const RectI& rect, const T* data, const RectI& changed,
+                   std::vector<T>& scratch) {
+  scratch.resize(size_t(changed.area()));
+  for (int64_t y = changed.y0; y < changed.y1; ++y) {
+    std::memcpy(scratch.data() + size_t((y - changed.y0) * changed.width()),
+                data + y * rect.width() + changed.x0, size_t(changed.width()) * sizeof(T));
+  }
+  const RectI global = changed.translated(rect.x0, rect.y0);
+  if constexpr (sizeof(T) == 2) {
+    world.write_coarse(global, scratch);
+  } else {
+    world.write_detail(global, scratch);
+  }
+}
+
+}  // namespace
+
+GpuStamper::~GpuStamper() = default;
+
+Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const TextureRegistry* textures,
+                                                       const StampLimits& limits) {
+  install_gl_debug_output();
+  std::unique_ptr<GpuStamper> s(new GpuStamper());
+  s->textures_ = textures;
+  s->limits_ = limits;
+  s->params_ = world.params();
+  s->coarse_rect_ = world.params().sample_rect();
+  s->detail_rect_ = world.params().detail_sample_rect();
+  GLint max_size = 0;
+  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
+  for (const RectI& r : {s->coarse_rect_, s->detail_rect_}) {
+    if (r.width() > max_size || r.height() > max_size) {
+      return make_error(ErrorCode::kUnsupported, "gpu.world",
+                        "a layer of " + std::to_string(r.width()) + "x" + std::to_string(r.height()) +
+                            " samples exceeds GL_MAX_TEXTURE_SIZE " + std::to_string(max_size));
+    }
+  }
+  // Build every program up front: a shader error shows at start-up, not at the first stamp.
+  for (Layer l : {Layer::kCoarse, Layer::kDetail}) {
+    for (int kind = 0; kind <= 4; ++kind) {
+      auto p = s->program("stamp", "stamp.comp.glsl", kind, l);
+      if (!p) return p.error();
+    }
+  }
+
+  s->coarse_ = make_texture(GL_TEXTURE_2D);
+  glTextureStorage2D(s->coarse_.get(), 1, GL_R16UI, GLsizei(s->coarse_rect_.width()),
+                     GLsizei(s->coarse_rect_.height()));
+  s->detail_ = make_texture(GL_TEXTURE_2D);
+  glTextureStorage2D(s->detail_.get(), 1, GL_R8I, GLsizei(s->detail_rect_.width()),
+                     GLsizei(s->detail_rect_.height()));
+  const GLbyte zero = 0;
+  glClearTexImage(s->detail_.get(), 0, GL_RED_INTEGER, GL_BYTE, &zero);
+  // An integer texture with a linear filter is incomplete and texelFetch would read zeros
+  // (the normal pass and the renderer fetch from these).
+  for (GLuint t : {s->coarse_.get(), s->detail_.get()}) {
+    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  }
+  s->params_buf_ = make_buffer();
+  glNamedBufferStorage(s->params_buf_.get(), sizeof(StampUniforms), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  s->result_buf_ = make_buffer();
+  glNamedBufferStorage(s->result_buf_.get(), sizeof(StampResultData), nullptr, GL_DYNAMIC_STORAGE_BIT);
+
+  // Upload once: the coarse layer whole, the detail layer tile by tile where stored.
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  std::vector<uint16_t> coarse(size_t(s->coarse_rect_.area()));
+  world.read_coarse(s->coarse_rect_, coarse);
+  glTextureSubImage2D(s->coarse_.get(), 0, 0, 0, GLsizei(s->coarse_rect_.width()),
+                      GLsizei(s->coarse_rect_.height()), GL_RED_INTEGER, GL_UNSIGNED_SHORT, coarse.data());
+  for (const TileCoord& c : world.stored_detail_tiles()) {
+    const std::span<const int8_t> tile = world.detail_tile(c.tx, c.ty);
+    if (tile.empty()) continue;
+    const RectI r = tile_rect(c.tx, c.ty);
+    glTextureSubImage2D(s->detail_.get(), 0, GLint(r.x0 - s->detail_rect_.x0),
+                        GLint(r.y0 - s->detail_rect_.y0), kTileSize, kTileSize, GL_RED_INTEGER, GL_BYTE,
+                        tile.data());
+  }
+  return s;
+}
+
+Result<GLuint> GpuStamper::program(const std::string& key, const std::string& file, int kind, Layer layer) {
+  const std::string full = key + "/" + std::to_string(kind) + "/" + to_string(layer);
+  const auto found = programs_.find(full);
+  if (found != programs_.end()) return found->second.get();
+  std::vector<ShaderDefine> defines = {{"KIND", std::to_string(kind)}};
+  if (layer == Layer::kDetail) defines.push_back({"LAYER_DETAIL", "1"});
+  if (key == "stamp") defines.push_back({"PASS_STAMP", "1"});
+  if (key == "contact") defines.push_back({"PASS_CONTACT", "1"});
+  if (key == "wave_init") defines.push_back({"PASS_WAVE_INIT", "1"});
+  if (key == "wave_step") defines.push_back({"PASS_STEP", "1"});
+  if (key == "wave_apply") defines.push_back({"PASS_APPLY", "1"});
+  Result<GlProgram> built = file == "stamp.comp.glsl"
+                                ? [&] {
+                                    const std::string_view files[] = {"stamp_common.glsl", "stamp.comp.glsl"};
+                                    return build_compute_program_from(files, defines);
+                                  }()
+                                : build_compute_program(file, defines);
+  if (!built) return built.error();
+  const GLuint name = built->get();
+  programs_.emplace(full, std::move(*built));
+  return name;
+}
+
+void GpuStamper::reset_result() {
+  glNamedBufferSubData(result_buf_.get(), 0, sizeof kResultInit, &kResultInit);
+}
+
+Status GpuStamper::texture_for(uint64_t id, GLuint& out) {
+  const auto found = stamp_textures_.find(id);
+  if (found != stamp_textures_.end()) {
+    out = found->second.get();
+    return {};
+  }
+  const StampTexture* t = textures_ ? textures_->find(id) : nullptr;
+  if (!t) return make_error(ErrorCode::kNotFound, "stamp.texture_id", "no registered texture has this id");
+  GlTexture tex = make_texture(GL_TEXTURE_2D);
+  glTextureStorage2D(tex.get(), 1, GL_R16UI, t->width, t->height);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  glTextureSubImage2D(tex.get(), 0, 0, 0, t->width, t->height, GL_RED_INTEGER, GL_UNSIGNED_SHORT,
+                      t->samples.data());
+  // Integer textures are never filtered; texelFetch ignores samplers anyway.
+  glTextureParameteri(tex.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(tex.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  out = tex.get();
+  stamp_textures_.emplace(id, std::move(tex));
+  return {};
+}
+
+Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, RectI& readback) {
+  auto baked = bake_stamp(q, params_, textures_);
+  if (!baked) return baked.error();
+  const BakedStamp& b = baked.value();
+  readback = b.rect;
+  if (b.rect.empty()) return {};
+  const RectI layer_rect = q.layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
+  StampUniforms u{};
+  u.rect_x0 = int32_t(b.rect.x0 - layer_rect.x0);
+  u.rect_y0 = int32_t(b.rect.y0 - layer_rect.y0);
+  u.rect_w = int32_t(b.rect.width());
+  u.rect_h = int32_t(b.rect.height());
+  // gx * 256 - center_x = (gx - rect.x0) * 256 + d0x; |d0x| <= support < 2^25.
+  u.d0x = int32_t(b.rect.x0 * 256 - q.center_x);
+  u.d0y = int32_t(b.rect.y0 * 256 - q.center_y);
+  u.shift = b.shift;
+  u.radius_r = b.radius_r;
+  u.cos_q15 = b.cos_q15;
+  u.sin_q15 = b.sin_q15;
+  u.intensity = q.intensity;
+  u.target = q.target;
+  u.blend = int32_t(q.blend);
+  if (b.texture) {
+    u.tex_w = b.texture->width;
+    u.tex_h = b.texture->height;
+    GLuint tex = 0;
+    if (Status st = texture_for(q.texture_id, tex); !st.ok()) return st;
+    glBindTextureUnit(0, tex);
+  }
+  std::copy(b.table.begin(), b.table.end(), u.table);
+  glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
+  reset_result();
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, params_buf_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, result_buf_.get());
+  const GLuint tex = texture(q.layer);
+  glBindImageTexture(0, tex, 0, GL_FALSE, 0, GL_READ_WRITE, q.layer == Layer::kCoarse ? GL_R16UI : GL_R8I);
+  const int kind = int(q.kind);
+  if (q.kind == StampKind::kFootprint) {
+    // First contact: max over the foot of old - sole, gathered with atomics, then read by
+    // the stamp pass from the same buffer (no round trip to the CPU).
+    auto contact = program("contact", "stamp.comp.glsl", kind, q.layer);
+    if (!contact) return contact.error();
+    glUseProgram(*contact);
+    glDispatchCompute(groups(b.rect.width()), groups(b.rect.height()), 1);
+    glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+  }
+  auto prog = program("stamp", "stamp.comp.glsl", kind, q.layer);
+  if (!prog) return prog.error();
+  glUseProgram(*prog);
+  glDispatchCompute(groups(b.rect.width()), groups(b.rect.height()), 1);
+  return {};
+}
+
+Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, RectI& readback) {
+  auto baked = bake_stamp(q, params_);  // the Gaussian pulse
+  if (!baked) return baked.error();
+  const BakedStamp& b = baked.value();
+  const int32_t sub = shockwave_substeps(q.speed);
+  const int32_t nu2 = shockwave_nu2_q16(q.speed, sub);
+  const int64_t total = int64_t(q.steps) * sub;
+  const RectI world_rect = q.layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
+  const RectI pulse{ceil_div(q.center_x - b.support_q8, 256), ceil_div(q.center_y - b.support_q8, 256),
+                    floor_div(q.center_x + b.support_q8, 256) + 1,
+                    floor_div(q.center_y + b.support_q8, 256) + 1};
+  const RectI box =
+      RectI{pulse.x0 - total, pulse.y0 - total, pulse.x1 + total, pulse.y1 + total}.intersect(world_rect);
+  readback = box;
+  if (box.empty()) return {};
+  for (const char* key : {"wave_init", "wave_step", "wave_apply"}) {
+    auto p = program(key, key == std::string("wave_init") ? "stamp.comp.glsl" : "shockwave.comp.glsl",
+                     int(q.kind), q.layer);
+    if (!p) return p.error();
+  }
+  const int64_t w = box.width(), h = box.height(), stride = w + 2;
+  const size_t bytes = size_t(stride * (h + 2)) * 4;
+  if (bytes > wave_capacity_) {
+    wave_a_ = make_buffer();
+    wave_b_ = make_buffer();
+    glNamedBufferStorage(wave_a_.get(), GLsizeiptr(bytes), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    glNamedBufferStorage(wave_b_.get(), GLsizeiptr(bytes), nullptr, GL_DYNAMIC_STORAGE_BIT);
+    wave_capacity_ = bytes;
+  }
+  const int32_t zero = 0;
+  glClearNamedBufferSubData(wave_a_.get(), GL_R32I, 0, GLsizeiptr(bytes), GL_RED_INTEGER, GL_INT, &zero);
+  glClearNamedBufferSubData(wave_b_.get(), GL_R32I, 0, GLsizeiptr(bytes), GL_RED_INTEGER, GL_INT, &zero);
+
+  // The pulse at rest, over the part of the pulse inside the box.
+  const RectI init = pulse.intersect(box);
+  StampUniforms u{};
+  u.rect_w = int32_t(init.width());
+  u.rect_h = int32_t(init.height());
+  u.d0x = int32_t(init.x0 * 256 - q.center_x);
+  u.d0y = int32_t(init.y0 * 256 - q.center_y);
+  u.shift = b.shift;
+  u.radius_r = b.radius_r;
+  u.aux0 = int32_t(stride);
+  u.aux1 = int32_t(init.x0 - box.x0);
+  u.aux2 = int32_t(init.y0 - box.y0);
+  std::copy(b.table.begin(), b.table.end(), u.table);
+  glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
+  reset_result();
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, params_buf_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, result_buf_.get());
+  GLuint cur = wave_a_.get(), prev = wave_b_.get();
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cur);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, prev);
+  glUseProgram(*program("wave_init", "stamp.comp.glsl", int(q.kind), q.layer));
+  if (!init.empty()) glDispatchCompute(groups(init.width()), groups(init.height()), 1);
+  glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+
+  const GLuint step = *program("wave_step", "shockwave.comp.glsl", int(q.kind), q.layer);
+  glUseProgram(step);
+  glProgramUniform1i(step, glGetUniformLocation(step, "stride"), GLint(stride));
+  glProgramUniform1i(step, glGetUniformLocation(step, "nu2_q16"), nu2);
+  glProgramUniform1i(step, glGetUniformLocation(step, "damping_q16"), GLint(q.damping));
+  const GLint active_loc = glGetUniformLocation(step, "active_rect");
+  const RectI local_pulse = pulse.translated(-box.x0, -box.y0);
+  for (int64_t n = 1; n <= total; ++n) {
+    const RectI a =
+        RectI{local_pulse.x0 - n, local_pulse.y0 - n, local_pulse.x1 + n, local_pulse.y1 + n}.intersect(
+            {0, 0, w, h});
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cur);
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, prev);
+    if (!a.empty()) {
+      glProgramUniform4i(step, active_loc, GLint(a.x0), GLint(a.y0), GLint(a.x1), GLint(a.y1));
+      glDispatchCompute(groups(a.width()), groups(a.height()), 1);
+      glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    }
+    std::swap(cur, prev);  // as wave_step: the field just written becomes current
+  }
+
+  const GLuint apply = *program("wave_apply", "shockwave.comp.glsl", int(q.kind), q.layer);
+  glUseProgram(apply);
+  glProgramUniform4i(apply, glGetUniformLocation(apply, "active_rect"), 0, 0, GLint(w), GLint(h));
+  glProgramUniform1i(apply, glGetUniformLocation(apply, "stride"), GLint(stride));
+  glProgramUniform2i(apply, glGetUniformLocation(apply, "texel_origin"), GLint(box.x0 - world_rect.x0),
+                     GLint(box.y0 - world_rect.y0));
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cur);
+  glBindImageTexture(0, texture(q.layer), 0, GL_FALSE, 0, GL_READ_WRITE,
+                     q.layer == Layer::kCoarse ? GL_R16UI : GL_R8I);
+  glDispatchCompute(groups(w), groups(h), 1);
+  return {};
+}
+
+void GpuStamper::queue_readback(Layer layer, const RectI& rect) {
+  Pending p;
+  p.ticket = next_ticket_++;
+  p.layer = layer;
+  p.rect = rect;
+  p.pixel_bytes = size_t(rect.area()) * pixel_size(layer);
+  const size_t need = std::max<size_t>(p.pixel_bytes, 1);
+  // Reuse a pixel buffer big enough, else make one (sized with headroom to be reused).
+  auto it = std::find_if(free_pbos_.begin(), free_pbos_.end(),
+                         [&](const Pending& f) { return f.capacity >= need; });
+  if (it != free_pbos_.end()) {
+    p.pbo = std::move(it->pbo);
+    p.capacity = it->capacity;
+    free_pbos_.erase(it);
+  } else {
+    p.pbo = make_buffer();
+    p.capacity = std::max<size_t>(need, 4096);
+    glNamedBufferStorage(p.pbo.get(), GLsizeiptr(p.capacity), nullptr,
+                         GL_MAP_READ_BIT | GL_CLIENT_STORAGE_BIT);
+  }
+  // Image stores must land before the texture is read into the buffer.
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT | GL_PIXEL_BUFFER_BARRIER_BIT);
+  if (!rect.empty()) {
+    const RectI lr = layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, p.pbo.get());
+    glGetTextureSubImage(texture(layer), 0, GLint(rect.x0 - lr.x0), GLint(rect.y0 - lr.y0), 0,
+                         GLsizei(rect.width()), GLsizei(rect.height()), 1, GL_RED_INTEGER, pixel_type(layer),
+                         GLsizei(p.pixel_bytes), nullptr);
+    glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+  }
+  p.fence = GlSync(glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0));
+  glFlush();  // start the work now; collect() only waits
+  pending_.push_back(std::move(p));
+}
+
+Result<uint64_t> GpuStamper::submit(const QuantizedStamp& q) {
+  LOAM_TRY(check_quantized(q, params_, limits_, textures_));
+  RectI readback;
+  Status st = q.kind == StampKind::kShockwave ? stamp_shockwave(q, readback) : stamp_per_sample(q, readback);
+  if (!st.ok()) return st.error();
+  queue_readback(q.layer, readback);
+  return pending_.back().ticket;
+}
+
+std::vector<StampReadback> GpuStamper::collect(World& world) {
+  std::vector<StampReadback> out;
+  std::vector<uint16_t> old_coarse, coarse;
+  std::vector<int8_t> old_detail, detail;
+  while (!pending_.empty()) {
+    Pending& p = pending_.front();
+    StampReadback done;
+    done.ticket = p.ticket;
+    done.layer = p.layer;
+    if (!p.rect.empty()) {
+      // The buffer is only mapped once its fence has signalled: the transfer is complete.
+      while (glClientWaitSync(p.fence.get(), GL_SYNC_FLUSH_COMMANDS_BIT, 1'000'000'000) ==
+             GL_TIMEOUT_EXPIRED) {
+      }
+      const void* base = glMapNamedBufferRange(p.pbo.get(), 0, GLsizeiptr(p.pixel_bytes), GL_MAP_READ_BIT);
+      // The mirror holds the state before this stamp (earlier tickets are already written),
+      // so comparing with it finds exactly the samples the stamp changed.
+      const int64_t w = p.rect.width(), h = p.rect.height();
+      RectI changed;
+      if (p.layer == Layer::kCoarse) {
+        old_coarse.resize(size_t(p.rect.area()));
+        world.read_coarse(p.rect, old_coarse);
+        const auto* next = static_cast<const uint16_t*>(base);
+        changed = changed_bounds(next, old_coarse.data(), w, h);
+        if (!changed.empty()) write_changed(world, p.rect, next, changed, coarse);
+      } else {
+        old_detail.resize(size_t(p.rect.area()));
+        world.read_detail(p.rect, old_detail);
+        const auto* next = static_cast<const int8_t*>(base);
+        changed = changed_bounds(next, old_detail.data(), w, h);
+        if (!changed.empty()) write_changed(world, p.rect, next, changed, detail);
+      }
+      glUnmapNamedBuffer(p.pbo.get());
+      // An empty result is RectI{} exactly, as the reference returns it.
+      if (!changed.empty()) done.changed = changed.translated(p.rect.x0, p.rect.y0);
+    }
+    out.push_back(done);
+    p.fence.reset();
+    free_pbos_.push_back(std::move(p));
+    pending_.pop_front();
+  }
+  // A few spare buffers cover steady stamping; more would only hold memory.
+  while (free_pbos_.size() > 4) free_pbos_.erase(free_pbos_.begin());
+  return out;
+}
+
+Result<RectI> GpuStamper::apply(World& world, const QuantizedStamp& q) {
+  collect(world);
+  auto ticket = submit(q);
+  if (!ticket) return ticket.error();
+  const std::vector<StampReadback> done = collect(world);
+  return done.empty() ? RectI{} : done.back().changed;
+}
+
+void GpuStamper::upload(World& world, Layer layer, const RectI& rect) {
+  collect(world);
+  const RectI lr = layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
+  const RectI r = rect.intersect(lr);
+  if (r.empty()) return;
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  if (layer == Layer::kCoarse) {
+    std::vector<uint16_t> data(size_t(r.area()));
+    world.read_coarse(r, data);
+    glTextureSubImage2D(coarse_.get(), 0, GLint(r.x0 - lr.x0), GLint(r.y0 - lr.y0), GLsizei(r.width()),
+                        GLsizei(r.height()), GL_RED_INTEGER, GL_UNSIGNED_SHORT, data.data());
+  } else {
+    std::vector<int8_t> data(size_t(r.area()));
+    world.read_detail(r, data);
+    glTextureSubImage2D(detail_.get(), 0, GLint(r.x0 - lr.x0), GLint(r.y0 - lr.y0), GLsizei(r.width()),
+                        GLsizei(r.height()), GL_RED_INTEGER, GL_BYTE, data.data());
+  }
+}
+
+std::vector<int32_t> GpuStamper::read_gpu(Layer layer, const RectI& rect) {
+  const RectI lr = layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
+  const RectI r = rect.intersect(lr);
+  std::vector<int32_t> out;
+  if (r.empty()) return out;
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  const size_t n = size_t(r.area());
+  if (layer == Layer::kCoarse) {
+    std::vector<uint16_t> data(n);
+    glGetTextureSubImage(coarse_.get(), 0, GLint(r.x0 - lr.x0), GLint(r.y0 - lr.y0), 0, GLsizei(r.width()),
+                         GLsizei(r.height()), 1, GL_RED_INTEGER, GL_UNSIGNED_SHORT, GLsizei(n * 2),
+                         data.data());
+    out.assign(data.begin(), data.end());
+  } else {
+    std::vector<int8_t> data(n);
+    glGetTextureSubImage(detail_.get(), 0, GLint(r.x0 - lr.x0), GLint(r.y0 - lr.y0), 0, GLsizei(r.width()),
+                         GLsizei(r.height()), 1, GL_RED_INTEGER, GL_BYTE, GLsizei(n), data.data());
+    out.assign(data.begin(), data.end());
+  }
+  return out;
+}
+
+}  // namespace loam::gpu

@@ -1,0 +1,49 @@
+// The normal-map pass for a dirty rect of the coarse layer, on the GPU: clients regenerate
+// the normals a stamp touched. Same FD4 gradients (4th-order one-sided stencils at the
+// world's edges) and packing as protocol/normal_map.h, evaluated in double precision with
+// the reference's operation order (shaders/normals.comp.glsl).
+//
+// Output: an R32UI texture of the whole coarse layer, one uint per sample, bits 0..15 nx and
+// 16..31 ny as signed Q15 (round(n * 32767)), n = (-dh/dx, -dh/dy, 1) / |...|; a shader
+// reads it with unpackSnorm2x16(texelFetch(...).r) and nz = sqrt(1 - nx^2 - ny^2). A stamp
+// that changed samples R changes normals up to 4 samples around R (one-sided edge
+// stencils reach 4 samples): pass normals_rect_for(R).
+//
+// Needs the GL 4.5 context current. Not thread-safe.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "gpu/gl_handle.h"
+#include "protocol/geometry.h"
+#include "protocol/result.h"
+
+namespace loam::gpu {
+
+// The samples whose normals depend on samples in `changed` (global coarse samples),
+// clipped to the world.
+RectI normals_rect_for(const WorldParams& params, const RectI& changed);
+
+class NormalPass {
+ public:
+  static Result<std::unique_ptr<NormalPass>> create(const WorldParams& params);
+
+  // Recomputes the normals of `rect` (global coarse samples; clipped to the world) from
+  // `heights`, an R16UI texture of the whole coarse layer (GpuStamper::texture(kCoarse)).
+  void update(GLuint heights, const RectI& rect);
+
+  GLuint texture() const { return normals_.get(); }
+  // Reads packed normals of a rect back synchronously (tests, benchmarks).
+  std::vector<uint32_t> read(const RectI& rect);
+
+ private:
+  NormalPass() = default;
+  WorldParams params_;
+  RectI world_;
+  GlTexture normals_;
+  GlProgram program_;
+};
+
+}  // namespace loam::gpu

@@ -1,0 +1,40 @@
+// Predictors shared by the region codec's modes: the MED (LOCO-I median edge detector)
+// residual transform of the fast mode, and the cubic interpolation of the refinement mode.
+// Pure arithmetic on caller-sized spans: safe on any input values; callers guarantee sizes.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <span>
+
+namespace loam::codec {
+
+// MED prediction: the median of W, N and W + N - NW (picks W or N across an edge, the plane
+// elsewhere). Written as a clamp so it compiles without branches.
+inline int32_t med(int32_t w, int32_t n, int32_t nw) {
+  return std::clamp(w + n - nw, std::min(w, n), std::max(w, n));
+}
+
+// Zigzag maps signed residuals to unsigned so small magnitudes of either sign are small.
+inline uint16_t zigzag16(int16_t r) { return uint16_t((uint16_t(r) << 1) ^ uint16_t(r >> 15)); }
+inline int16_t unzigzag16(uint16_t z) { return int16_t((z >> 1) ^ uint16_t(-(int32_t)(z & 1u))); }
+inline uint8_t zigzag8(int8_t r) { return uint8_t((uint8_t(r) << 1) ^ uint8_t(r >> 7)); }
+inline int8_t unzigzag8(uint8_t z) { return int8_t((z >> 1) ^ uint8_t(-(int32_t)(z & 1u))); }
+
+// MED residuals of a width x height uint16 grid as two byte planes of zigzag values: low
+// bytes into out[0, n), high bytes into out[n, 2n). `out` holds 2 * width * height bytes.
+void med_forward_u16(std::span<const uint16_t> in, uint32_t width, uint32_t height, std::span<uint8_t> out);
+// The inverse of med_forward_u16.
+void med_inverse_u16(std::span<const uint8_t> planes, uint32_t width, uint32_t height,
+                     std::span<uint16_t> out);
+// The same for int8 samples: one plane of zigzag residuals modulo 256.
+void med_forward_i8(std::span<const int8_t> in, uint32_t width, uint32_t height, std::span<uint8_t> out);
+void med_inverse_i8(std::span<const uint8_t> plane, uint32_t width, uint32_t height, std::span<int8_t> out);
+
+// Cubic (Catmull-Rom at the midpoint) interpolation between b and c with outer samples a and
+// d: (-a + 9b + 9c - d) / 16, rounded, clamped to [lo, hi].
+inline int32_t cubic_mid(int32_t a, int32_t b, int32_t c, int32_t d, int32_t lo, int32_t hi) {
+  return std::clamp((9 * (b + c) - a - d + 8) >> 4, lo, hi);
+}
+
+}  // namespace loam::codec

@@ -1,0 +1,107 @@
+#include "protocol/stamps/stamp_apply.h"
+
+#include <algorithm>
+#include <vector>
+
+#include "protocol/stamps/shockwave.h"
+#include "protocol/stamps/stamp_kernel.h"
+#include "protocol/world.h"
+
+namespace loam {
+
+namespace {
+
+// The reference per-tile loop: stamp_sample on every sample of the part of b.rect inside
+// one tile; returns the changed rect.
+template <typename T>
+RectI apply_in_tile(const BakedStamp& b, T* tile, int64_t tx, int64_t ty) {
+  const RectI part = b.rect.intersect(tile_rect(int32_t(tx), int32_t(ty)));
+  RectI changed;
+  for (int64_t y = part.y0; y < part.y1; ++y) {
+    T* row = tile + (y - ty * kTileSize) * kTileSize - tx * kTileSize;
+    int64_t cx0 = part.x1, cx1 = part.x0;
+    for (int64_t x = part.x0; x < part.x1; ++x) {
+      const int32_t old = row[x];
+      const int32_t nv = stamp_sample(b, x, y, old);
+      if (nv != old) {
+        row[x] = T(nv);
+        cx0 = std::min(cx0, x);
+        cx1 = x + 1;
+      }
+    }
+    if (cx1 > cx0) changed = changed.unite(RectI{cx0, y, cx1, y + 1});
+  }
+  return changed;
+}
+
+// Visits every tile the stamp's rect overlaps with `in_tile(tile_samples, tx, ty)` (which
+// returns the changed rect), marks what changed dirty and returns the union. An absent detail
+// tile is all zero: the kernel runs on a scratch copy, stored only if something changed.
+template <typename InTile>
+RectI walk_tiles(World& world, const BakedStamp& b, const InTile& in_tile) {
+  const Layer layer = b.q.layer;
+  RectI touched;
+  const RectI tiles = tiles_overlapping(b.rect);
+  std::vector<int8_t> scratch;
+  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+      RectI changed;
+      if (layer == Layer::kCoarse) {
+        const std::span<uint16_t> tile = world.coarse_tile_mut(int32_t(tx), int32_t(ty));
+        if (tile.empty()) continue;
+        changed = in_tile(tile.data(), tx, ty);
+      } else {
+        const std::span<const int8_t> stored = world.detail_tile(int32_t(tx), int32_t(ty));
+        if (!stored.empty()) {
+          changed = in_tile(world.detail_tile_mut(int32_t(tx), int32_t(ty)).data(), tx, ty);
+        } else {
+          scratch.assign(kTileSamples, 0);
+          changed = in_tile(scratch.data(), tx, ty);
+          if (!changed.empty()) {
+            const std::span<int8_t> tile = world.detail_tile_mut(int32_t(tx), int32_t(ty));
+            std::copy(scratch.begin(), scratch.end(), tile.begin());
+          }
+        }
+      }
+      if (!changed.empty()) {
+        world.mark_dirty(layer, changed);
+        touched = touched.unite(changed);
+      }
+    }
+  }
+  return touched;
+}
+
+}  // namespace
+
+Result<RectI> apply_stamp_reference(World& world, const QuantizedStamp& q, const TextureRegistry* textures,
+                                    const StampLimits& limits) {
+  LOAM_TRY(check_quantized(q, world.params(), limits, textures));
+  if (q.kind == StampKind::kShockwave) return apply_shockwave(world, q);
+  auto baked = bake_stamp(q, world.params(), textures);
+  LOAM_TRY(baked);
+  BakedStamp& b = baked.value();
+  if (q.kind == StampKind::kFootprint) footprint_contact(b, world);
+  return walk_tiles(world, b,
+                    [&](auto* tile, int64_t tx, int64_t ty) { return apply_in_tile(b, tile, tx, ty); });
+}
+
+Result<RectI> apply_stamp_with(World& world, const QuantizedStamp& q, FastIsa isa,
+                               const TextureRegistry* textures, const StampLimits& limits) {
+  LOAM_TRY(check_quantized(q, world.params(), limits, textures));
+  if (q.kind == StampKind::kShockwave) return apply_shockwave(world, q);
+  auto baked = bake_stamp(q, world.params(), textures);
+  LOAM_TRY(baked);
+  BakedStamp& b = baked.value();
+  if (q.kind == StampKind::kFootprint) footprint_contact_fast(b, world);
+  const FastStamp fast(b, isa);
+  return walk_tiles(world, b,
+                    [&](auto* tile, int64_t tx, int64_t ty) { return fast.apply_in_tile(tile, tx, ty); });
+}
+
+Result<RectI> apply_stamp(World& world, const QuantizedStamp& q, const TextureRegistry* textures,
+                          const StampLimits& limits) {
+  return apply_stamp_with(world, q, FastIsa::kBest, textures, limits);
+}
+
+}  // namespace loam

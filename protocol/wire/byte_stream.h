@@ -1,0 +1,158 @@
+// Byte streams for the one-serialize-function-per-message pattern: WriteStream appends
+// little-endian bytes, ReadStream consumes them with a bounds check before every read, and
+// MeasureStream counts bytes without writing. A message's serialize(Stream&, T&) is written
+// once and runs against all three, so encoder, decoder and size computation cannot drift.
+//
+// Safe on untrusted input: ReadStream never reads past its span, never allocates more than
+// the bytes actually present, and every failure is an Error whose field names what was being
+// read (e.g. "subscribe.count") with the byte offset in the message. Caps and range checks run
+// in both directions, so an encoder refuses exactly what a decoder would reject.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "protocol/result.h"
+
+namespace loam::wire {
+
+// Little-endian load/store of any integer type, independent of host byte order.
+template <typename T>
+inline void store_le(uint8_t* p, T v) {
+  using U = std::make_unsigned_t<T>;
+  U u = static_cast<U>(v);
+  for (size_t i = 0; i < sizeof(T); ++i) {
+    p[i] = static_cast<uint8_t>(u & 0xFFu);
+    if constexpr (sizeof(T) > 1) u = static_cast<U>(u >> 8);
+  }
+}
+template <typename T>
+inline T load_le(const uint8_t* p) {
+  using U = std::make_unsigned_t<T>;
+  U u = 0;
+  for (size_t i = sizeof(T); i-- > 0;) {
+    if constexpr (sizeof(T) > 1) u = static_cast<U>(u << 8);
+    u = static_cast<U>(u | p[i]);
+  }
+  return static_cast<T>(u);
+}
+
+// Errors shared by the three streams (out of line: they build strings).
+Error truncated_error(const char* field, size_t need, size_t offset, size_t left);
+Error oversize_error(const char* field, uint64_t value, uint64_t cap);
+Error bad_enum_error(const char* field, uint64_t value, uint64_t count);
+Error not_finite_error(const char* field);
+
+class WriteStream {
+ public:
+  static constexpr bool kReading = false;
+  explicit WriteStream(std::vector<uint8_t>& out) : out_(out) {}
+
+  template <typename T>
+  Status bits(T& v, const char*) {
+    static_assert(std::is_integral_v<T>);
+    const size_t at = out_.size();
+    out_.resize(at + sizeof(T));
+    store_le<T>(out_.data() + at, v);
+    return {};
+  }
+  Status f64(double& v, const char* field);
+  Status boolean(bool& v, const char* field);
+  Status bytes(uint8_t* p, size_t n, const char* field);
+  Status string(std::string& s, size_t max_bytes, const char* field);
+  Status blob(std::vector<uint8_t>& b, uint32_t max_bytes, const char* field);
+  // Writes a u32 element count; the count must already be <= cap.
+  Status count(uint32_t& n, uint32_t cap, size_t min_bytes_each, const char* field);
+
+  size_t offset() const { return out_.size(); }
+
+ private:
+  std::vector<uint8_t>& out_;
+};
+
+class ReadStream {
+ public:
+  static constexpr bool kReading = true;
+  explicit ReadStream(std::span<const uint8_t> in) : in_(in) {}
+
+  template <typename T>
+  Status bits(T& v, const char* field) {
+    static_assert(std::is_integral_v<T>);
+    if (remaining() < sizeof(T)) return truncated_error(field, sizeof(T), pos_, remaining());
+    v = load_le<T>(in_.data() + pos_);
+    pos_ += sizeof(T);
+    return {};
+  }
+  Status f64(double& v, const char* field);
+  Status boolean(bool& v, const char* field);
+  Status bytes(uint8_t* p, size_t n, const char* field);
+  Status string(std::string& s, size_t max_bytes, const char* field);
+  Status blob(std::vector<uint8_t>& b, uint32_t max_bytes, const char* field);
+  // Reads a u32 element count and rejects it when it exceeds cap or when the bytes left
+  // cannot hold that many elements of at least min_bytes_each (so a caller may reserve).
+  Status count(uint32_t& n, uint32_t cap, size_t min_bytes_each, const char* field);
+
+  size_t offset() const { return pos_; }
+  size_t remaining() const { return in_.size() - pos_; }
+  // Every message must be consumed exactly: trailing bytes mean the peer and we disagree.
+  Status expect_end(const char* field) const;
+
+ private:
+  std::span<const uint8_t> in_;
+  size_t pos_ = 0;
+};
+
+class MeasureStream {
+ public:
+  static constexpr bool kReading = false;
+
+  template <typename T>
+  Status bits(T&, const char*) {
+    static_assert(std::is_integral_v<T>);
+    bytes_ += sizeof(T);
+    return {};
+  }
+  Status f64(double& v, const char* field);
+  Status boolean(bool& v, const char* field);
+  Status bytes(uint8_t*, size_t n, const char*) {
+    bytes_ += n;
+    return {};
+  }
+  Status string(std::string& s, size_t max_bytes, const char* field);
+  Status blob(std::vector<uint8_t>& b, uint32_t max_bytes, const char* field);
+  Status count(uint32_t& n, uint32_t cap, size_t min_bytes_each, const char* field);
+
+  size_t offset() const { return bytes_; }
+
+ private:
+  size_t bytes_ = 0;
+};
+
+// Enumerations travel as their underlying integer; values >= count are rejected both ways.
+template <typename E, typename S>
+Status serialize_enum(S& s, E& v, uint32_t count, const char* field) {
+  using U = std::underlying_type_t<E>;
+  U raw = static_cast<U>(v);
+  LOAM_TRY(s.bits(raw, field));
+  if (static_cast<uint64_t>(raw) >= count) return bad_enum_error(field, raw, count);
+  if constexpr (S::kReading) v = static_cast<E>(raw);
+  return {};
+}
+
+// An integer that must lie in [lo, hi] (both ways).
+template <typename T, typename S>
+Status serialize_range(S& s, T& v, T lo, T hi, const char* field) {
+  LOAM_TRY(s.bits(v, field));
+  if (v < lo || v > hi) {
+    return make_error(ErrorCode::kInvalidArgument, field,
+                      std::to_string(v) + " outside " + std::to_string(lo) + ".." + std::to_string(hi));
+  }
+  return {};
+}
+
+}  // namespace loam::wire

@@ -1,0 +1,62 @@
+// Wire constants: protocol version, frame layout, message type ids and every cap a decoder
+// enforces. This is the one place these numbers live; docs/protocol.md restates each of them.
+// Changing any value here changes the wire format: bump kProtocolMajor (or kProtocolMinor
+// for a compatible addition) and regenerate the golden vectors under tests/golden/wire/.
+// Pure constants: no I/O.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace loam::wire {
+
+// "LOAM" read as a little-endian uint32: the first field of every Hello.
+inline constexpr uint32_t kHelloMagic = 0x4D414F4Cu;
+// A peer with a different major version cannot parse our messages; minor versions only add
+// optional behaviour negotiated in Hello/Welcome, never change a layout.
+inline constexpr uint16_t kProtocolMajor = 1;
+inline constexpr uint16_t kProtocolMinor = 0;
+
+// Frame header: u32 payload length, u16 message type (little-endian), then the payload.
+inline constexpr size_t kFrameHeaderBytes = 6;
+// A connection's maximum payload unless the server announces another in Welcome. The
+// decoder rejects a larger length before it buffers a single payload byte.
+inline constexpr uint32_t kDefaultMaxFrameBytes = 1u << 20;
+// No connection may configure more than this (keeps every u32 offset sum far from overflow).
+inline constexpr uint32_t kAbsoluteMaxFrameBytes = 16u << 20;
+
+enum class MessageType : uint16_t {
+  kHello = 1,
+  kWelcome = 2,
+  kError = 3,
+  kPing = 4,
+  kPong = 5,
+  kBye = 6,
+  kSubscribe = 7,
+  kUnsubscribe = 8,
+  kDeform = 9,
+  kDeformAck = 10,
+  kDeformEvent = 11,
+  kRegionUpdate = 12,
+  kTileHashes = 13,
+  kStampImageRequest = 14,
+  kStampImageResponse = 15,
+};
+inline constexpr uint16_t kFirstMessageType = 1;
+inline constexpr uint16_t kLastMessageType = 15;
+const char* to_string(MessageType type);
+
+// --- Caps (a decoder never loops or allocates past these) ---
+inline constexpr size_t kMaxClientNameBytes = 64;             // Hello.client_name (UTF-8, not checked)
+inline constexpr size_t kSessionTokenBytes = 16;              // Hello.session_token when present
+inline constexpr size_t kMaxErrorTextBytes = 1024;            // Error.text, Bye.text
+inline constexpr size_t kMaxFieldNameBytes = 64;              // Error.field, DeformAck.field
+inline constexpr uint32_t kMaxSubscribeEntries = 1024;        // per Subscribe / Unsubscribe message
+inline constexpr uint32_t kMaxEventTiles = 4096;              // tile versions per DeformEvent
+inline constexpr uint32_t kMaxRegionChunkBytes = 256u << 10;  // payload bytes per RegionUpdate
+inline constexpr uint32_t kMaxRegionPayloadBytes = 4u << 20;  // a whole region, all chunks
+inline constexpr uint32_t kMaxTileHashEntries = 1024;         // per TileHashes message
+inline constexpr uint32_t kMaxStampImageSide = 512;           // pixels, either side
+inline constexpr uint32_t kMaxStampImageBytes = kMaxStampImageSide * kMaxStampImageSide * 2;
+
+}  // namespace loam::wire

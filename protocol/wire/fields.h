@@ -1,0 +1,99 @@
+// Serialize functions for the compound fields shared by wire messages and log records:
+// TileCoord, a tile-local rect, WorldParams and QuantizedStamp. Each runs against
+// WriteStream, ReadStream and MeasureStream (byte_stream.h) and checks ranges both ways.
+// Safe on untrusted input. docs/protocol.md ("Common fields") gives the byte layouts.
+#pragma once
+
+#include "protocol/geometry.h"
+#include "protocol/stamps/stamp.h"
+#include "protocol/wire/byte_stream.h"
+
+namespace loam::wire {
+
+// 10 bytes: u8 layer, u8 mip, i32 tx, i32 ty. The detail layer exists at mip 0 only.
+inline constexpr size_t kTileCoordBytes = 10;
+template <typename S>
+Status serialize_tile(S& s, TileCoord& c) {
+  LOAM_TRY(serialize_enum(s, c.layer, 2, "tile.layer"));
+  LOAM_TRY(serialize_range<uint8_t>(s, c.mip, 0, kMaxMips - 1, "tile.mip"));
+  if (c.layer == Layer::kDetail && c.mip != 0) {
+    return make_error(ErrorCode::kInvalidArgument, "tile.mip", "the detail layer has mip 0 only");
+  }
+  LOAM_TRY(s.bits(c.tx, "tile.tx"));
+  LOAM_TRY(s.bits(c.ty, "tile.ty"));
+  return {};
+}
+
+// 8 bytes: u16 x0, y0, x1, y1 in tile-local samples; 0 <= x0 < x1 <= kTileSize (same for y).
+inline constexpr size_t kTileRectBytes = 8;
+template <typename S>
+Status serialize_tile_rect(S& s, RectI& r) {
+  const auto in_tile = [](int64_t v) { return v >= 0 && v <= kTileSize; };
+  if constexpr (!S::kReading) {
+    if (!in_tile(r.x0) || !in_tile(r.y0) || !in_tile(r.x1) || !in_tile(r.y1) || r.empty()) {
+      return make_error(ErrorCode::kInvalidArgument, "rect", "must be non-empty and inside the tile");
+    }
+  }
+  uint16_t v[4] = {uint16_t(r.x0), uint16_t(r.y0), uint16_t(r.x1), uint16_t(r.y1)};
+  LOAM_TRY(s.bits(v[0], "rect.x0"));
+  LOAM_TRY(s.bits(v[1], "rect.y0"));
+  LOAM_TRY(s.bits(v[2], "rect.x1"));
+  LOAM_TRY(s.bits(v[3], "rect.y1"));
+  if (v[2] > kTileSize || v[3] > kTileSize) {
+    return make_error(ErrorCode::kInvalidArgument, "rect.x1", "beyond the tile edge");
+  }
+  if (v[0] >= v[2]) return make_error(ErrorCode::kInvalidArgument, "rect.x0", "x0 must be < x1");
+  if (v[1] >= v[3]) return make_error(ErrorCode::kInvalidArgument, "rect.y0", "y0 must be < y1");
+  if constexpr (S::kReading) r = RectI{v[0], v[1], v[2], v[3]};
+  return {};
+}
+
+// 52 bytes; the decoded parameters must pass WorldParams::validate().
+inline constexpr size_t kWorldParamsBytes = 52;
+template <typename S>
+Status serialize_world_params(S& s, WorldParams& p) {
+  LOAM_TRY(s.f64(p.meters_per_sample, "world.meters_per_sample"));
+  LOAM_TRY(s.f64(p.height_offset, "world.height_offset"));
+  LOAM_TRY(s.f64(p.meters_per_unit, "world.meters_per_unit"));
+  LOAM_TRY(s.bits(p.detail_factor, "world.detail_factor"));
+  LOAM_TRY(s.f64(p.detail_meters_per_unit, "world.detail_meters_per_unit"));
+  LOAM_TRY(s.bits(p.origin_tile_x, "world.origin_tile_x"));
+  LOAM_TRY(s.bits(p.origin_tile_y, "world.origin_tile_y"));
+  LOAM_TRY(s.bits(p.tiles_x, "world.tiles_x"));
+  LOAM_TRY(s.bits(p.tiles_y, "world.tiles_y"));
+  if (Status st = p.validate(); !st.ok()) {
+    Error e = st.error();
+    e.field = "world." + e.field;
+    return e;
+  }
+  return {};
+}
+
+// 54 bytes, field by field in declaration order. Enumerations and flags are checked here;
+// the stamp's semantic ranges (radius > 0, steps cap, ...) are the stamp validator's job.
+inline constexpr size_t kStampBytes = 54;
+template <typename S>
+Status serialize_stamp(S& s, QuantizedStamp& q) {
+  LOAM_TRY(serialize_enum(s, q.kind, kStampKindCount, "stamp.kind"));
+  LOAM_TRY(serialize_enum(s, q.layer, 2, "stamp.layer"));
+  LOAM_TRY(serialize_enum(s, q.blend, kBlendModeCount, "stamp.blend"));
+  LOAM_TRY(s.bits(q.flags, "stamp.flags"));
+  if ((q.flags & ~kStampKnownFlags) != 0) {
+    return make_error(ErrorCode::kBadEnum, "stamp.flags", "unknown flag bits " + std::to_string(q.flags));
+  }
+  LOAM_TRY(s.bits(q.center_x, "stamp.center_x"));
+  LOAM_TRY(s.bits(q.center_y, "stamp.center_y"));
+  LOAM_TRY(s.bits(q.radius, "stamp.radius"));
+  LOAM_TRY(s.bits(q.rotation, "stamp.rotation"));
+  LOAM_TRY(s.bits(q.intensity, "stamp.intensity"));
+  LOAM_TRY(s.bits(q.target, "stamp.target"));
+  LOAM_TRY(s.bits(q.shape, "stamp.shape"));
+  LOAM_TRY(s.bits(q.damping, "stamp.damping"));
+  LOAM_TRY(s.bits(q.speed, "stamp.speed"));
+  LOAM_TRY(s.bits(q.steps, "stamp.steps"));
+  LOAM_TRY(s.bits(q.seed, "stamp.seed"));
+  LOAM_TRY(s.bits(q.texture_id, "stamp.texture_id"));
+  return {};
+}
+
+}  // namespace loam::wire

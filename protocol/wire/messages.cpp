@@ -1,0 +1,470 @@
+#include "protocol/wire/messages.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "protocol/wire/byte_stream.h"
+#include "protocol/wire/fields.h"
+
+namespace loam::wire {
+
+const char* to_string(MessageType type) {
+  switch (type) {
+    case MessageType::kHello: return "Hello";
+    case MessageType::kWelcome: return "Welcome";
+    case MessageType::kError: return "Error";
+    case MessageType::kPing: return "Ping";
+    case MessageType::kPong: return "Pong";
+    case MessageType::kBye: return "Bye";
+    case MessageType::kSubscribe: return "Subscribe";
+    case MessageType::kUnsubscribe: return "Unsubscribe";
+    case MessageType::kDeform: return "Deform";
+    case MessageType::kDeformAck: return "DeformAck";
+    case MessageType::kDeformEvent: return "DeformEvent";
+    case MessageType::kRegionUpdate: return "RegionUpdate";
+    case MessageType::kTileHashes: return "TileHashes";
+    case MessageType::kStampImageRequest: return "StampImageRequest";
+    case MessageType::kStampImageResponse: return "StampImageResponse";
+  }
+  return "unknown";
+}
+
+const char* to_string(Role role) {
+  switch (role) {
+    case Role::kPlayer: return "player";
+    case Role::kSpectator: return "spectator";
+    case Role::kBot: return "bot";
+    case Role::kAdmin: return "admin";
+  }
+  return "unknown";
+}
+
+bool is_known(WireErrorCode code) {
+  const auto v = static_cast<uint16_t>(code);
+  return (v >= 1 && v <= 11) || (v >= 32 && v <= 36);
+}
+
+const char* to_string(WireErrorCode code) {
+  switch (code) {
+    case WireErrorCode::kInvalidArgument: return "invalid argument";
+    case WireErrorCode::kNotFinite: return "not finite";
+    case WireErrorCode::kTruncated: return "truncated";
+    case WireErrorCode::kOversize: return "oversize";
+    case WireErrorCode::kBadEnum: return "bad enum";
+    case WireErrorCode::kUnknownType: return "unknown type";
+    case WireErrorCode::kUnsupported: return "unsupported";
+    case WireErrorCode::kCorrupt: return "corrupt";
+    case WireErrorCode::kIo: return "i/o error";
+    case WireErrorCode::kNotFound: return "not found";
+    case WireErrorCode::kUnauthorized: return "unauthorized";
+    case WireErrorCode::kRateLimited: return "rate limited";
+    case WireErrorCode::kServerFull: return "server full";
+    case WireErrorCode::kOutOfWorld: return "out of world";
+    case WireErrorCode::kTooManyPending: return "too many pending deforms";
+    case WireErrorCode::kInternal: return "internal error";
+  }
+  return "unknown error";
+}
+
+WireErrorCode to_wire(ErrorCode code) {
+  switch (code) {
+    case ErrorCode::kInvalidArgument: return WireErrorCode::kInvalidArgument;
+    case ErrorCode::kNotFinite: return WireErrorCode::kNotFinite;
+    case ErrorCode::kTruncated: return WireErrorCode::kTruncated;
+    case ErrorCode::kOversize: return WireErrorCode::kOversize;
+    case ErrorCode::kBadEnum: return WireErrorCode::kBadEnum;
+    case ErrorCode::kUnknownType: return WireErrorCode::kUnknownType;
+    case ErrorCode::kUnsupported: return WireErrorCode::kUnsupported;
+    case ErrorCode::kCorrupt: return WireErrorCode::kCorrupt;
+    case ErrorCode::kIo: return WireErrorCode::kIo;
+    case ErrorCode::kNotFound: return WireErrorCode::kNotFound;
+    case ErrorCode::kUnauthorized: return WireErrorCode::kUnauthorized;
+  }
+  return WireErrorCode::kInternal;
+}
+
+ErrorCode from_wire(WireErrorCode code) {
+  switch (code) {
+    case WireErrorCode::kInvalidArgument: return ErrorCode::kInvalidArgument;
+    case WireErrorCode::kNotFinite: return ErrorCode::kNotFinite;
+    case WireErrorCode::kTruncated: return ErrorCode::kTruncated;
+    case WireErrorCode::kOversize: return ErrorCode::kOversize;
+    case WireErrorCode::kBadEnum: return ErrorCode::kBadEnum;
+    case WireErrorCode::kUnknownType: return ErrorCode::kUnknownType;
+    case WireErrorCode::kUnsupported: return ErrorCode::kUnsupported;
+    case WireErrorCode::kCorrupt: return ErrorCode::kCorrupt;
+    case WireErrorCode::kIo: return ErrorCode::kIo;
+    case WireErrorCode::kNotFound: return ErrorCode::kNotFound;
+    case WireErrorCode::kUnauthorized: return ErrorCode::kUnauthorized;
+    case WireErrorCode::kRateLimited:
+    case WireErrorCode::kServerFull:
+    case WireErrorCode::kTooManyPending: return ErrorCode::kUnauthorized;
+    case WireErrorCode::kOutOfWorld: return ErrorCode::kInvalidArgument;
+    case WireErrorCode::kInternal: return ErrorCode::kIo;
+  }
+  return ErrorCode::kIo;
+}
+
+namespace {
+
+// Serialize functions never assign to a message while writing or measuring (every
+// assignment sits under `if constexpr (S::kReading)`), which is what lets encode_payload
+// run them on a const message.
+
+template <typename S>
+Status serialize_error_code(S& s, WireErrorCode& code, const char* field) {
+  uint16_t raw = static_cast<uint16_t>(code);
+  LOAM_TRY(s.bits(raw, field));
+  if (!is_known(static_cast<WireErrorCode>(raw))) {
+    return make_error(ErrorCode::kBadEnum, field, "unknown error code " + std::to_string(raw));
+  }
+  if constexpr (S::kReading) code = static_cast<WireErrorCode>(raw);
+  return {};
+}
+
+// A u32 count then each element. The reader sizes the vector only after count() proved the
+// count is within cap and that the remaining bytes can hold that many elements.
+template <typename S, typename T, typename F>
+Status serialize_vector(S& s, std::vector<T>& v, uint32_t cap, size_t min_bytes_each, const char* field,
+                        F&& each) {
+  if constexpr (!S::kReading) {
+    if (v.size() > cap) return oversize_error(field, v.size(), cap);
+  }
+  uint32_t n = static_cast<uint32_t>(v.size());
+  LOAM_TRY(s.count(n, cap, min_bytes_each, field));
+  if constexpr (S::kReading) v.resize(n);
+  for (T& e : v) LOAM_TRY(each(e));
+  return {};
+}
+
+Error version_error(const char* field, uint16_t peer_major, uint16_t peer_minor) {
+  return make_error(ErrorCode::kUnsupported, field,
+                    "peer speaks protocol " + std::to_string(peer_major) + "." + std::to_string(peer_minor) +
+                        ", this side speaks " + std::to_string(kProtocolMajor) + "." +
+                        std::to_string(kProtocolMinor));
+}
+
+template <typename S>
+Status serialize(S& s, Hello& m) {
+  // Magic and version come first and keep this layout in every future major version, so a
+  // server can always tell an old or new client what went wrong.
+  uint32_t magic = kHelloMagic;
+  LOAM_TRY(s.bits(magic, "hello.magic"));
+  if (magic != kHelloMagic) {
+    return make_error(ErrorCode::kCorrupt, "hello.magic", "not a Loam client (bad magic)");
+  }
+  LOAM_TRY(s.bits(m.version_major, "hello.version_major"));
+  LOAM_TRY(s.bits(m.version_minor, "hello.version_minor"));
+  // Checked on read only: the rest of the layout is unknowable for another major version,
+  // while a test may still want to encode a foreign Hello.
+  if constexpr (S::kReading) {
+    if (m.version_major != kProtocolMajor) {
+      return version_error("hello.version_major", m.version_major, m.version_minor);
+    }
+  }
+  LOAM_TRY(s.string(m.client_name, kMaxClientNameBytes, "hello.client_name"));
+  LOAM_TRY(serialize_enum(s, m.requested_role, kRoleCount, "hello.requested_role"));
+  bool has_token = m.session_token.has_value();
+  LOAM_TRY(s.boolean(has_token, "hello.has_session_token"));
+  if (has_token) {
+    if constexpr (S::kReading) m.session_token.emplace();
+    LOAM_TRY(s.bytes(m.session_token->data(), kSessionTokenBytes, "hello.session_token"));
+  }
+  return {};
+}
+
+template <typename S>
+Status serialize(S& s, ServerLimits& m) {
+  LOAM_TRY(serialize_range<uint32_t>(s, m.max_frame_bytes, 1024, kAbsoluteMaxFrameBytes,
+                                     "welcome.limits.max_frame_bytes"));
+  LOAM_TRY(s.bits(m.max_subscribed_tiles, "welcome.limits.max_subscribed_tiles"));
+  LOAM_TRY(s.bits(m.max_pending_deforms, "welcome.limits.max_pending_deforms"));
+  LOAM_TRY(s.bits(m.max_deforms_per_second, "welcome.limits.max_deforms_per_second"));
+  return {};
+}
+
+template <typename S>
+Status serialize(S& s, Welcome& m) {
+  LOAM_TRY(s.bits(m.version_major, "welcome.version_major"));
+  LOAM_TRY(s.bits(m.version_minor, "welcome.version_minor"));
+  if constexpr (S::kReading) {
+    if (m.version_major != kProtocolMajor) {
+      return version_error("welcome.version_major", m.version_major, m.version_minor);
+    }
+  }
+  LOAM_TRY(s.bits(m.client_id, "welcome.client_id"));
+  LOAM_TRY(serialize_enum(s, m.granted_role, kRoleCount, "welcome.granted_role"));
+  LOAM_TRY(s.bytes(m.session_token.data(), kSessionTokenBytes, "welcome.session_token"));
+  LOAM_TRY(serialize_world_params(s, m.world));
+  LOAM_TRY(s.bits(m.global_sequence, "welcome.global_sequence"));
+  LOAM_TRY(serialize_range<uint16_t>(s, m.tick_rate_hz, 1, 1000, "welcome.tick_rate_hz"));
+  LOAM_TRY(serialize(s, m.limits));
+  return {};
+}
+
+template <typename S>
+Status serialize(S& s, ErrorMsg& m) {
+  LOAM_TRY(serialize_error_code(s, m.code, "error.code"));
+  LOAM_TRY(s.string(m.field, kMaxFieldNameBytes, "error.field"));
+  LOAM_TRY(s.string(m.text, kMaxErrorTextBytes, "error.text"));
+  return {};
+}
+
+template <typename S>
+Status serialize(S& s, Ping& m) {
+  return s.bits(m.client_time_us, "ping.client_time_us");
+}
+
+template <typename S>
+Status serialize(S& s, Pong& m) {
+  LOAM_TRY(s.bits(m.client_time_us, "pong.client_time_us"));
+  LOAM_TRY(s.bits(m.server_time_us, "pong.server_time_us"));
+  return {};
+}
+
+template <typename S>
+Status serialize(S& s, Bye& m) {
+  LOAM_TRY(serialize_enum(s, m.reason, kByeReasonCount, "bye.reason"));
+  LOAM_TRY(s.string(m.text, kMaxErrorTextBytes, "bye.text"));
+  return {};
+}
+
+template <typename S>
+Status serialize(S& s, Subscribe& m) {
+  return serialize_vector(s, m.entries, kMaxSubscribeEntries, kTileCoordBytes + 8, "subscribe.count",
+                          [&](SubscribeEntry& e) -> Status {
+                            LOAM_TRY(serialize_tile(s, e.tile));
+                            return s.bits(e.held_version, "subscribe.held_version");
+                          });
+}
+
+template <typename S>
+Status serialize(S& s, Unsubscribe& m) {
+  return serialize_vector(s, m.tiles, kMaxSubscribeEntries, kTileCoordBytes, "unsubscribe.count",
+                          [&](TileCoord& t) { return serialize_tile(s, t); });
+}
+
+template <typename S>
+Status serialize(S& s, Deform& m) {
+  LOAM_TRY(s.bits(m.client_seq, "deform.client_seq"));
+  return serialize_stamp(s, m.stamp);
+}
+
+template <typename S>
+Status serialize(S& s, DeformAck& m) {
+  LOAM_TRY(s.bits(m.client_seq, "deform_ack.client_seq"));
+  LOAM_TRY(s.boolean(m.accepted, "deform_ack.accepted"));
+  if (m.accepted) {
+    LOAM_TRY(s.bits(m.global_seq, "deform_ack.global_seq"));
+    if (m.global_seq == 0) {
+      return make_error(ErrorCode::kInvalidArgument, "deform_ack.global_seq", "must be > 0 when accepted");
+    }
+  } else {
+    LOAM_TRY(serialize_error_code(s, m.reject_code, "deform_ack.reject_code"));
+    LOAM_TRY(s.string(m.field, kMaxFieldNameBytes, "deform_ack.field"));
+  }
+  return {};
+}
+
+template <typename S>
+Status serialize(S& s, DeformEvent& m) {
+  LOAM_TRY(serialize_range<uint64_t>(s, m.global_seq, 1, UINT64_MAX, "deform_event.global_seq"));
+  LOAM_TRY(s.bits(m.origin_client_id, "deform_event.origin_client_id"));
+  LOAM_TRY(serialize_stamp(s, m.stamp));
+  return serialize_vector(s, m.base_versions, kMaxEventTiles, kTileCoordBytes + 8, "deform_event.tile_count",
+                          [&](TileVersion& t) -> Status {
+                            LOAM_TRY(serialize_tile(s, t.tile));
+                            LOAM_TRY(s.bits(t.version, "deform_event.base_version"));
+                            // A base version at or after the event itself cannot exist.
+                            if (t.version >= m.global_seq) {
+                              return make_error(ErrorCode::kInvalidArgument, "deform_event.base_version",
+                                                "must be < global_seq");
+                            }
+                            return {};
+                          });
+}
+
+uint32_t bytes_per_sample(Layer layer) { return layer == Layer::kCoarse ? 2u : 1u; }
+
+template <typename S>
+Status serialize(S& s, RegionUpdate& m) {
+  LOAM_TRY(serialize_tile(s, m.tile));
+  LOAM_TRY(serialize_tile_rect(s, m.rect));
+  LOAM_TRY(s.bits(m.base_version, "region.base_version"));
+  LOAM_TRY(s.bits(m.new_version, "region.new_version"));
+  // base_version 0 is a full replacement (any new version, 0 = initial terrain); a delta
+  // must move forward.
+  if (m.base_version != 0 && m.new_version <= m.base_version) {
+    return make_error(ErrorCode::kInvalidArgument, "region.new_version",
+                      "must be > base_version for a delta");
+  }
+  LOAM_TRY(serialize_enum(s, m.encoding, kRegionEncodingCount, "region.encoding"));
+  LOAM_TRY(serialize_range<uint32_t>(s, m.total_bytes, 0, kMaxRegionPayloadBytes, "region.total_bytes"));
+  if (m.encoding == RegionEncoding::kRaw &&
+      uint64_t(m.total_bytes) != uint64_t(m.rect.area()) * bytes_per_sample(m.tile.layer)) {
+    return make_error(ErrorCode::kCorrupt, "region.total_bytes", "raw payload size does not match the rect");
+  }
+  LOAM_TRY(s.bits(m.chunk_offset, "region.chunk_offset"));
+  LOAM_TRY(s.blob(m.chunk, kMaxRegionChunkBytes, "region.chunk"));
+  // 64-bit sum: offset and size are each below 2^32, so this cannot wrap.
+  if (uint64_t(m.chunk_offset) + m.chunk.size() > m.total_bytes) {
+    return make_error(ErrorCode::kCorrupt, "region.chunk_offset", "chunk extends past total_bytes");
+  }
+  return {};
+}
+
+template <typename S>
+Status serialize(S& s, TileHashes& m) {
+  return serialize_vector(s, m.entries, kMaxTileHashEntries, kTileCoordBytes + 16, "tile_hashes.count",
+                          [&](TileHashEntry& e) -> Status {
+                            LOAM_TRY(serialize_tile(s, e.tile));
+                            LOAM_TRY(s.bits(e.version, "tile_hashes.version"));
+                            return s.bits(e.hash, "tile_hashes.hash");
+                          });
+}
+
+template <typename S>
+Status serialize(S& s, StampImageRequest& m) {
+  return s.bits(m.image_id, "stamp_image_request.image_id");
+}
+
+template <typename S>
+Status serialize(S& s, StampImageResponse& m) {
+  LOAM_TRY(s.bits(m.image_id, "stamp_image.image_id"));
+  LOAM_TRY(s.boolean(m.found, "stamp_image.found"));
+  if (!m.found) return {};
+  LOAM_TRY(serialize_range<uint16_t>(s, m.width, 1, kMaxStampImageSide, "stamp_image.width"));
+  LOAM_TRY(serialize_range<uint16_t>(s, m.height, 1, kMaxStampImageSide, "stamp_image.height"));
+  LOAM_TRY(serialize_enum(s, m.format, kStampImageFormatCount, "stamp_image.format"));
+  LOAM_TRY(s.blob(m.pixels, kMaxStampImageBytes, "stamp_image.pixels"));
+  const uint64_t expect = uint64_t(m.width) * m.height * (m.format == StampImageFormat::kGray16 ? 2u : 1u);
+  if (m.pixels.size() != expect) {
+    return make_error(ErrorCode::kCorrupt, "stamp_image.pixels",
+                      std::to_string(m.pixels.size()) + " bytes for a " + std::to_string(m.width) + "x" +
+                          std::to_string(m.height) + " image, expected " + std::to_string(expect));
+  }
+  return {};
+}
+
+template <size_t I>
+Result<Message> decode_as(std::span<const uint8_t> payload) {
+  std::variant_alternative_t<I, Message> m;
+  ReadStream s(payload);
+  LOAM_TRY(serialize(s, m));
+  LOAM_TRY(s.expect_end(to_string(MessageType(I + 1))));
+  return Message(std::in_place_index<I>, std::move(m));
+}
+
+using Decoder = Result<Message> (*)(std::span<const uint8_t>);
+template <size_t... I>
+constexpr std::array<Decoder, sizeof...(I)> make_decoders(std::index_sequence<I...>) {
+  return {&decode_as<I>...};
+}
+constexpr auto kDecoders = make_decoders(std::make_index_sequence<std::variant_size_v<Message>>());
+static_assert(kDecoders.size() == kLastMessageType - kFirstMessageType + 1);
+
+template <typename S>
+Status serialize_any(S& s, const Message& m) {
+  return std::visit(
+      [&](const auto& msg) -> Status {
+        using T = std::decay_t<decltype(msg)>;
+        return serialize(s, const_cast<T&>(msg));  // read-only on write paths (see above)
+      },
+      m);
+}
+
+}  // namespace
+
+MessageType message_type(const Message& m) { return MessageType(m.index() + 1); }
+
+Result<std::vector<uint8_t>> encode_payload(const Message& m) {
+  std::vector<uint8_t> out;
+  WriteStream s(out);
+  LOAM_TRY(serialize_any(s, m));
+  return out;
+}
+
+Result<size_t> measure_payload(const Message& m) {
+  MeasureStream s;
+  LOAM_TRY(serialize_any(s, m));
+  return s.offset();
+}
+
+Result<Message> decode_payload(uint16_t type, std::span<const uint8_t> payload) {
+  if (type < kFirstMessageType || type > kLastMessageType) {
+    return make_error(ErrorCode::kUnknownType, "frame.type", "unknown message type " + std::to_string(type));
+  }
+  return kDecoders[type - kFirstMessageType](payload);
+}
+
+ErrorMsg version_mismatch(uint16_t peer_major, uint16_t peer_minor) {
+  const Error e = version_error("hello.version_major", peer_major, peer_minor);
+  return ErrorMsg{WireErrorCode::kUnsupported, e.field, e.message};
+}
+
+ErrorMsg to_error_message(const Error& e) {
+  ErrorMsg m{to_wire(e.code), e.field, e.describe()};
+  if (m.field.size() > kMaxFieldNameBytes) m.field.resize(kMaxFieldNameBytes);
+  if (m.text.size() > kMaxErrorTextBytes) m.text.resize(kMaxErrorTextBytes);
+  return m;
+}
+
+Result<std::vector<RegionUpdate>> chunk_region(const RegionUpdate& header, std::span<const uint8_t> payload,
+                                               uint32_t max_chunk) {
+  if (payload.size() > kMaxRegionPayloadBytes) {
+    return oversize_error("region.total_bytes", payload.size(), kMaxRegionPayloadBytes);
+  }
+  if (max_chunk == 0 || max_chunk > kMaxRegionChunkBytes) max_chunk = kMaxRegionChunkBytes;
+  std::vector<RegionUpdate> chunks;
+  size_t offset = 0;
+  do {
+    const size_t n = std::min<size_t>(max_chunk, payload.size() - offset);
+    RegionUpdate c;
+    c.tile = header.tile;
+    c.rect = header.rect;
+    c.base_version = header.base_version;
+    c.new_version = header.new_version;
+    c.encoding = header.encoding;
+    c.total_bytes = static_cast<uint32_t>(payload.size());
+    c.chunk_offset = static_cast<uint32_t>(offset);
+    c.chunk.assign(payload.begin() + static_cast<ptrdiff_t>(offset),
+                   payload.begin() + static_cast<ptrdiff_t>(offset + n));
+    chunks.push_back(std::move(c));
+    offset += n;
+  } while (offset < payload.size());
+  return chunks;
+}
+
+Result<std::optional<std::vector<uint8_t>>> RegionAssembler::add(const RegionUpdate& chunk) {
+  const auto same_region = [&](const RegionUpdate& a) {
+    return a.tile == chunk.tile && a.rect == chunk.rect && a.base_version == chunk.base_version &&
+           a.new_version == chunk.new_version && a.encoding == chunk.encoding &&
+           a.total_bytes == chunk.total_bytes;
+  };
+  if (!active_) {
+    if (chunk.chunk_offset != 0) {
+      return make_error(ErrorCode::kCorrupt, "region.chunk_offset", "first chunk must start at offset 0");
+    }
+    active_ = true;
+    header_ = chunk;
+    header_.chunk.clear();
+    payload_.clear();
+    payload_.reserve(chunk.total_bytes);  // capped by the decoder at kMaxRegionPayloadBytes
+  } else if (!same_region(header_) || chunk.chunk_offset != payload_.size()) {
+    active_ = false;
+    payload_.clear();
+    return make_error(ErrorCode::kCorrupt, "region.chunk_offset",
+                      "chunk does not continue the region being assembled");
+  }
+  if (uint64_t(payload_.size()) + chunk.chunk.size() > chunk.total_bytes) {
+    active_ = false;
+    payload_.clear();
+    return make_error(ErrorCode::kCorrupt, "region.chunk", "chunks exceed total_bytes");
+  }
+  payload_.insert(payload_.end(), chunk.chunk.begin(), chunk.chunk.end());
+  if (payload_.size() < chunk.total_bytes) return std::optional<std::vector<uint8_t>>();
+  active_ = false;
+  return std::optional<std::vector<uint8_t>>(std::move(payload_));
+}
+
+}  // namespace loam::wire

@@ -1,0 +1,230 @@
+// loam-server: host a multiplayer terrain session, and the file tools that go with it.
+//   serve            run a session (TCP); SIGINT/SIGTERM stop it cleanly
+//   replay LOG...    rebuild the world from a log and print its hash
+//   import, export   DEM files in and out
+//   log dump|summary human views of a deformation log
+//   snapshot info    what a snapshot holds
+#include <CLI/CLI.hpp>
+
+#include <asio.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <stdexcept>
+
+#include "dem/dem_export.h"
+#include "dem/dem_import.h"
+#include "protocol/log/log_file.h"
+#include "protocol/log/log_json.h"
+#include "server/event_log.h"
+#include "server/replay.h"
+#include "server/server.h"
+#include "server/snapshot.h"
+#include "server/storage.h"
+
+namespace {
+
+using namespace loam;
+
+std::string hex64(uint64_t v) {
+  char buf[20];
+  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)v);
+  return buf;
+}
+
+[[noreturn]] void die(const Error& e) { throw std::runtime_error(e.describe()); }
+
+int serve(const server::ServerConfig& config) {
+  if (config.tick_hz < 1 || config.tick_hz > 1000) throw std::runtime_error("--tick-hz must be in 1..1000");
+  const auto kind = gpu::parse_backend_kind(config.backend);
+  if (!kind) die(kind.error());
+  auto opened = server::open_storage(config.data_dir, config.dem_path, config.stamp_limits);
+  if (!opened) die(opened.error());
+  // Recovery replays on the CPU; the backend then starts from the recovered world.
+  auto backend = gpu::make_stamp_backend(*kind, opened->terrain.world(), &opened->terrain.textures(),
+                                         config.stamp_limits);
+  if (!backend) die(backend.error());
+  server::log_event("backend", {{"requested", config.backend},
+                                {"chosen", (*backend)->name()},
+                                {"renderer", (*backend)->renderer()}});
+  opened->terrain.set_backend(std::move(*backend));
+  const server::RecoveryReport& r = opened->report;
+  server::log_event(r.fresh ? "new_session" : "recovered",
+                    {{"data_dir", config.data_dir},
+                     {"snapshot", r.snapshot_path.empty() ? "none" : r.snapshot_path},
+                     {"segments", std::to_string(r.segments)},
+                     {"replayed", std::to_string(r.replayed_records)},
+                     {"truncated_bytes", std::to_string(r.truncated_bytes)},
+                     {"last_seq", std::to_string(r.last_seq)}});
+  if (!r.damage.empty()) server::log_event("log_repaired", {{"damage", r.damage}});
+  for (const std::string& s : r.skipped) server::log_event("snapshot_skipped", {{"why", s}});
+  asio::io_context io;
+  server::Server srv(io, config, std::move(*opened));
+  if (const Status st = srv.start(); !st.ok()) die(st.error());
+  io.run();
+  server::log_event("exit", {{"failed", srv.failed() ? "yes" : "no"}});
+  return srv.failed() ? 1 : 0;
+}
+
+std::vector<std::string> expand_logs(const std::vector<std::string>& args, std::string* data_dir) {
+  // A data folder stands for its segments; otherwise the arguments are segment files.
+  if (args.size() == 1 && std::filesystem::is_directory(args[0])) {
+    *data_dir = args[0];
+    return server::list_segments(args[0]);
+  }
+  if (data_dir->empty() && !args.empty()) {
+    // <data>/log/segment-*.loamlog: snapshots live two levels up.
+    *data_dir = std::filesystem::path(args[0]).parent_path().parent_path().string();
+  }
+  return args;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"loam-server: host a Loam terrain session"};
+  app.require_subcommand(1);
+  app.set_config("--config", "", "Read options from an INI/TOML file (docs/configuration.md)");
+
+  server::ServerConfig config;
+  auto* serve_cmd = app.add_subcommand("serve", "Run a terrain session over TCP");
+  serve_cmd->add_option("--bind", config.bind_address, "Address to listen on")->capture_default_str();
+  serve_cmd->add_option("--port", config.port, "TCP port (0: ephemeral)")->capture_default_str();
+  serve_cmd->add_option("--port-file", config.port_file, "Write the bound port to this file");
+  serve_cmd->add_option("--dem", config.dem_path, "Initial terrain DEM (default: the embedded terrain)");
+  serve_cmd->add_option("--data-dir", config.data_dir, "Log and snapshot folder")->capture_default_str();
+  serve_cmd->add_option("--backend", config.backend, "Stamp backend: auto, gpu or cpu")->capture_default_str();
+  serve_cmd->add_option("--tick-hz", config.tick_hz, "Ticks per second")->capture_default_str();
+  serve_cmd->add_option("--editor-token", config.editor_tokens, "Token (32 hex digits) granting editing");
+  serve_cmd->add_option("--viewer-token", config.viewer_tokens, "Token (32 hex digits) granting viewing only");
+  serve_cmd->add_option("--max-clients", config.max_clients)->capture_default_str();
+  serve_cmd->add_option("--max-frame-bytes", config.max_frame_bytes)->capture_default_str();
+  serve_cmd->add_option("--max-subscriptions", config.max_subscriptions)->capture_default_str();
+  serve_cmd->add_option("--max-pending-deforms", config.max_pending_deforms, "Per client per tick")->capture_default_str();
+  serve_cmd->add_option("--deforms-per-second", config.deforms_per_second, "Rate limit per client")->capture_default_str();
+  serve_cmd->add_option("--deform-burst", config.deform_burst, "Rate limit burst")->capture_default_str();
+  serve_cmd->add_option("--handshake-timeout", config.handshake_timeout_s, "Seconds")->capture_default_str();
+  serve_cmd->add_option("--idle-timeout", config.idle_timeout_s, "Seconds (0: none)")->capture_default_str();
+  serve_cmd->add_option("--max-queue-bytes", config.max_queue_bytes, "Per-client send queue bound")->capture_default_str();
+  serve_cmd->add_option("--snapshot-every", config.snapshot_every_stamps, "Stamps between snapshots (0: off)")->capture_default_str();
+  serve_cmd->add_option("--snapshot-interval", config.snapshot_interval_s, "Seconds between snapshots (0: off)")->capture_default_str();
+  serve_cmd->add_option("--hashes-every", config.hashes_every_ticks, "Ticks between TileHashes (0: never)")->capture_default_str();
+  serve_cmd->add_option("--stats-interval", config.stats_interval_s, "Seconds between stats lines (0: off)")->capture_default_str();
+  serve_cmd->add_option("--max-radius", config.stamp_limits.max_radius_samples, "Stamp radius cap in samples")->capture_default_str();
+
+  std::vector<std::string> logs;
+  std::string replay_data, replay_png, replay_exr, replay_snapshot;
+  uint64_t until = std::numeric_limits<uint64_t>::max();
+  auto* replay_cmd = app.add_subcommand("replay", "Rebuild the world from a log and print its hash");
+  replay_cmd->add_option("logs", logs, "Segment files in order, or a data folder")->required();
+  replay_cmd->add_option("--data-dir", replay_data, "Folder holding snapshots/ (for snapshot-based logs)");
+  replay_cmd->add_option("--until", until, "Stop after this sequence");
+  replay_cmd->add_option("--export-png", replay_png, "Write the result as 16-bit PNG");
+  replay_cmd->add_option("--export-exr", replay_exr, "Write the result as float EXR");
+  replay_cmd->add_option("--snapshot-out", replay_snapshot, "Write the result as a snapshot under this folder");
+
+  std::string dem_in, out_path;
+  auto* import_cmd = app.add_subcommand("import", "Import a DEM and report its quantization");
+  import_cmd->add_option("dem", dem_in, "DEM file")->required();
+  import_cmd->add_option("--png", out_path, "Also write the imported world as PNG + sidecar");
+  auto* export_cmd = app.add_subcommand("export", "Export a data folder's current world");
+  std::string export_dir;
+  export_cmd->add_option("data_dir", export_dir, "Data folder")->required();
+  export_cmd->add_option("output", out_path, "Output .png or .exr")->required();
+
+  auto* log_cmd = app.add_subcommand("log", "Human views of a deformation log");
+  log_cmd->require_subcommand(1);
+  auto* dump_cmd = log_cmd->add_subcommand("dump", "Print header and records as JSON lines");
+  dump_cmd->add_option("logs", logs, "Segment files or a data folder")->required();
+  auto* summary_cmd = log_cmd->add_subcommand("summary", "Records, sequence range, kinds, time");
+  summary_cmd->add_option("logs", logs, "Segment files or a data folder")->required();
+  bool summary_json = false;
+  summary_cmd->add_flag("--json", summary_json, "Print JSON instead of text");
+
+  auto* snap_cmd = app.add_subcommand("snapshot", "Snapshot tools");
+  snap_cmd->require_subcommand(1);
+  std::string snap_path;
+  auto* info_cmd = snap_cmd->add_subcommand("info", "Print what a snapshot holds (verifying it)");
+  info_cmd->add_option("path", snap_path, "Snapshot folder")->required();
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    if (*serve_cmd) return serve(config);
+    if (*replay_cmd) {
+      const auto segs = expand_logs(logs, &replay_data);
+      auto r = server::replay_log(segs, replay_data, until);
+      if (!r) die(r.error());
+      std::printf("records %llu, last sequence %llu, failed stamps %llu\n", (unsigned long long)r->records,
+                  (unsigned long long)r->last_seq, (unsigned long long)r->failed_stamps);
+      if (!r->tail_damage.empty()) std::printf("ignored damaged tail: %s\n", r->tail_damage.c_str());
+      std::printf("world hash %s\n", hex64(r->world.world_hash()).c_str());
+      const RectI all = r->world.params().sample_rect();
+      if (!replay_png.empty() && !export_png16(r->world, all, replay_png).ok()) throw std::runtime_error("PNG export failed");
+      if (!replay_exr.empty() && !export_exr(r->world, all, replay_exr).ok()) throw std::runtime_error("EXR export failed");
+      if (!replay_snapshot.empty()) {
+        auto p = server::write_snapshot(replay_snapshot, r->world, r->last_seq, 0, TextureRegistry{});
+        if (!p) die(p.error());
+        std::printf("snapshot %s\n", p->c_str());
+      }
+      return 0;
+    }
+    if (*import_cmd) {
+      auto dem = read_dem_file(dem_in);
+      if (!dem) die(dem.error());
+      auto w = import_dem(*dem);
+      if (!w) die(w.error());
+      std::printf("%sworld hash        %s\n", w->report.summary().c_str(), hex64(w->world.world_hash()).c_str());
+      if (!out_path.empty()) {
+        const Status st = export_png16(w->world, w->world.params().sample_rect(), out_path);
+        if (!st.ok()) die(st.error());
+      }
+      return 0;
+    }
+    if (*export_cmd) {
+      auto opened = server::open_storage(export_dir, "", {});
+      if (!opened) die(opened.error());
+      const World& w = opened->terrain.world();
+      const bool exr = out_path.size() > 4 && out_path.substr(out_path.size() - 4) == ".exr";
+      const Status st = exr ? export_exr(w, w.params().sample_rect(), out_path) : export_png16(w, w.params().sample_rect(), out_path);
+      if (!st.ok()) die(st.error());
+      std::printf("wrote %s (sequence %llu, world hash %s)\n", out_path.c_str(),
+                  (unsigned long long)opened->terrain.last_seq(), hex64(w.world_hash()).c_str());
+      return 0;
+    }
+    if (*dump_cmd || *summary_cmd) {
+      std::string dir;
+      const auto segs = expand_logs(logs, &dir);
+      std::vector<log::SegmentScan> scans;
+      for (const std::string& s : segs) {
+        auto scan = log::read_segment(s);
+        if (!scan) die(scan.error());
+        scans.push_back(std::move(*scan));
+      }
+      if (*dump_cmd) {
+        for (const auto& s : scans) std::fputs(log::dump_jsonl(s).c_str(), stdout);
+      } else {
+        const auto sum = log::summarize(scans);
+        std::fputs((summary_json ? log::summary_to_json(sum) : log::summary_to_text(sum)).c_str(), stdout);
+      }
+      return 0;
+    }
+    if (*info_cmd) {
+      auto snap = server::read_snapshot(snap_path);
+      if (!snap) die(snap.error());
+      const auto& m = snap->manifest;
+      std::printf("snapshot %llu (after sequence %llu), verified\nworld hash %s\ntiles %zu coarse, %zu detail, %llu bytes\n"
+                  "world %d x %d tiles, %.3f m/sample, next log segment %u\n",
+                  (unsigned long long)m.snapshot_id, (unsigned long long)m.last_seq, hex64(m.world_hash).c_str(),
+                  m.coarse_tiles, m.detail_tiles, (unsigned long long)m.tiles_bytes, m.world.tiles_x, m.world.tiles_y,
+                  m.world.meters_per_sample, m.next_segment_index);
+      return 0;
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "loam-server: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

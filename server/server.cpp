@@ -1,0 +1,691 @@
+#include "server/server.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <cstring>
+#include <set>
+
+#include "protocol/codec/region_codec.h"
+#include "protocol/tile_hash.h"
+#include "server/event_log.h"
+
+namespace loam::server {
+
+using asio::ip::tcp;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// Tracked version of a subscribed tile the server will replace with a region this tick.
+constexpr uint64_t kNeedsRegion = ~uint64_t(0);
+
+std::optional<wire::SessionToken> parse_token(const std::string& hex) {
+  if (hex.size() != 2 * wire::kSessionTokenBytes) return std::nullopt;
+  wire::SessionToken t{};
+  for (size_t i = 0; i < t.size(); ++i) {
+    unsigned v = 0;
+    if (std::sscanf(hex.c_str() + 2 * i, "%2x", &v) != 1) return std::nullopt;
+    t[i] = uint8_t(v);
+  }
+  return t;
+}
+
+bool editor_role(wire::Role r) { return r != wire::Role::kSpectator; }
+
+std::string hex64(uint64_t v) {
+  char buf[20];
+  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)v);
+  return buf;
+}
+
+}  // namespace
+
+struct Server::Session {
+  enum class State { kHandshake, kReady, kClosing };
+  explicit Session(tcp::socket s, asio::io_context& io, uint32_t max_frame)
+      : socket(std::move(s)), assembler(max_frame), timer(io), linger(io) {}
+
+  tcp::socket socket;
+  wire::FrameAssembler assembler;
+  asio::steady_timer timer;   // handshake, then idle timeout
+  asio::steady_timer linger;  // bounds the time a closing session may take to flush
+  std::array<uint8_t, 64 * 1024> read_buffer{};
+  std::deque<std::vector<uint8_t>> out;
+  uint64_t queued_bytes = 0;
+  bool writing = false;
+  State state = State::kHandshake;
+  uint32_t id = 0;
+  std::string name;
+  std::string peer;
+  wire::Role role = wire::Role::kPlayer;
+  bool editor = true;
+  std::map<TileCoord, uint64_t> subs;  // subscribed tile -> version the client holds
+  double tokens = 0;
+  Clock::time_point refill;
+  uint32_t pending_this_tick = 0;
+  uint64_t violations = 0;
+  bool closed = false;
+};
+
+Server::Server(asio::io_context& io, ServerConfig config, OpenedStorage opened)
+    : io_(io),
+      config_(std::move(config)),
+      storage_(std::move(opened.storage)),
+      terrain_(std::move(opened.terrain)),
+      acceptor_(io),
+      tick_timer_(io),
+      stats_timer_(io),
+      signals_(io, SIGINT, SIGTERM) {
+  last_snapshot_time_ = Clock::now();
+}
+
+Server::~Server() = default;
+
+Status Server::start() {
+  asio::error_code ec;
+  const auto address = asio::ip::make_address(config_.bind_address, ec);
+  if (ec) return make_error(ErrorCode::kInvalidArgument, "bind_address", ec.message());
+  const tcp::endpoint ep(address, config_.port);
+  acceptor_.open(ep.protocol(), ec);
+  if (!ec) acceptor_.set_option(tcp::acceptor::reuse_address(true), ec);
+  if (!ec) acceptor_.bind(ep, ec);
+  if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+  if (ec) {
+    return make_error(ErrorCode::kIo, config_.bind_address + ":" + std::to_string(config_.port),
+                      "cannot listen: " + ec.message());
+  }
+  port_ = acceptor_.local_endpoint().port();
+  if (!config_.port_file.empty()) {
+    const std::string tmp = config_.port_file + ".tmp";
+    {
+      std::ofstream f(tmp);
+      f << port_ << "\n";
+      if (!f) return make_error(ErrorCode::kIo, config_.port_file, "cannot write the port file");
+    }
+    std::rename(tmp.c_str(), config_.port_file.c_str());
+  }
+  signals_.async_wait([this](const asio::error_code& e, int sig) {
+    if (!e) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
+  });
+  log_event("listening", {{"address", config_.bind_address},
+                          {"port", std::to_string(port_)},
+                          {"tick_hz", std::to_string(config_.tick_hz)},
+                          {"last_seq", std::to_string(terrain_.last_seq())},
+                          {"world_hash", hex64(terrain_.world().world_hash())}});
+  accept();
+  next_tick_ = Clock::now();
+  schedule_tick();
+  if (config_.stats_interval_s > 0) {
+    stats_timer_.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.stats_interval_s)));
+    stats_timer_.async_wait([this](const asio::error_code& e) {
+      if (!e) report_stats();
+    });
+  }
+  return {};
+}
+
+void Server::accept() {
+  acceptor_.async_accept([this](const asio::error_code& ec, tcp::socket socket) {
+    if (ec) {
+      if (ec != asio::error::operation_aborted) log_event("accept_error", {{"error", ec.message()}});
+      if (!stopping_ && ec != asio::error::operation_aborted) accept();
+      return;
+    }
+    on_accept(std::move(socket));
+    if (!stopping_) accept();
+  });
+}
+
+void Server::on_accept(tcp::socket socket) {
+  asio::error_code ec;
+  socket.set_option(tcp::no_delay(true), ec);
+  auto s = std::make_shared<Session>(std::move(socket), io_, config_.max_frame_bytes);
+  s->id = next_client_id_++;
+  const auto remote = s->socket.remote_endpoint(ec);
+  s->peer = ec ? "?" : remote.address().to_string() + ":" + std::to_string(remote.port());
+  s->tokens = config_.deform_burst;
+  s->refill = Clock::now();
+  ++stats_.connects;
+  sessions_[s->id] = s;
+  log_event("connect", {{"client", std::to_string(s->id)}, {"peer", s->peer}});
+  if (sessions_.size() > config_.max_clients) {
+    fatal(s, wire::WireErrorCode::kServerFull, "", "server full (" + std::to_string(config_.max_clients) + " clients)",
+          wire::ByeReason::kKicked);
+    return;
+  }
+  s->timer.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.handshake_timeout_s)));
+  std::weak_ptr<Session> weak = s;
+  s->timer.async_wait([this, weak](const asio::error_code& e) {
+    auto sp = weak.lock();
+    if (e || !sp || sp->state != Session::State::kHandshake) return;
+    fatal(sp, wire::WireErrorCode::kInvalidArgument, "hello", "no Hello within the handshake timeout",
+          wire::ByeReason::kTimeout);
+  });
+  read(s);
+}
+
+void Server::arm_idle(const SessionPtr& s) {
+  if (config_.idle_timeout_s <= 0) return;
+  s->timer.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.idle_timeout_s)));
+  std::weak_ptr<Session> weak = s;
+  s->timer.async_wait([this, weak](const asio::error_code& e) {
+    auto sp = weak.lock();
+    if (e || !sp || sp->state != Session::State::kReady) return;
+    fatal(sp, wire::WireErrorCode::kInvalidArgument, "", "idle timeout", wire::ByeReason::kTimeout);
+  });
+}
+
+void Server::read(const SessionPtr& s) {
+  s->socket.async_read_some(asio::buffer(s->read_buffer), [this, s](const asio::error_code& ec, size_t n) {
+    if (s->closed) return;
+    if (ec) {
+      close(s, ec == asio::error::eof ? "peer closed" : "read error: " + ec.message());
+      return;
+    }
+    on_bytes(s, n);
+    if (!s->closed && s->state != Session::State::kClosing) read(s);
+  });
+}
+
+void Server::on_bytes(const SessionPtr& s, size_t n) {
+  stats_.bytes_in += n;
+  s->assembler.feed(std::span(s->read_buffer.data(), n));
+  if (s->state == Session::State::kReady) arm_idle(s);
+  while (s->state != Session::State::kClosing) {
+    auto next = s->assembler.next_message();
+    if (!next) {
+      // The stream cannot be trusted to be in sync any more: Error, Bye, close.
+      fatal(s, wire::to_wire(next.error().code), next.error().field, next.error().describe(),
+            wire::ByeReason::kProtocolError);
+      return;
+    }
+    if (!next->has_value()) return;
+    handle(s, **next);
+  }
+}
+
+void Server::handle(const SessionPtr& s, wire::Message& m) {
+  const wire::MessageType type = wire::message_type(m);
+  if (s->state == Session::State::kHandshake && type != wire::MessageType::kHello) {
+    fatal(s, wire::WireErrorCode::kInvalidArgument, "hello", std::string("expected Hello, got ") + wire::to_string(type),
+          wire::ByeReason::kProtocolError);
+    return;
+  }
+  switch (type) {
+    case wire::MessageType::kHello:
+      if (s->state != Session::State::kHandshake) {
+        violation(s, wire::WireErrorCode::kInvalidArgument, "hello", "Hello after the handshake");
+        return;
+      }
+      on_hello(s, std::get<wire::Hello>(m));
+      return;
+    case wire::MessageType::kPing: {
+      const auto now = std::chrono::system_clock::now().time_since_epoch();
+      send(s, wire::Pong{std::get<wire::Ping>(m).client_time_us,
+                         uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(now).count())});
+      return;
+    }
+    case wire::MessageType::kBye: close(s, "client said bye: " + std::get<wire::Bye>(m).text); return;
+    case wire::MessageType::kSubscribe: on_subscribe(s, std::get<wire::Subscribe>(m)); return;
+    case wire::MessageType::kUnsubscribe: on_unsubscribe(s, std::get<wire::Unsubscribe>(m)); return;
+    case wire::MessageType::kDeform: on_deform(s, std::get<wire::Deform>(m)); return;
+    case wire::MessageType::kStampImageRequest: on_stamp_image(s, std::get<wire::StampImageRequest>(m)); return;
+    case wire::MessageType::kError: log_event("client_error", {{"client", std::to_string(s->id)}, {"text", std::get<wire::ErrorMsg>(m).text}}); return;
+    case wire::MessageType::kPong: return;
+    default:
+      violation(s, wire::WireErrorCode::kUnknownType, "type",
+                std::string(wire::to_string(type)) + " is a server-to-client message");
+      return;
+  }
+}
+
+void Server::on_hello(const SessionPtr& s, const wire::Hello& h) {
+  if (h.version_major != wire::kProtocolMajor) {
+    log_event("reject", {{"client", std::to_string(s->id)}, {"reason", "version"}, {"peer_major", std::to_string(h.version_major)}});
+    ++stats_.violations;
+    send(s, wire::version_mismatch(h.version_major, h.version_minor));
+    send(s, wire::Bye{wire::ByeReason::kVersionMismatch, "protocol major version mismatch"});
+    close(s, "version mismatch");
+    return;
+  }
+  const bool tokens_configured = !config_.editor_tokens.empty() || !config_.viewer_tokens.empty();
+  wire::Role granted = h.requested_role;
+  if (tokens_configured) {
+    auto matches = [&](const std::vector<std::string>& list) {
+      if (!h.session_token) return false;
+      for (const std::string& t : list) {
+        const auto parsed = parse_token(t);
+        if (parsed && *parsed == *h.session_token) return true;
+      }
+      return false;
+    };
+    if (matches(config_.editor_tokens)) {
+      // granted as requested
+    } else if (matches(config_.viewer_tokens)) {
+      granted = wire::Role::kSpectator;
+    } else {
+      fatal(s, wire::WireErrorCode::kUnauthorized, "hello.session_token",
+            h.session_token ? "wrong session token" : "this server requires a session token", wire::ByeReason::kKicked);
+      return;
+    }
+  }
+  s->role = granted;
+  s->editor = editor_role(granted);
+  s->name = h.client_name;
+  s->state = Session::State::kReady;
+  s->timer.cancel();
+  arm_idle(s);
+  wire::Welcome w;
+  w.client_id = s->id;
+  w.granted_role = granted;
+  w.world = terrain_.world().params();
+  w.global_sequence = terrain_.last_seq();
+  w.tick_rate_hz = uint16_t(config_.tick_hz);
+  w.limits.max_frame_bytes = config_.max_frame_bytes;
+  w.limits.max_subscribed_tiles = config_.max_subscriptions;
+  w.limits.max_pending_deforms = config_.max_pending_deforms;
+  w.limits.max_deforms_per_second = uint32_t(config_.deforms_per_second);
+  send(s, w);
+  log_event("hello", {{"client", std::to_string(s->id)}, {"name", s->name}, {"role", wire::to_string(granted)}});
+}
+
+bool Server::valid_tile(const TileCoord& c) const {
+  const WorldParams& p = terrain_.world().params();
+  if (c.layer == Layer::kCoarse) return c.mip < p.mip_count() && p.tile_range(c.mip).contains(c.tx, c.ty);
+  return c.mip == 0 && tiles_overlapping(p.detail_sample_rect()).contains(c.tx, c.ty);
+}
+
+void Server::on_subscribe(const SessionPtr& s, const wire::Subscribe& sub) {
+  for (const wire::SubscribeEntry& e : sub.entries) {
+    if (!valid_tile(e.tile)) {
+      violation(s, wire::WireErrorCode::kOutOfWorld, "subscribe.tile", "tile " + to_string(e.tile) + " is not in the world");
+      continue;
+    }
+    if (!s->subs.count(e.tile) && s->subs.size() >= config_.max_subscriptions) {
+      violation(s, wire::WireErrorCode::kOversize, "subscribe.entries",
+                "subscription cap of " + std::to_string(config_.max_subscriptions) + " tiles reached");
+      return;
+    }
+    const uint64_t current = terrain_.world().tile_state(e.tile).version;
+    s->subs[e.tile] = e.held_version;
+    // A client that already holds the current version resumes without a transfer; 0 means
+    // it holds nothing (even where the current version is the initial terrain's 0).
+    if (e.held_version == 0 || e.held_version != current) send_region(s, e.tile);
+  }
+}
+
+void Server::on_unsubscribe(const SessionPtr& s, const wire::Unsubscribe& u) {
+  for (const TileCoord& c : u.tiles) s->subs.erase(c);
+}
+
+void Server::on_deform(const SessionPtr& s, const wire::Deform& d) {
+  auto reject = [&](wire::WireErrorCode code, const std::string& field, const std::string& why) {
+    ++stats_.deforms_rejected;
+    ++stats_.violations;
+    ++s->violations;
+    wire::DeformAck ack;
+    ack.client_seq = d.client_seq;
+    ack.accepted = false;
+    ack.reject_code = code;
+    ack.field = field.substr(0, wire::kMaxFieldNameBytes);
+    send(s, ack);
+    log_event("deform_rejected", {{"client", std::to_string(s->id)}, {"client_seq", std::to_string(d.client_seq)},
+                                  {"code", wire::to_string(code)}, {"field", field}, {"why", why}});
+  };
+  if (!s->editor) {
+    reject(wire::WireErrorCode::kUnauthorized, "role", "viewers cannot deform");
+    return;
+  }
+  const auto now = Clock::now();
+  s->tokens = std::min(config_.deform_burst,
+                       s->tokens + std::chrono::duration<double>(now - s->refill).count() * config_.deforms_per_second);
+  s->refill = now;
+  if (s->tokens < 1.0) {
+    reject(wire::WireErrorCode::kRateLimited, "deform", "rate limit exceeded");
+    return;
+  }
+  if (s->pending_this_tick >= config_.max_pending_deforms) {
+    reject(wire::WireErrorCode::kTooManyPending, "deform", "too many deforms in one tick");
+    return;
+  }
+  if (const Status st = terrain_.check(d.stamp); !st.ok()) {
+    reject(wire::to_wire(st.error().code), st.error().field, st.error().describe());
+    return;
+  }
+  s->tokens -= 1.0;
+  ++s->pending_this_tick;
+  pending_.push_back({s, s->id, d.client_seq, d.stamp});
+}
+
+void Server::on_stamp_image(const SessionPtr& s, const wire::StampImageRequest& r) {
+  wire::StampImageResponse resp;
+  resp.image_id = r.image_id;
+  const StampTexture* t = terrain_.textures().find(r.image_id);
+  if (t && t->width <= int32_t(wire::kMaxStampImageSide) && t->height <= int32_t(wire::kMaxStampImageSide)) {
+    resp.found = true;
+    resp.width = uint16_t(t->width);
+    resp.height = uint16_t(t->height);
+    resp.format = wire::StampImageFormat::kGray16;
+    resp.pixels.resize(t->samples.size() * 2);
+    std::memcpy(resp.pixels.data(), t->samples.data(), resp.pixels.size());
+  }
+  send(s, resp);
+}
+
+void Server::send(const SessionPtr& s, const wire::Message& m) {
+  if (s->closed) return;
+  auto frame = wire::encode_frame(m, wire::kAbsoluteMaxFrameBytes);
+  if (!frame) {
+    log_event("encode_error", {{"client", std::to_string(s->id)}, {"error", frame.error().describe()}});
+    return;
+  }
+  s->queued_bytes += frame->size();
+  s->out.push_back(std::move(*frame));
+  if (s->queued_bytes > config_.max_queue_bytes && s->state != Session::State::kClosing) {
+    // A client that does not read must not hold the server's memory: drop it.
+    log_event("drop", {{"client", std::to_string(s->id)}, {"reason", "send queue over " + std::to_string(config_.max_queue_bytes) + " bytes"}});
+    s->out.clear();
+    s->queued_bytes = 0;
+    close(s, "send queue full (client not reading)");
+    finish_close(s);
+    return;
+  }
+  flush(s);
+}
+
+void Server::flush(const SessionPtr& s) {
+  if (s->writing || s->out.empty() || s->closed) return;
+  s->writing = true;
+  asio::async_write(s->socket, asio::buffer(s->out.front()), [this, s](const asio::error_code& ec, size_t n) {
+    s->writing = false;
+    if (s->closed) return;
+    if (ec) {
+      close(s, "write error: " + ec.message());
+      finish_close(s);
+      return;
+    }
+    stats_.bytes_out += n;
+    s->queued_bytes -= s->out.front().size();
+    s->out.pop_front();
+    if (s->out.empty() && s->state == Session::State::kClosing) {
+      finish_close(s);
+      return;
+    }
+    flush(s);
+  });
+}
+
+void Server::violation(const SessionPtr& s, wire::WireErrorCode code, const std::string& field, const std::string& text) {
+  ++stats_.violations;
+  ++s->violations;
+  log_event("violation", {{"client", std::to_string(s->id)}, {"code", wire::to_string(code)}, {"field", field}, {"text", text}});
+  send(s, wire::ErrorMsg{code, field.substr(0, wire::kMaxFieldNameBytes), text.substr(0, wire::kMaxErrorTextBytes)});
+}
+
+void Server::fatal(const SessionPtr& s, wire::WireErrorCode code, const std::string& field, const std::string& text,
+                   wire::ByeReason reason) {
+  violation(s, code, field, text);
+  send(s, wire::Bye{reason, text.substr(0, wire::kMaxErrorTextBytes)});
+  close(s, text);
+}
+
+// Stops reading; the session closes when its queue has drained (or after a short linger).
+void Server::close(const SessionPtr& s, const std::string& reason) {
+  if (s->closed || s->state == Session::State::kClosing) return;
+  s->state = Session::State::kClosing;
+  s->timer.cancel();
+  ++stats_.disconnects;
+  log_event("disconnect", {{"client", std::to_string(s->id)}, {"reason", reason}});
+  // Its queued deforms stay queued: they were validated and may already be in this tick.
+  if (s->out.empty() && !s->writing) {
+    finish_close(s);
+    return;
+  }
+  s->linger.expires_after(std::chrono::seconds(2));
+  std::weak_ptr<Session> weak = s;
+  s->linger.async_wait([this, weak](const asio::error_code& e) {
+    auto sp = weak.lock();
+    if (!e && sp) finish_close(sp);
+  });
+}
+
+void Server::finish_close(const SessionPtr& s) {
+  if (s->closed) return;
+  s->closed = true;
+  s->state = Session::State::kClosing;
+  asio::error_code ec;
+  s->socket.shutdown(tcp::socket::shutdown_both, ec);
+  s->socket.close(ec);
+  s->timer.cancel();
+  s->linger.cancel();
+  // Deferred: finish_close can run inside a loop over sessions_ (a send that overflowed).
+  asio::post(io_, [this, id = s->id] { sessions_.erase(id); });
+}
+
+void Server::schedule_tick() {
+  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / config_.tick_hz));
+  next_tick_ += period;
+  const auto now = Clock::now();
+  if (next_tick_ < now - period) next_tick_ = now;  // after a long stall, do not burst
+  tick_timer_.expires_at(next_tick_);
+  tick_timer_.async_wait([this](const asio::error_code& e) {
+    if (e || failed_) return;
+    tick();
+    if (!stopping_) schedule_tick();
+  });
+}
+
+void Server::send_region(const SessionPtr& s, const TileCoord& c) {
+  const World& w = terrain_.world();
+  Result<std::vector<uint8_t>> payload = [&]() -> Result<std::vector<uint8_t>> {
+    if (c.layer == Layer::kCoarse) return encode_region(RegionEncoding::kFast, w.coarse_tile(c.mip, c.tx, c.ty), kTileSize, kTileSize);
+    const auto tile = w.detail_tile(c.tx, c.ty);
+    if (tile.empty()) {
+      const std::vector<int8_t> zeros(kTileSamples, 0);
+      return encode_region(RegionEncoding::kFast, std::span<const int8_t>(zeros), kTileSize, kTileSize);
+    }
+    return encode_region(RegionEncoding::kFast, tile, kTileSize, kTileSize);
+  }();
+  if (!payload) {
+    log_event("encode_error", {{"tile", to_string(c)}, {"error", payload.error().describe()}});
+    return;
+  }
+  wire::RegionUpdate header;
+  header.tile = c;
+  header.rect = {0, 0, kTileSize, kTileSize};
+  header.base_version = 0;
+  header.new_version = w.tile_state(c).version;
+  header.encoding = wire::RegionEncoding::kCodec;
+  auto chunks = wire::chunk_region(header, *payload);
+  if (!chunks) {
+    log_event("encode_error", {{"tile", to_string(c)}, {"error", chunks.error().describe()}});
+    return;
+  }
+  for (const wire::RegionUpdate& r : *chunks) send(s, r);
+  s->subs[c] = header.new_version;
+  ++stats_.regions_sent;
+}
+
+void Server::send_hashes(const SessionPtr& s) {
+  wire::TileHashes msg;
+  for (const auto& [c, held] : s->subs) {
+    const TileState st = terrain_.world().tile_state(c);
+    msg.entries.push_back({c, st.version, st.hash});
+    if (msg.entries.size() == wire::kMaxTileHashEntries) {
+      send(s, msg);
+      msg.entries.clear();
+    }
+  }
+  if (!msg.entries.empty()) send(s, msg);
+}
+
+void Server::tick() {
+  const auto t0 = Clock::now();
+  ++tick_;
+  std::vector<PendingDeform> batch = std::move(pending_);
+  pending_.clear();
+  for (auto& [id, s] : sessions_) s->pending_this_tick = 0;
+
+  if (!batch.empty()) {
+    // 1. Sequence and log the whole tick, then one fsync: the durability point.
+    uint64_t seq = terrain_.last_seq();
+    for (const PendingDeform& p : batch) {
+      const Status st = storage_.append({++seq, tick_, p.client_id, p.stamp});
+      if (!st.ok()) {
+        log_event("fatal", {{"error", st.error().describe()}});
+        failed_ = true;
+        shutdown("log append failed");
+        return;
+      }
+    }
+    if (const Status st = storage_.sync(); !st.ok()) {
+      log_event("fatal", {{"error", st.error().describe()}});
+      failed_ = true;
+      shutdown("log sync failed");
+      return;
+    }
+    // 2. Apply, acknowledge, stream events; note tiles a client cannot reproduce itself.
+    std::set<std::pair<uint32_t, TileCoord>> needs_region;
+    for (const PendingDeform& p : batch) {
+      const uint64_t s_seq = terrain_.last_seq() + 1;
+      auto applied = terrain_.apply(p.stamp, s_seq, p.client_id);
+      if (!applied) log_event("apply_error", {{"seq", std::to_string(s_seq)}, {"error", applied.error().describe()}});
+      ++stats_.deforms_accepted;
+      if (auto sender = p.session.lock()) {
+        wire::DeformAck ack;
+        ack.client_seq = p.client_seq;
+        ack.accepted = true;
+        ack.global_seq = s_seq;
+        send(sender, ack);
+      }
+      if (!applied) continue;
+      const AppliedStamp& a = *applied;
+      for (auto& [id, s] : sessions_) {
+        if (s->state != Session::State::kReady) continue;
+        bool touches = false;
+        for (const wire::TileVersion& bv : a.base_versions) touches = touches || s->subs.count(bv.tile);
+        if (!touches) continue;
+        wire::DeformEvent ev;
+        ev.global_seq = a.seq;
+        ev.origin_client_id = a.client_id;
+        ev.stamp = a.stamp;
+        ev.base_versions = a.base_versions;
+        if (ev.base_versions.size() > wire::kMaxEventTiles) ev.base_versions.resize(0);  // regions only
+        send(s, ev);
+        ++stats_.events_sent;
+        // The client's rule (client/net/confirmed_store): it applies the stamp to the mip-0
+        // tiles of the stamp's layer it holds when each is at the listed base version (and,
+        // for a footprint, it holds every listed one). Mip > 0 tiles always come as regions.
+        bool can_apply = !ev.base_versions.empty();
+        for (const wire::TileVersion& bv : a.base_versions) {
+          if (bv.tile.mip != 0 || bv.tile.layer != a.stamp.layer) continue;
+          const auto it = s->subs.find(bv.tile);
+          if (it == s->subs.end()) {
+            if (a.stamp.kind == StampKind::kFootprint) can_apply = false;
+            continue;
+          }
+          if (it->second != bv.version) can_apply = false;
+        }
+        for (const TileChange& c : a.changes) {
+          const auto it = s->subs.find(c.coord);
+          if (it == s->subs.end()) continue;
+          const bool derived = c.coord.mip != 0 || c.coord.layer != a.stamp.layer;
+          if (can_apply && !derived) {
+            it->second = c.new_version;
+          } else {
+            it->second = kNeedsRegion;
+            needs_region.insert({id, c.coord});
+          }
+        }
+      }
+    }
+    // 3. Regions for what clients could not apply, at the tick's final version.
+    for (const auto& [id, c] : needs_region) {
+      const auto it = sessions_.find(id);
+      if (it != sessions_.end() && it->second->subs.count(c)) send_region(it->second, c);
+    }
+  }
+  if (config_.hashes_every_ticks > 0 && tick_ % config_.hashes_every_ticks == 0) {
+    for (auto& [id, s] : sessions_) {
+      if (s->state == Session::State::kReady && !s->subs.empty()) send_hashes(s);
+    }
+  }
+  maybe_snapshot(false);
+  const double ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  tick_ms_.push_back(ms);
+  if (ms > 1000.0 / config_.tick_hz) {
+    ++stats_.tick_overruns;
+    log_event("tick_overrun", {{"tick", std::to_string(tick_)}, {"ms", std::to_string(ms)}, {"stamps", std::to_string(batch.size())}});
+  }
+}
+
+void Server::maybe_snapshot(bool force) {
+  const uint64_t since = terrain_.last_seq() - storage_.last_snapshot_seq();
+  const double age = std::chrono::duration<double>(Clock::now() - last_snapshot_time_).count();
+  const bool due = force || (config_.snapshot_every_stamps > 0 && since >= config_.snapshot_every_stamps) ||
+                   (config_.snapshot_interval_s > 0 && age >= config_.snapshot_interval_s && since > 0);
+  // Nothing new since the last snapshot (or since the initial terrain, which segment 0's
+  // header already describes): a snapshot would add nothing.
+  if (!due || since == 0 || terrain_.last_seq() == 0) return;
+  const auto t0 = Clock::now();
+  auto path = storage_.snapshot(terrain_);
+  last_snapshot_time_ = Clock::now();
+  if (!path) {
+    log_event("snapshot_error", {{"error", path.error().describe()}});
+    return;
+  }
+  log_event("snapshot", {{"path", *path},
+                         {"seq", std::to_string(terrain_.last_seq())},
+                         {"ms", std::to_string(std::chrono::duration<double, std::milli>(Clock::now() - t0).count())}});
+}
+
+void Server::report_stats() {
+  std::vector<double> t = std::move(tick_ms_);
+  tick_ms_.clear();
+  std::sort(t.begin(), t.end());
+  auto pct = [&](double p) { return t.empty() ? 0.0 : t[size_t(p * double(t.size() - 1))]; };
+  uint64_t max_queue = 0;
+  for (const auto& [id, s] : sessions_) max_queue = std::max(max_queue, s->queued_bytes);
+  log_event("stats", {{"clients", std::to_string(sessions_.size())},
+                      {"seq", std::to_string(terrain_.last_seq())},
+                      {"deforms_accepted", std::to_string(stats_.deforms_accepted)},
+                      {"deforms_rejected", std::to_string(stats_.deforms_rejected)},
+                      {"violations", std::to_string(stats_.violations)},
+                      {"bytes_in", std::to_string(stats_.bytes_in)},
+                      {"bytes_out", std::to_string(stats_.bytes_out)},
+                      {"max_queue_bytes", std::to_string(max_queue)},
+                      {"tick_p50_ms", std::to_string(pct(0.5))},
+                      {"tick_p99_ms", std::to_string(pct(0.99))}});
+  if (stopping_) return;
+  stats_timer_.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.stats_interval_s)));
+  stats_timer_.async_wait([this](const asio::error_code& e) {
+    if (!e) report_stats();
+  });
+}
+
+void Server::shutdown(const std::string& reason) {
+  if (stopping_) return;
+  stopping_ = true;
+  log_event("shutdown", {{"reason", reason}});
+  asio::error_code ec;
+  acceptor_.close(ec);
+  tick_timer_.cancel();
+  stats_timer_.cancel();
+  signals_.cancel();
+  if (!failed_) {
+    // Stamps still queued were never acknowledged: dropping them loses nothing promised.
+    pending_.clear();
+    if (const Status st = storage_.sync(); !st.ok()) log_event("fatal", {{"error", st.error().describe()}});
+    maybe_snapshot(true);
+  }
+  std::vector<SessionPtr> all;
+  for (auto& [id, s] : sessions_) all.push_back(s);
+  for (const SessionPtr& s : all) {
+    send(s, wire::Bye{wire::ByeReason::kShutdown, "server shutting down: " + reason});
+    close(s, "server shutdown");
+  }
+}
+
+}  // namespace loam::server

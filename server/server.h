@@ -1,0 +1,113 @@
+// The session host: accepts TCP clients (Asio, one I/O thread), runs the handshake, roles,
+// subscriptions and limits, and a fixed-rate tick that sequences accepted stamps, makes them
+// durable (group commit: one fsync per tick before any acknowledgement), applies them,
+// acknowledges, and streams DeformEvents and RegionUpdates to subscribed clients.
+//
+// Every client input is untrusted: frames are decoded by protocol/wire (bounded), each
+// violation answers with an Error carrying a code and is counted, and none disturbs other
+// clients. A client that stops reading is dropped once its queue passes its bound.
+#pragma once
+
+#include <asio.hpp>
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "protocol/wire/framing.h"
+#include "protocol/wire/messages.h"
+#include "server/server_config.h"
+#include "server/storage.h"
+
+namespace loam::server {
+
+struct ServerStats {
+  uint64_t connects = 0, disconnects = 0;
+  uint64_t deforms_accepted = 0, deforms_rejected = 0;
+  uint64_t violations = 0;  // every Error sent for a client's fault
+  uint64_t bytes_in = 0, bytes_out = 0;
+  uint64_t regions_sent = 0, events_sent = 0;
+  uint64_t tick_overruns = 0;
+};
+
+class Server {
+ public:
+  Server(asio::io_context& io, ServerConfig config, OpenedStorage storage);
+  ~Server();
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  // Binds, listens (writing the port file if configured) and starts the tick. Errors when the
+  // address cannot be bound.
+  Status start();
+  uint16_t port() const { return port_; }
+  // Graceful stop: stop accepting, make the log durable, write a snapshot, send Bye to every
+  // client, then let the io_context run out.
+  void shutdown(const std::string& reason);
+  const ServerStats& stats() const { return stats_; }
+  bool failed() const { return failed_; }
+
+ private:
+  struct Session;
+  using SessionPtr = std::shared_ptr<Session>;
+  struct PendingDeform {
+    std::weak_ptr<Session> session;
+    uint32_t client_id = 0;
+    uint32_t client_seq = 0;
+    QuantizedStamp stamp;
+  };
+
+  void accept();
+  void on_accept(asio::ip::tcp::socket socket);
+  void read(const SessionPtr& s);
+  void on_bytes(const SessionPtr& s, size_t n);
+  void handle(const SessionPtr& s, wire::Message& m);
+  void on_hello(const SessionPtr& s, const wire::Hello& h);
+  void on_subscribe(const SessionPtr& s, const wire::Subscribe& sub);
+  void on_unsubscribe(const SessionPtr& s, const wire::Unsubscribe& u);
+  void on_deform(const SessionPtr& s, const wire::Deform& d);
+  void on_stamp_image(const SessionPtr& s, const wire::StampImageRequest& r);
+
+  void send(const SessionPtr& s, const wire::Message& m);
+  void flush(const SessionPtr& s);
+  void violation(const SessionPtr& s, wire::WireErrorCode code, const std::string& field, const std::string& text);
+  void fatal(const SessionPtr& s, wire::WireErrorCode code, const std::string& field, const std::string& text,
+             wire::ByeReason reason);
+  void close(const SessionPtr& s, const std::string& reason);
+  void finish_close(const SessionPtr& s);
+  void arm_idle(const SessionPtr& s);
+
+  void schedule_tick();
+  void tick();
+  void send_region(const SessionPtr& s, const TileCoord& c);
+  void send_hashes(const SessionPtr& s);
+  bool valid_tile(const TileCoord& c) const;
+  void maybe_snapshot(bool force);
+  void report_stats();
+
+  asio::io_context& io_;
+  ServerConfig config_;
+  Storage storage_;
+  TerrainState terrain_;
+  asio::ip::tcp::acceptor acceptor_;
+  asio::steady_timer tick_timer_;
+  asio::steady_timer stats_timer_;
+  asio::signal_set signals_;
+  std::chrono::steady_clock::time_point next_tick_;
+  std::chrono::steady_clock::time_point last_snapshot_time_;
+  std::map<uint32_t, SessionPtr> sessions_;
+  std::vector<PendingDeform> pending_;
+  uint32_t next_client_id_ = 1;
+  uint64_t tick_ = 0;
+  uint16_t port_ = 0;
+  bool stopping_ = false;
+  bool failed_ = false;
+  ServerStats stats_;
+  std::vector<double> tick_ms_;  // since the last stats line
+};
+
+}  // namespace loam::server

@@ -1,0 +1,43 @@
+// Everything `loam-server serve` can be told, with defaults. docs/configuration.md
+// documents each option; the CLI flags and the optional config file (INI/TOML, read by
+// CLI11) set the same fields.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "protocol/stamps/stamp_validate.h"
+
+namespace loam::server {
+
+struct ServerConfig {
+  std::string bind_address = "127.0.0.1";
+  uint16_t port = 7878;          // 0: an ephemeral port (see port_file)
+  std::string port_file;         // when set, the bound port is written there once listening
+  std::string dem_path;          // empty: the embedded default terrain
+  std::string data_dir = "loam-data";
+  std::string backend = "cpu";   // auto | gpu | cpu
+  uint32_t tick_hz = 30;
+  // Access: with any token configured, a client must present one (hex, 32 digits) in Hello.
+  std::vector<std::string> editor_tokens;
+  std::vector<std::string> viewer_tokens;
+  // Limits.
+  uint32_t max_clients = 64;
+  uint32_t max_frame_bytes = 1u << 20;
+  uint32_t max_subscriptions = 4096;
+  uint32_t max_pending_deforms = 64;   // per client per tick
+  double deforms_per_second = 60.0;    // token bucket rate per client
+  double deform_burst = 120.0;         // token bucket capacity
+  double handshake_timeout_s = 5.0;
+  double idle_timeout_s = 60.0;
+  uint64_t max_queue_bytes = 32u << 20;  // a client whose unsent data exceeds this is dropped
+  // Persistence and reporting.
+  uint64_t snapshot_every_stamps = 20000;  // 0: only at shutdown
+  double snapshot_interval_s = 600.0;      // 0: only by count and at shutdown
+  uint32_t hashes_every_ticks = 30;        // TileHashes to each client (0: never)
+  double stats_interval_s = 10.0;          // 0: no periodic stats lines
+  StampLimits stamp_limits;
+};
+
+}  // namespace loam::server

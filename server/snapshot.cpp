@@ -1,0 +1,321 @@
+#include "server/snapshot.h"
+
+#include <fcntl.h>
+#include <unistd.h>
+#include <xxhash.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "protocol/codec/region_codec.h"
+#include "protocol/tile_hash.h"
+
+namespace loam::server {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr char kMagic[8] = {'L', 'O', 'A', 'M', 'S', 'N', 'A', 'P'};
+constexpr uint32_t kFormat = 1;
+
+Error io_error(const std::string& path, const std::string& what) {
+  return make_error(ErrorCode::kIo, path, what + ": " + std::strerror(errno));
+}
+
+void put(std::vector<uint8_t>& out, const void* p, size_t n) {
+  const auto* b = static_cast<const uint8_t*>(p);
+  out.insert(out.end(), b, b + n);
+}
+template <typename T>
+void put_le(std::vector<uint8_t>& out, T v) {
+  put(out, &v, sizeof v);  // little-endian host (static_assert in tile_hash.cpp)
+}
+
+struct Reader {
+  std::span<const uint8_t> bytes;
+  size_t at = 0;
+  std::string path;
+  template <typename T>
+  Result<T> get(const char* field) {
+    if (bytes.size() - at < sizeof(T)) return make_error(ErrorCode::kTruncated, path, std::string("truncated at ") + field);
+    T v;
+    std::memcpy(&v, bytes.data() + at, sizeof v);
+    at += sizeof v;
+    return v;
+  }
+};
+
+Status write_file_synced(const std::string& path, std::span<const uint8_t> bytes) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return io_error(path, "cannot create");
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const Error e = io_error(path, "write failed");
+      ::close(fd);
+      return e;
+    }
+    done += size_t(n);
+  }
+  if (::fsync(fd) != 0) {
+    const Error e = io_error(path, "fsync failed");
+    ::close(fd);
+    return e;
+  }
+  if (::close(fd) != 0) return io_error(path, "close failed");
+  return {};
+}
+
+nlohmann::json world_json(const WorldParams& p) {
+  return {{"meters_per_sample", p.meters_per_sample}, {"height_offset", p.height_offset},
+          {"meters_per_unit", p.meters_per_unit},     {"detail_factor", p.detail_factor},
+          {"detail_meters_per_unit", p.detail_meters_per_unit},
+          {"origin_tile_x", p.origin_tile_x},         {"origin_tile_y", p.origin_tile_y},
+          {"tiles_x", p.tiles_x},                     {"tiles_y", p.tiles_y}};
+}
+
+Result<WorldParams> world_from_json(const nlohmann::json& j, const std::string& path) {
+  WorldParams p;
+  try {
+    p.meters_per_sample = j.at("meters_per_sample").get<double>();
+    p.height_offset = j.at("height_offset").get<double>();
+    p.meters_per_unit = j.at("meters_per_unit").get<double>();
+    p.detail_factor = j.at("detail_factor").get<int32_t>();
+    p.detail_meters_per_unit = j.at("detail_meters_per_unit").get<double>();
+    p.origin_tile_x = j.at("origin_tile_x").get<int32_t>();
+    p.origin_tile_y = j.at("origin_tile_y").get<int32_t>();
+    p.tiles_x = j.at("tiles_x").get<int32_t>();
+    p.tiles_y = j.at("tiles_y").get<int32_t>();
+  } catch (const nlohmann::json::exception& e) {
+    return make_error(ErrorCode::kCorrupt, path, std::string("manifest world: ") + e.what());
+  }
+  if (const Status st = p.validate(); !st.ok()) {
+    return make_error(ErrorCode::kCorrupt, path, "manifest world: " + st.error().describe());
+  }
+  return p;
+}
+
+}  // namespace
+
+Status fsync_path(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return io_error(path, "cannot open to fsync");
+  const int rc = ::fsync(fd);
+  ::close(fd);
+  if (rc != 0) return io_error(path, "fsync failed");
+  return {};
+}
+
+std::string snapshot_dir_name(uint64_t snapshot_id) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "snapshot-%020llu", (unsigned long long)snapshot_id);
+  return buf;
+}
+
+Result<std::string> write_snapshot(const std::string& data_dir, const World& world, uint64_t last_seq,
+                                   uint32_t next_segment_index, const TextureRegistry& textures) {
+  (void)textures;  // texture images are not yet stored (see docs/configuration.md)
+  const WorldParams& p = world.params();
+  std::vector<uint8_t> bin;
+  put(bin, kMagic, sizeof kMagic);
+  put_le<uint32_t>(bin, kFormat);
+  size_t coarse = 0, detail = 0;
+  auto put_tile = [&](const TileCoord& c, std::span<const uint8_t> payload) {
+    const TileState st = world.tile_state(c);
+    put_le<uint8_t>(bin, uint8_t(c.layer));
+    put_le<uint8_t>(bin, c.mip);
+    put_le<int32_t>(bin, c.tx);
+    put_le<int32_t>(bin, c.ty);
+    put_le<uint64_t>(bin, st.version);
+    put_le<uint64_t>(bin, st.hash);
+    put_le<uint32_t>(bin, uint32_t(payload.size()));
+    put(bin, payload.data(), payload.size());
+  };
+  // Section 1: mip-0 coarse tiles with samples.
+  const RectI t0 = p.tile_range(0);
+  put_le<uint32_t>(bin, uint32_t(t0.area()));
+  for (int64_t ty = t0.y0; ty < t0.y1; ++ty) {
+    for (int64_t tx = t0.x0; tx < t0.x1; ++tx) {
+      const auto samples = world.coarse_tile(0, int32_t(tx), int32_t(ty));
+      auto enc = encode_region(RegionEncoding::kFast, samples, kTileSize, kTileSize);
+      if (!enc) return enc.error();
+      put_tile({Layer::kCoarse, 0, int32_t(tx), int32_t(ty)}, *enc);
+      ++coarse;
+    }
+  }
+  // Section 2: stored detail tiles with samples.
+  const auto dtiles = world.stored_detail_tiles();
+  put_le<uint32_t>(bin, uint32_t(dtiles.size()));
+  for (const TileCoord& c : dtiles) {
+    auto enc = encode_region(RegionEncoding::kFast, world.detail_tile(c.tx, c.ty), kTileSize, kTileSize);
+    if (!enc) return enc.error();
+    put_tile(c, *enc);
+    ++detail;
+  }
+  // Section 3: versions of every mip > 0 tile (content is derived from mip 0).
+  std::vector<TileCoord> mip_tiles;
+  for (int32_t m = 1; m < p.mip_count(); ++m) {
+    const RectI t = p.tile_range(m);
+    for (int64_t ty = t.y0; ty < t.y1; ++ty) {
+      for (int64_t tx = t.x0; tx < t.x1; ++tx) mip_tiles.push_back({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)});
+    }
+  }
+  put_le<uint32_t>(bin, uint32_t(mip_tiles.size()));
+  for (const TileCoord& c : mip_tiles) put_tile(c, {});
+  put_le<uint64_t>(bin, XXH3_64bits(bin.data(), bin.size()));
+
+  const auto now = std::chrono::system_clock::now().time_since_epoch();
+  nlohmann::json m = {{"format", kFormat},
+                      {"snapshot_id", last_seq},
+                      {"last_seq", last_seq},
+                      {"world_hash", world.world_hash()},
+                      {"created_unix_us", uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(now).count())},
+                      {"next_segment_index", next_segment_index},
+                      {"coarse_tiles", coarse},
+                      {"detail_tiles", detail},
+                      {"tiles_bytes", bin.size()},
+                      {"world", world_json(p)}};
+  const std::string text = m.dump(1) + "\n";
+
+  std::error_code ec;
+  const fs::path root = fs::path(data_dir) / "snapshots";
+  fs::create_directories(root, ec);
+  if (ec) return make_error(ErrorCode::kIo, root.string(), "cannot create: " + ec.message());
+  const fs::path final_dir = root / snapshot_dir_name(last_seq);
+  const fs::path tmp = root / (".tmp-" + snapshot_dir_name(last_seq));
+  fs::remove_all(tmp, ec);
+  fs::create_directories(tmp, ec);
+  if (ec) return make_error(ErrorCode::kIo, tmp.string(), "cannot create: " + ec.message());
+  LOAM_TRY(write_file_synced((tmp / "tiles.bin").string(), bin));
+  LOAM_TRY(write_file_synced((tmp / "manifest.json").string(),
+                             std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size())));
+  LOAM_TRY(fsync_path(tmp.string()));
+  if (fs::exists(final_dir)) fs::remove_all(final_dir, ec);  // same id rewritten (e.g. shutdown twice)
+  fs::rename(tmp, final_dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, final_dir.string(), "rename failed: " + ec.message());
+  LOAM_TRY(fsync_path(root.string()));
+  return final_dir.string();
+}
+
+Result<SnapshotManifest> read_snapshot_manifest(const std::string& path) {
+  const std::string mpath = (fs::path(path) / "manifest.json").string();
+  std::ifstream in(mpath);
+  if (!in) return make_error(ErrorCode::kNotFound, mpath, "cannot open");
+  const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return make_error(ErrorCode::kCorrupt, mpath, "manifest does not parse");
+  SnapshotManifest m;
+  try {
+    if (j.at("format").get<uint32_t>() != kFormat) {
+      return make_error(ErrorCode::kUnsupported, mpath, "unknown snapshot format " + j.at("format").dump());
+    }
+    m.snapshot_id = j.at("snapshot_id").get<uint64_t>();
+    m.last_seq = j.at("last_seq").get<uint64_t>();
+    m.world_hash = j.at("world_hash").get<uint64_t>();
+    m.created_unix_us = j.at("created_unix_us").get<uint64_t>();
+    m.next_segment_index = j.at("next_segment_index").get<uint32_t>();
+    m.coarse_tiles = j.at("coarse_tiles").get<size_t>();
+    m.detail_tiles = j.at("detail_tiles").get<size_t>();
+    m.tiles_bytes = j.at("tiles_bytes").get<uint64_t>();
+  } catch (const nlohmann::json::exception& e) {
+    return make_error(ErrorCode::kCorrupt, mpath, std::string("manifest: ") + e.what());
+  }
+  auto world = world_from_json(j.contains("world") ? j["world"] : nlohmann::json(), mpath);
+  if (!world) return world.error();
+  m.world = *world;
+  return m;
+}
+
+Result<LoadedSnapshot> read_snapshot(const std::string& path) {
+  auto manifest = read_snapshot_manifest(path);
+  if (!manifest) return manifest.error();
+  const std::string tpath = (fs::path(path) / "tiles.bin").string();
+  std::ifstream in(tpath, std::ios::binary);
+  if (!in) return make_error(ErrorCode::kNotFound, tpath, "cannot open");
+  const std::vector<uint8_t> bytes{std::istreambuf_iterator<char>(in), {}};
+  if (bytes.size() != manifest->tiles_bytes || bytes.size() < 20) {
+    return make_error(ErrorCode::kCorrupt, tpath, "size " + std::to_string(bytes.size()) + " does not match the manifest");
+  }
+  uint64_t stored_sum;
+  std::memcpy(&stored_sum, bytes.data() + bytes.size() - 8, 8);
+  if (XXH3_64bits(bytes.data(), bytes.size() - 8) != stored_sum) return make_error(ErrorCode::kCorrupt, tpath, "checksum mismatch");
+  Reader r{std::span(bytes).first(bytes.size() - 8), 0, tpath};
+  if (bytes.size() < 12 || std::memcmp(bytes.data(), kMagic, 8) != 0) return make_error(ErrorCode::kCorrupt, tpath, "bad magic");
+  r.at = 8;
+  auto fmt = r.get<uint32_t>("format");
+  if (!fmt) return fmt.error();
+  if (*fmt != kFormat) return make_error(ErrorCode::kUnsupported, tpath, "unknown tiles format");
+
+  World world(manifest->world, 0);
+  struct Versioned {
+    TileCoord c;
+    uint64_t version, hash;
+  };
+  std::vector<Versioned> versions;
+  for (int section = 0; section < 3; ++section) {
+    auto count = r.get<uint32_t>("section count");
+    if (!count) return count.error();
+    if (*count > (1u << 24)) return make_error(ErrorCode::kCorrupt, tpath, "section count too large");
+    for (uint32_t i = 0; i < *count; ++i) {
+      auto layer = r.get<uint8_t>("layer");
+      auto mip = r.get<uint8_t>("mip");
+      auto tx = r.get<int32_t>("tx");
+      auto ty = r.get<int32_t>("ty");
+      auto version = r.get<uint64_t>("version");
+      auto hash = r.get<uint64_t>("hash");
+      auto size = r.get<uint32_t>("payload size");
+      if (!layer || !mip || !tx || !ty || !version || !hash || !size) return make_error(ErrorCode::kTruncated, tpath, "tile record truncated");
+      if (*size > r.bytes.size() - r.at) return make_error(ErrorCode::kTruncated, tpath, "tile payload truncated");
+      const auto payload = r.bytes.subspan(r.at, *size);
+      r.at += *size;
+      const TileCoord c{Layer(*layer), *mip, *tx, *ty};
+      if (*layer > 1) return make_error(ErrorCode::kCorrupt, tpath, "bad layer");
+      const RectI rect = tile_rect(*tx, *ty);
+      if (section == 0) {
+        if (c.layer != Layer::kCoarse || c.mip != 0 || !manifest->world.tile_range(0).contains(*tx, *ty)) {
+          return make_error(ErrorCode::kCorrupt, tpath, "coarse tile " + to_string(c) + " outside the world");
+        }
+        auto s = decode_region(payload, kTileSize, kTileSize, {}, *hash);
+        if (!s) return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(c) + ": " + s.error().describe());
+        world.write_coarse(rect, *s);
+      } else if (section == 1) {
+        if (c.layer != Layer::kDetail || c.mip != 0 || !tiles_overlapping(manifest->world.detail_sample_rect()).contains(*tx, *ty)) {
+          return make_error(ErrorCode::kCorrupt, tpath, "detail tile " + to_string(c) + " outside the world");
+        }
+        auto s = decode_detail_region(payload, kTileSize, kTileSize, {}, *hash);
+        if (!s) return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(c) + ": " + s.error().describe());
+        world.write_detail(rect, *s);
+      }
+      versions.push_back({c, *version, *hash});
+    }
+  }
+  if (r.at != r.bytes.size()) return make_error(ErrorCode::kCorrupt, tpath, "trailing bytes");
+  world.commit(0);
+  for (const Versioned& v : versions) {
+    if (!world.restore_version(v.c, v.version)) return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(v.c) + " outside the world");
+    if (world.tile_state(v.c).hash != v.hash) return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(v.c) + " hash mismatch");
+  }
+  if (world.world_hash() != manifest->world_hash) return make_error(ErrorCode::kCorrupt, tpath, "world hash mismatch");
+  return LoadedSnapshot{*manifest, std::move(world), path};
+}
+
+std::vector<std::string> list_snapshots(const std::string& data_dir) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  const fs::path root = fs::path(data_dir) / "snapshots";
+  if (!fs::is_directory(root, ec)) return out;
+  for (const auto& e : fs::directory_iterator(root, ec)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_directory() && name.rfind("snapshot-", 0) == 0) out.push_back(e.path().string());
+  }
+  std::sort(out.begin(), out.end(), std::greater<>());  // zero-padded ids sort numerically
+  return out;
+}
+
+}  // namespace loam::server

@@ -1,0 +1,57 @@
+// Snapshots: the whole terrain at one sequence number, so recovery is the newest valid
+// snapshot plus the log segments after it.
+//
+// Layout: <data>/snapshots/snapshot-<seq, 20 digits>/{manifest.json, tiles.bin}. Written into
+// a temporary folder, every file fsynced, then renamed into place and the parent fsynced, so
+// a crash leaves either the old set or the complete new one. tiles.bin holds every mip-0
+// coarse tile and stored detail tile (region codec, fast mode) with its version and hash,
+// then the versions of every mip tile, then an XXH3-64 of the file. Reading verifies the
+// checksum, every tile hash and the world hash: a damaged snapshot is an Error (recovery
+// then falls back to an older one), never a half-loaded world.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "protocol/result.h"
+#include "protocol/stamps/texture_registry.h"
+#include "protocol/world.h"
+
+namespace loam::server {
+
+struct SnapshotManifest {
+  uint64_t snapshot_id = 0;  // = last_seq: the world after this sequence
+  uint64_t last_seq = 0;
+  uint64_t world_hash = 0;
+  uint64_t created_unix_us = 0;
+  uint32_t next_segment_index = 0;  // the log segment that continues from this snapshot
+  WorldParams world;
+  size_t coarse_tiles = 0, detail_tiles = 0;
+  uint64_t tiles_bytes = 0;
+};
+
+struct LoadedSnapshot {
+  SnapshotManifest manifest;
+  World world;
+  std::string path;
+};
+
+std::string snapshot_dir_name(uint64_t snapshot_id);
+
+// Writes a snapshot of `world` after `last_seq` under <data_dir>/snapshots/. Returns its path.
+Result<std::string> write_snapshot(const std::string& data_dir, const World& world, uint64_t last_seq,
+                                   uint32_t next_segment_index, const TextureRegistry& textures);
+
+// Reads and fully verifies one snapshot folder.
+Result<LoadedSnapshot> read_snapshot(const std::string& path);
+// Reads only the manifest (for `snapshot info` and listing).
+Result<SnapshotManifest> read_snapshot_manifest(const std::string& path);
+
+// Snapshot folders under <data_dir>/snapshots/, newest (highest id) first.
+std::vector<std::string> list_snapshots(const std::string& data_dir);
+
+// fsync a file or directory by path (used by snapshots and the data folder).
+Status fsync_path(const std::string& path);
+
+}  // namespace loam::server

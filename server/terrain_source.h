@@ -1,0 +1,21 @@
+// Where a session's initial terrain comes from, and how replay finds it again: the embedded
+// default, a DEM file, or a snapshot. The description is stored in the log's header
+// (log::InitialTerrain) so `loam-server replay` can rebuild the world from the log alone.
+#pragma once
+
+#include <string>
+
+#include "protocol/log/log_format.h"
+#include "protocol/result.h"
+#include "protocol/world.h"
+
+namespace loam::server {
+
+// Loads the embedded default terrain (dem_path empty) or a DEM file, and describes it.
+Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described);
+
+// Rebuilds the initial terrain a log header describes and checks its world hash. Snapshot
+// sources are looked up under <data_dir>/snapshots.
+Result<World> load_described_terrain(const log::InitialTerrain& initial, const std::string& data_dir);
+
+}  // namespace loam::server

@@ -1,0 +1,60 @@
+// The server's authoritative terrain: the World, registered stamp textures, stamp limits and
+// the global sequence. apply() runs one accepted stamp and reports what a DeformEvent needs:
+// every tile it changed (all layers and mips) with its version before, plus, for footprints,
+// the mip-0 tiles under the foot it read without changing (their contact depends on them).
+// Pure logic over protocol/: no sockets, no files.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "gpu/stamp_backend.h"
+#include "protocol/result.h"
+#include "protocol/stamps/stamp.h"
+#include "protocol/stamps/stamp_validate.h"
+#include "protocol/stamps/texture_registry.h"
+#include "protocol/wire/messages.h"
+#include "protocol/world.h"
+
+namespace loam::server {
+
+struct AppliedStamp {
+  uint64_t seq = 0;
+  uint32_t client_id = 0;
+  QuantizedStamp stamp;
+  // Tiles whose exact versions a client must hold to apply the stamp itself: every changed
+  // tile and every tile the stamp read (footprint), with the version before the stamp.
+  std::vector<wire::TileVersion> base_versions;
+  std::vector<TileChange> changes;  // from World::commit, sorted by tile
+};
+
+class TerrainState {
+ public:
+  TerrainState(World world, uint64_t last_seq, StampLimits limits = {});
+
+  const World& world() const { return world_; }
+  World& mutable_world() { return world_; }
+  // Heap-held so its address survives moving the TerrainState (backends keep a pointer).
+  TextureRegistry& textures() { return *textures_; }
+  const TextureRegistry& textures() const { return *textures_; }
+  const StampLimits& limits() const { return limits_; }
+  uint64_t last_seq() const { return last_seq_; }
+
+  // Checks a stamp that arrived from the wire against the world and limits.
+  Status check(const QuantizedStamp& q) const;
+  // Applies a checked stamp as sequence `seq` (must be last_seq() + 1).
+  Result<AppliedStamp> apply(const QuantizedStamp& q, uint64_t seq, uint32_t client_id);
+  // Evaluates stamps with `backend` from now on (made for this world); null: the CPU reference.
+  void set_backend(std::unique_ptr<gpu::StampBackend> backend) { backend_ = std::move(backend); }
+  const gpu::StampBackend* backend() const { return backend_.get(); }
+
+ private:
+  World world_;
+  std::unique_ptr<TextureRegistry> textures_ = std::make_unique<TextureRegistry>();
+  StampLimits limits_;
+  uint64_t last_seq_ = 0;
+  std::unique_ptr<gpu::StampBackend> backend_;
+};
+
+}  // namespace loam::server

@@ -1,0 +1,207 @@
+// Integration tests: a real loam-server process, real sockets on loopback, clients built on
+// client/net. Each test names the behaviour it pins.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <thread>
+
+#include "integration_util.h"
+#include "server_process.h"
+
+namespace loam::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+std::vector<TileCoord> subscription_for(const client::TerrainClient& c, int variant) {
+  std::vector<TileCoord> tiles = c.all_coarse_tiles(0);
+  if (variant % 2 == 1) {
+    const auto m1 = c.all_coarse_tiles(1);
+    tiles.insert(tiles.end(), m1.begin(), m1.end());
+  }
+  if (variant % 4 == 3) tiles.push_back({Layer::kDetail, 0, 0, 0});
+  if (variant % 3 == 2) tiles.resize(tiles.size() / 2);  // partial interest
+  return tiles;
+}
+
+TEST(Session, SixteenClientsDeformingConcurrentlyConvergeOnTheServersTiles) {
+  const std::string dir = temp_data_dir("a");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--tick-hz", "60", "--hashes-every", "20"})) << server.log();
+
+  constexpr int kClients = 16, kStampsEach = 12;
+  std::vector<std::unique_ptr<client::TerrainClient>> clients;
+  for (int i = 0; i < kClients; ++i) {
+    auto c = std::make_unique<client::TerrainClient>();
+    ASSERT_TRUE(c->connect("127.0.0.1", server.port(), "client" + std::to_string(i)).ok()) << server.log();
+    ASSERT_TRUE(c->subscribe(subscription_for(*c, i)).ok());
+    clients.push_back(std::move(c));
+  }
+  // Every client deforms from its own thread, waiting for its acks.
+  std::vector<std::thread> threads;
+  std::vector<uint64_t> max_seq(kClients, 0);
+  std::vector<int> accepted(kClients, 0);
+  for (int i = 0; i < kClients; ++i) {
+    threads.emplace_back([&, i] {
+      std::mt19937 rng(uint32_t(1000 + i));
+      client::TerrainClient& c = *clients[size_t(i)];
+      std::vector<uint32_t> seqs;
+      for (int k = 0; k < kStampsEach; ++k) {
+        auto s = c.deform(random_stamp(rng, c.welcome().world));
+        if (s.ok()) seqs.push_back(*s);
+      }
+      c.wait_until([&] {
+        for (uint32_t s : seqs) if (!c.ack(s)) return false;
+        return true;
+      }, 60s);
+      for (uint32_t s : seqs) {
+        const auto a = c.ack(s);
+        if (a && a->accepted) {
+          ++accepted[size_t(i)];
+          max_seq[size_t(i)] = std::max(max_seq[size_t(i)], a->global_seq);
+        }
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  uint64_t final_seq = 0;
+  for (int i = 0; i < kClients; ++i) {
+    EXPECT_EQ(accepted[size_t(i)], kStampsEach) << "client " << i;
+    final_seq = std::max(final_seq, max_seq[size_t(i)]);
+  }
+  EXPECT_EQ(final_seq, uint64_t(kClients * kStampsEach));
+  const World expected = replayed_world(dir, final_seq);
+  for (int i = 0; i < kClients; ++i) {
+    client::TerrainClient& c = *clients[size_t(i)];
+    const bool converged = c.wait_until([&] { return bool(store_matches(c, expected)); }, 60s);
+    EXPECT_TRUE(converged) << "client " << i << ": " << store_matches(c, expected).message() << " regions "
+                           << c.store().counters().regions << " applied " << c.store().counters().events_applied
+                           << " buffered " << c.store().counters().events_buffered << " open " << c.connection().open()
+                           << " in " << c.connection().bytes_in();
+    EXPECT_EQ(c.hash_mismatches(), 0u) << "client " << i;
+    EXPECT_EQ(c.store().buffered(), 0u) << "client " << i;
+    EXPECT_TRUE(c.local_errors().empty()) << "client " << i << ": " << c.local_errors().front().describe();
+  }
+  // Clients applied events themselves rather than receiving every tile again.
+  uint64_t applied = 0;
+  for (auto& c : clients) applied += c->store().counters().events_applied;
+  EXPECT_GT(applied, 0u);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
+}  // namespace
+}  // namespace loam::test
+
+namespace loam::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+// Kill -9 in the middle of a deform storm; every acknowledged stamp must survive the restart,
+// both in the restarted server's world and in a replay of its log.
+void kill_during_storm(uint32_t seed) {
+  const std::string dir = temp_data_dir("seed" + std::to_string(seed));
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--tick-hz", "120", "--snapshot-every", "150"})) << server.log();
+  constexpr int kClients = 4;
+  std::vector<std::unique_ptr<client::TerrainClient>> clients;
+  for (int i = 0; i < kClients; ++i) {
+    auto c = std::make_unique<client::TerrainClient>();
+    ASSERT_TRUE(c->connect("127.0.0.1", server.port(), "storm" + std::to_string(i)).ok());
+    clients.push_back(std::move(c));
+  }
+  std::atomic<uint64_t> acked_total{0};
+  std::atomic<bool> stop{false};
+  std::vector<uint64_t> max_acked(kClients, 0);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kClients; ++i) {
+    threads.emplace_back([&, i] {
+      std::mt19937 rng(seed * 100 + uint32_t(i));
+      client::TerrainClient& c = *clients[size_t(i)];
+      std::vector<uint32_t> outstanding;
+      while (!stop) {
+        while (outstanding.size() < 8) {
+          auto s = c.deform(random_stamp(rng, c.welcome().world));
+          if (!s.ok()) return;
+          outstanding.push_back(*s);
+        }
+        if (!c.pump(20ms).ok()) return;  // the server is gone
+        for (auto it = outstanding.begin(); it != outstanding.end();) {
+          const auto a = c.ack(*it);
+          if (!a) {
+            ++it;
+            continue;
+          }
+          if (a->accepted) {
+            max_acked[size_t(i)] = std::max(max_acked[size_t(i)], a->global_seq);
+            ++acked_total;
+          }
+          it = outstanding.erase(it);
+        }
+      }
+    });
+  }
+  // Wait on acknowledgements (not time), then kill.
+  const auto deadline = std::chrono::steady_clock::now() + 60s;
+  while (acked_total < 400 && std::chrono::steady_clock::now() < deadline) std::this_thread::yield();
+  server.kill9();
+  stop = true;
+  for (auto& t : threads) t.join();
+  uint64_t max_seq = 0;
+  for (uint64_t s : max_acked) max_seq = std::max(max_seq, s);
+  ASSERT_GE(acked_total.load(), 400u);
+  clients.clear();
+
+  ServerProcess restarted;
+  ASSERT_TRUE(restarted.start(dir, {"--tick-hz", "120"})) << restarted.log();
+  client::TerrainClient c;
+  ASSERT_TRUE(c.connect("127.0.0.1", restarted.port(), "checker").ok());
+  const uint64_t recovered_seq = c.welcome().global_sequence;
+  EXPECT_GE(recovered_seq, max_seq) << "an acknowledged stamp was lost\n" << restarted.log();
+  // The restarted server's tiles equal a replay of the log from the initial terrain.
+  const World expected = replayed_world(dir, recovered_seq);
+  std::vector<TileCoord> tiles = c.all_coarse_tiles(0);
+  const auto m1 = c.all_coarse_tiles(1);
+  tiles.insert(tiles.end(), m1.begin(), m1.end());
+  ASSERT_TRUE(c.subscribe(tiles).ok());
+  EXPECT_TRUE(c.wait_until([&] { return c.store().held().size() == tiles.size(); }, 60s));
+  EXPECT_TRUE(store_matches(c, expected));
+  EXPECT_EQ(restarted.terminate(), 0) << restarted.log();
+}
+
+TEST(Recovery, KillNineDuringDeformStormKeepsEveryAcknowledgedStamp) {
+  for (uint32_t seed : {1u, 2u, 3u}) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    kill_during_storm(seed);
+    if (HasFatalFailure()) return;
+  }
+}
+
+TEST(Recovery, CleanShutdownWritesASnapshotThatRestartsWithoutReplay) {
+  const std::string dir = temp_data_dir("clean");
+  uint64_t seq = 0;
+  {
+    ServerProcess server;
+    ASSERT_TRUE(server.start(dir, {"--tick-hz", "120"})) << server.log();
+    client::TerrainClient c;
+    ASSERT_TRUE(c.connect("127.0.0.1", server.port(), "one").ok());
+    std::mt19937 rng(5);
+    std::vector<uint32_t> seqs;
+    for (int i = 0; i < 30; ++i) seqs.push_back(*c.deform(random_stamp(rng, c.welcome().world)));
+    ASSERT_TRUE(c.wait_until([&] { return c.ack(seqs.back()).has_value(); }, 30s));
+    seq = c.ack(seqs.back())->global_seq;
+    EXPECT_EQ(server.terminate(), 0) << server.log();
+    EXPECT_TRUE(c.wait_until([&] { return c.bye().has_value(); }, 5s)) << "clients get Bye on shutdown";
+    EXPECT_NE(server.log().find("event=snapshot"), std::string::npos) << server.log();
+  }
+  ServerProcess again;
+  ASSERT_TRUE(again.start(dir)) << again.log();
+  EXPECT_NE(again.log().find("replayed=0"), std::string::npos) << again.log();
+  client::TerrainClient c;
+  ASSERT_TRUE(c.connect("127.0.0.1", again.port(), "two").ok());
+  EXPECT_EQ(c.welcome().global_sequence, seq);
+  EXPECT_EQ(again.terminate(), 0);
+}
+
+}  // namespace
+}  // namespace loam::test
