@@ -71,7 +71,8 @@ std::string annotate_shader_log(std::string_view log, std::span<const std::strin
           const size_t c_end = digits_end(line, l_end + 1);
           if (c_end > l_end + 1 && c_end < line.size() && line[c_end] == ')') {
             rewritten = name_of(index) + ":" + std::string(line.substr(n_end + 1, l_end - n_end - 1)) + ":" +
-                        std::string(line.substr(l_end + 1, c_end - l_end - 1)) + std::string(line.substr(c_end + 1));
+                        std::string(line.substr(l_end + 1, c_end - l_end - 1)) +
+                        std::string(line.substr(c_end + 1));
           }
         }
       } else if (line[n_end] == '(') {

@@ -6,7 +6,8 @@
 namespace loam::server {
 
 void log_event(const char* event, std::initializer_list<Field> fields) {
-  const double ts = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  const double ts =
+      std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   std::string line = "loam-server ts=" + std::to_string(ts) + " event=" + event;
   for (const auto& [k, v] : fields) {
     const bool quote = v.find_first_of(" \t\"=") != std::string::npos || v.empty();

@@ -5,7 +5,6 @@
 //   log dump|summary human views of a deformation log
 //   snapshot info    what a snapshot holds
 #include <CLI/CLI.hpp>
-
 #include <asio.hpp>
 #include <cstdio>
 #include <filesystem>
@@ -43,9 +42,9 @@ int serve(const server::ServerConfig& config) {
   auto backend = gpu::make_stamp_backend(*kind, opened->terrain.world(), &opened->terrain.textures(),
                                          config.stamp_limits);
   if (!backend) die(backend.error());
-  server::log_event("backend", {{"requested", config.backend},
-                                {"chosen", (*backend)->name()},
-                                {"renderer", (*backend)->renderer()}});
+  server::log_event(
+      "backend",
+      {{"requested", config.backend}, {"chosen", (*backend)->name()}, {"renderer", (*backend)->renderer()}});
   opened->terrain.set_backend(std::move(*backend));
   const server::RecoveryReport& r = opened->report;
   server::log_event(r.fresh ? "new_session" : "recovered",
@@ -92,24 +91,35 @@ int main(int argc, char** argv) {
   serve_cmd->add_option("--port-file", config.port_file, "Write the bound port to this file");
   serve_cmd->add_option("--dem", config.dem_path, "Initial terrain DEM (default: the embedded terrain)");
   serve_cmd->add_option("--data-dir", config.data_dir, "Log and snapshot folder")->capture_default_str();
-  serve_cmd->add_option("--backend", config.backend, "Stamp backend: auto, gpu or cpu")->capture_default_str();
+  serve_cmd->add_option("--backend", config.backend, "Stamp backend: auto, gpu or cpu")
+      ->capture_default_str();
   serve_cmd->add_option("--tick-hz", config.tick_hz, "Ticks per second")->capture_default_str();
   serve_cmd->add_option("--editor-token", config.editor_tokens, "Token (32 hex digits) granting editing");
-  serve_cmd->add_option("--viewer-token", config.viewer_tokens, "Token (32 hex digits) granting viewing only");
+  serve_cmd->add_option("--viewer-token", config.viewer_tokens,
+                        "Token (32 hex digits) granting viewing only");
   serve_cmd->add_option("--max-clients", config.max_clients)->capture_default_str();
   serve_cmd->add_option("--max-frame-bytes", config.max_frame_bytes)->capture_default_str();
   serve_cmd->add_option("--max-subscriptions", config.max_subscriptions)->capture_default_str();
-  serve_cmd->add_option("--max-pending-deforms", config.max_pending_deforms, "Per client per tick")->capture_default_str();
-  serve_cmd->add_option("--deforms-per-second", config.deforms_per_second, "Rate limit per client")->capture_default_str();
+  serve_cmd->add_option("--max-pending-deforms", config.max_pending_deforms, "Per client per tick")
+      ->capture_default_str();
+  serve_cmd->add_option("--deforms-per-second", config.deforms_per_second, "Rate limit per client")
+      ->capture_default_str();
   serve_cmd->add_option("--deform-burst", config.deform_burst, "Rate limit burst")->capture_default_str();
   serve_cmd->add_option("--handshake-timeout", config.handshake_timeout_s, "Seconds")->capture_default_str();
   serve_cmd->add_option("--idle-timeout", config.idle_timeout_s, "Seconds (0: none)")->capture_default_str();
-  serve_cmd->add_option("--max-queue-bytes", config.max_queue_bytes, "Per-client send queue bound")->capture_default_str();
-  serve_cmd->add_option("--snapshot-every", config.snapshot_every_stamps, "Stamps between snapshots (0: off)")->capture_default_str();
-  serve_cmd->add_option("--snapshot-interval", config.snapshot_interval_s, "Seconds between snapshots (0: off)")->capture_default_str();
-  serve_cmd->add_option("--hashes-every", config.hashes_every_ticks, "Ticks between TileHashes (0: never)")->capture_default_str();
-  serve_cmd->add_option("--stats-interval", config.stats_interval_s, "Seconds between stats lines (0: off)")->capture_default_str();
-  serve_cmd->add_option("--max-radius", config.stamp_limits.max_radius_samples, "Stamp radius cap in samples")->capture_default_str();
+  serve_cmd->add_option("--max-queue-bytes", config.max_queue_bytes, "Per-client send queue bound")
+      ->capture_default_str();
+  serve_cmd->add_option("--snapshot-every", config.snapshot_every_stamps, "Stamps between snapshots (0: off)")
+      ->capture_default_str();
+  serve_cmd
+      ->add_option("--snapshot-interval", config.snapshot_interval_s, "Seconds between snapshots (0: off)")
+      ->capture_default_str();
+  serve_cmd->add_option("--hashes-every", config.hashes_every_ticks, "Ticks between TileHashes (0: never)")
+      ->capture_default_str();
+  serve_cmd->add_option("--stats-interval", config.stats_interval_s, "Seconds between stats lines (0: off)")
+      ->capture_default_str();
+  serve_cmd->add_option("--max-radius", config.stamp_limits.max_radius_samples, "Stamp radius cap in samples")
+      ->capture_default_str();
 
   std::vector<std::string> logs;
   std::string replay_data, replay_png, replay_exr, replay_snapshot;
@@ -120,7 +130,11 @@ int main(int argc, char** argv) {
   replay_cmd->add_option("--until", until, "Stop after this sequence");
   replay_cmd->add_option("--export-png", replay_png, "Write the result as 16-bit PNG");
   replay_cmd->add_option("--export-exr", replay_exr, "Write the result as float EXR");
-  replay_cmd->add_option("--snapshot-out", replay_snapshot, "Write the result as a snapshot under this folder");
+  replay_cmd->add_option("--snapshot-out", replay_snapshot,
+                         "Write the result as a snapshot under this folder");
+  std::string replay_backend = "cpu";
+  replay_cmd->add_option("--backend", replay_backend, "Stamp backend: auto, gpu or cpu")
+      ->capture_default_str();
 
   std::string dem_in, out_path;
   auto* import_cmd = app.add_subcommand("import", "Import a DEM and report its quantization");
@@ -155,15 +169,19 @@ int main(int argc, char** argv) {
     if (*serve_cmd) return serve(config);
     if (*replay_cmd) {
       const auto segs = expand_logs(logs, &replay_data);
-      auto r = server::replay_log(segs, replay_data, until);
+      const auto kind = gpu::parse_backend_kind(replay_backend);
+      if (!kind) die(kind.error());
+      auto r = server::replay_log(segs, replay_data, until, *kind);
       if (!r) die(r.error());
       std::printf("records %llu, last sequence %llu, failed stamps %llu\n", (unsigned long long)r->records,
                   (unsigned long long)r->last_seq, (unsigned long long)r->failed_stamps);
       if (!r->tail_damage.empty()) std::printf("ignored damaged tail: %s\n", r->tail_damage.c_str());
       std::printf("world hash %s\n", hex64(r->world.world_hash()).c_str());
       const RectI all = r->world.params().sample_rect();
-      if (!replay_png.empty() && !export_png16(r->world, all, replay_png).ok()) throw std::runtime_error("PNG export failed");
-      if (!replay_exr.empty() && !export_exr(r->world, all, replay_exr).ok()) throw std::runtime_error("EXR export failed");
+      if (!replay_png.empty() && !export_png16(r->world, all, replay_png).ok())
+        throw std::runtime_error("PNG export failed");
+      if (!replay_exr.empty() && !export_exr(r->world, all, replay_exr).ok())
+        throw std::runtime_error("EXR export failed");
       if (!replay_snapshot.empty()) {
         auto p = server::write_snapshot(replay_snapshot, r->world, r->last_seq, 0, TextureRegistry{});
         if (!p) die(p.error());
@@ -176,7 +194,8 @@ int main(int argc, char** argv) {
       if (!dem) die(dem.error());
       auto w = import_dem(*dem);
       if (!w) die(w.error());
-      std::printf("%sworld hash        %s\n", w->report.summary().c_str(), hex64(w->world.world_hash()).c_str());
+      std::printf("%sworld hash        %s\n", w->report.summary().c_str(),
+                  hex64(w->world.world_hash()).c_str());
       if (!out_path.empty()) {
         const Status st = export_png16(w->world, w->world.params().sample_rect(), out_path);
         if (!st.ok()) die(st.error());
@@ -188,7 +207,8 @@ int main(int argc, char** argv) {
       if (!opened) die(opened.error());
       const World& w = opened->terrain.world();
       const bool exr = out_path.size() > 4 && out_path.substr(out_path.size() - 4) == ".exr";
-      const Status st = exr ? export_exr(w, w.params().sample_rect(), out_path) : export_png16(w, w.params().sample_rect(), out_path);
+      const Status st = exr ? export_exr(w, w.params().sample_rect(), out_path)
+                            : export_png16(w, w.params().sample_rect(), out_path);
       if (!st.ok()) die(st.error());
       std::printf("wrote %s (sequence %llu, world hash %s)\n", out_path.c_str(),
                   (unsigned long long)opened->terrain.last_seq(), hex64(w.world_hash()).c_str());
@@ -215,11 +235,13 @@ int main(int argc, char** argv) {
       auto snap = server::read_snapshot(snap_path);
       if (!snap) die(snap.error());
       const auto& m = snap->manifest;
-      std::printf("snapshot %llu (after sequence %llu), verified\nworld hash %s\ntiles %zu coarse, %zu detail, %llu bytes\n"
-                  "world %d x %d tiles, %.3f m/sample, next log segment %u\n",
-                  (unsigned long long)m.snapshot_id, (unsigned long long)m.last_seq, hex64(m.world_hash).c_str(),
-                  m.coarse_tiles, m.detail_tiles, (unsigned long long)m.tiles_bytes, m.world.tiles_x, m.world.tiles_y,
-                  m.world.meters_per_sample, m.next_segment_index);
+      std::printf(
+          "snapshot %llu (after sequence %llu), verified\nworld hash %s\ntiles %zu coarse, %zu detail, %llu "
+          "bytes\n"
+          "world %d x %d tiles, %.3f m/sample, next log segment %u\n",
+          (unsigned long long)m.snapshot_id, (unsigned long long)m.last_seq, hex64(m.world_hash).c_str(),
+          m.coarse_tiles, m.detail_tiles, (unsigned long long)m.tiles_bytes, m.world.tiles_x, m.world.tiles_y,
+          m.world.meters_per_sample, m.next_segment_index);
       return 0;
     }
   } catch (const std::exception& e) {

@@ -1,5 +1,6 @@
 #include "server/replay.h"
 
+#include "gpu/stamp_backend.h"
 #include "protocol/log/log_file.h"
 #include "server/terrain_source.h"
 #include "server/terrain_state.h"
@@ -7,7 +8,7 @@
 namespace loam::server {
 
 Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const std::string& data_dir,
-                                uint64_t until_seq) {
+                                uint64_t until_seq, gpu::BackendKind backend) {
   if (segments.empty()) return make_error(ErrorCode::kInvalidArgument, "log", "no log segments given");
   auto scans = log::read_log(segments);
   if (!scans) return scans.error();
@@ -20,14 +21,20 @@ Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const 
   auto world = load_described_terrain(first.initial, data_dir);
   if (!world) return world.error();
   TerrainState terrain(std::move(*world), 0);
+  if (backend != gpu::BackendKind::kCpu) {
+    auto made = gpu::make_stamp_backend(backend, terrain.world(), &terrain.textures(), terrain.limits());
+    if (!made) return made.error();
+    terrain.set_backend(std::move(*made));
+  }
   ReplayResult out{World(first.world, 0), 0, 0, 0, {}};
   for (const log::SegmentScan& scan : *scans) {
     if (scan.tail != log::TailState::kClean && scan.tail_error) out.tail_damage = scan.tail_error->describe();
     for (const log::LogRecord& r : scan.records) {
       if (r.global_seq > until_seq) break;
       if (r.global_seq != terrain.last_seq() + 1) {
-        return make_error(ErrorCode::kCorrupt, "log", "sequence gap: expected " + std::to_string(terrain.last_seq() + 1) +
-                                                          ", found " + std::to_string(r.global_seq));
+        return make_error(ErrorCode::kCorrupt, "log",
+                          "sequence gap: expected " + std::to_string(terrain.last_seq() + 1) + ", found " +
+                              std::to_string(r.global_seq));
       }
       if (!terrain.apply(r.stamp, r.global_seq, r.client_id)) ++out.failed_stamps;
       ++out.records;

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "gpu/backend_choice.h"
 #include "protocol/result.h"
 #include "protocol/world.h"
 
@@ -21,8 +22,10 @@ struct ReplayResult {
 };
 
 // `segments` in order (segment 0 first); `data_dir` is where snapshot-based initial terrains
-// are found (the folder holding snapshots/). Stops after `until_seq`.
+// are found (the folder holding snapshots/). Stops after `until_seq`. `backend` evaluates the
+// stamps (the GPU must give the CPU reference's integers, so the hash is the same).
 Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const std::string& data_dir,
-                                uint64_t until_seq = std::numeric_limits<uint64_t>::max());
+                                uint64_t until_seq = std::numeric_limits<uint64_t>::max(),
+                                gpu::BackendKind backend = gpu::BackendKind::kCpu);
 
 }  // namespace loam::server

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <fstream>
 #include <cstring>
+#include <fstream>
 #include <set>
 
 #include "protocol/codec/region_codec.h"
@@ -118,7 +118,8 @@ Status Server::start() {
   next_tick_ = Clock::now();
   schedule_tick();
   if (config_.stats_interval_s > 0) {
-    stats_timer_.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.stats_interval_s)));
+    stats_timer_.expires_after(
+        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.stats_interval_s)));
     stats_timer_.async_wait([this](const asio::error_code& e) {
       if (!e) report_stats();
     });
@@ -151,11 +152,12 @@ void Server::on_accept(tcp::socket socket) {
   sessions_[s->id] = s;
   log_event("connect", {{"client", std::to_string(s->id)}, {"peer", s->peer}});
   if (sessions_.size() > config_.max_clients) {
-    fatal(s, wire::WireErrorCode::kServerFull, "", "server full (" + std::to_string(config_.max_clients) + " clients)",
-          wire::ByeReason::kKicked);
+    fatal(s, wire::WireErrorCode::kServerFull, "",
+          "server full (" + std::to_string(config_.max_clients) + " clients)", wire::ByeReason::kKicked);
     return;
   }
-  s->timer.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.handshake_timeout_s)));
+  s->timer.expires_after(std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(config_.handshake_timeout_s)));
   std::weak_ptr<Session> weak = s;
   s->timer.async_wait([this, weak](const asio::error_code& e) {
     auto sp = weak.lock();
@@ -168,7 +170,8 @@ void Server::on_accept(tcp::socket socket) {
 
 void Server::arm_idle(const SessionPtr& s) {
   if (config_.idle_timeout_s <= 0) return;
-  s->timer.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.idle_timeout_s)));
+  s->timer.expires_after(
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.idle_timeout_s)));
   std::weak_ptr<Session> weak = s;
   s->timer.async_wait([this, weak](const asio::error_code& e) {
     auto sp = weak.lock();
@@ -209,8 +212,8 @@ void Server::on_bytes(const SessionPtr& s, size_t n) {
 void Server::handle(const SessionPtr& s, wire::Message& m) {
   const wire::MessageType type = wire::message_type(m);
   if (s->state == Session::State::kHandshake && type != wire::MessageType::kHello) {
-    fatal(s, wire::WireErrorCode::kInvalidArgument, "hello", std::string("expected Hello, got ") + wire::to_string(type),
-          wire::ByeReason::kProtocolError);
+    fatal(s, wire::WireErrorCode::kInvalidArgument, "hello",
+          std::string("expected Hello, got ") + wire::to_string(type), wire::ByeReason::kProtocolError);
     return;
   }
   switch (type) {
@@ -231,9 +234,17 @@ void Server::handle(const SessionPtr& s, wire::Message& m) {
     case wire::MessageType::kSubscribe: on_subscribe(s, std::get<wire::Subscribe>(m)); return;
     case wire::MessageType::kUnsubscribe: on_unsubscribe(s, std::get<wire::Unsubscribe>(m)); return;
     case wire::MessageType::kDeform: on_deform(s, std::get<wire::Deform>(m)); return;
-    case wire::MessageType::kStampImageRequest: on_stamp_image(s, std::get<wire::StampImageRequest>(m)); return;
-    case wire::MessageType::kError: log_event("client_error", {{"client", std::to_string(s->id)}, {"text", std::get<wire::ErrorMsg>(m).text}}); return;
+    case wire::MessageType::kStampImageRequest:
+      on_stamp_image(s, std::get<wire::StampImageRequest>(m));
+      return;
+    case wire::MessageType::kError:
+      log_event("client_error",
+                {{"client", std::to_string(s->id)}, {"text", std::get<wire::ErrorMsg>(m).text}});
+      return;
     case wire::MessageType::kPong: return;
+    case wire::MessageType::kStatsRequest:
+      send(s, stats_message(std::get<wire::StatsRequest>(m).request_id));
+      return;
     default:
       violation(s, wire::WireErrorCode::kUnknownType, "type",
                 std::string(wire::to_string(type)) + " is a server-to-client message");
@@ -243,7 +254,9 @@ void Server::handle(const SessionPtr& s, wire::Message& m) {
 
 void Server::on_hello(const SessionPtr& s, const wire::Hello& h) {
   if (h.version_major != wire::kProtocolMajor) {
-    log_event("reject", {{"client", std::to_string(s->id)}, {"reason", "version"}, {"peer_major", std::to_string(h.version_major)}});
+    log_event("reject", {{"client", std::to_string(s->id)},
+                         {"reason", "version"},
+                         {"peer_major", std::to_string(h.version_major)}});
     ++stats_.violations;
     send(s, wire::version_mismatch(h.version_major, h.version_minor));
     send(s, wire::Bye{wire::ByeReason::kVersionMismatch, "protocol major version mismatch"});
@@ -267,7 +280,8 @@ void Server::on_hello(const SessionPtr& s, const wire::Hello& h) {
       granted = wire::Role::kSpectator;
     } else {
       fatal(s, wire::WireErrorCode::kUnauthorized, "hello.session_token",
-            h.session_token ? "wrong session token" : "this server requires a session token", wire::ByeReason::kKicked);
+            h.session_token ? "wrong session token" : "this server requires a session token",
+            wire::ByeReason::kKicked);
       return;
     }
   }
@@ -288,7 +302,8 @@ void Server::on_hello(const SessionPtr& s, const wire::Hello& h) {
   w.limits.max_pending_deforms = config_.max_pending_deforms;
   w.limits.max_deforms_per_second = uint32_t(config_.deforms_per_second);
   send(s, w);
-  log_event("hello", {{"client", std::to_string(s->id)}, {"name", s->name}, {"role", wire::to_string(granted)}});
+  log_event("hello",
+            {{"client", std::to_string(s->id)}, {"name", s->name}, {"role", wire::to_string(granted)}});
 }
 
 bool Server::valid_tile(const TileCoord& c) const {
@@ -300,7 +315,8 @@ bool Server::valid_tile(const TileCoord& c) const {
 void Server::on_subscribe(const SessionPtr& s, const wire::Subscribe& sub) {
   for (const wire::SubscribeEntry& e : sub.entries) {
     if (!valid_tile(e.tile)) {
-      violation(s, wire::WireErrorCode::kOutOfWorld, "subscribe.tile", "tile " + to_string(e.tile) + " is not in the world");
+      violation(s, wire::WireErrorCode::kOutOfWorld, "subscribe.tile",
+                "tile " + to_string(e.tile) + " is not in the world");
       continue;
     }
     if (!s->subs.count(e.tile) && s->subs.size() >= config_.max_subscriptions) {
@@ -331,16 +347,20 @@ void Server::on_deform(const SessionPtr& s, const wire::Deform& d) {
     ack.reject_code = code;
     ack.field = field.substr(0, wire::kMaxFieldNameBytes);
     send(s, ack);
-    log_event("deform_rejected", {{"client", std::to_string(s->id)}, {"client_seq", std::to_string(d.client_seq)},
-                                  {"code", wire::to_string(code)}, {"field", field}, {"why", why}});
+    log_event("deform_rejected", {{"client", std::to_string(s->id)},
+                                  {"client_seq", std::to_string(d.client_seq)},
+                                  {"code", wire::to_string(code)},
+                                  {"field", field},
+                                  {"why", why}});
   };
   if (!s->editor) {
     reject(wire::WireErrorCode::kUnauthorized, "role", "viewers cannot deform");
     return;
   }
   const auto now = Clock::now();
-  s->tokens = std::min(config_.deform_burst,
-                       s->tokens + std::chrono::duration<double>(now - s->refill).count() * config_.deforms_per_second);
+  s->tokens =
+      std::min(config_.deform_burst, s->tokens + std::chrono::duration<double>(now - s->refill).count() *
+                                                     config_.deforms_per_second);
   s->refill = now;
   if (s->tokens < 1.0) {
     reject(wire::WireErrorCode::kRateLimited, "deform", "rate limit exceeded");
@@ -385,7 +405,8 @@ void Server::send(const SessionPtr& s, const wire::Message& m) {
   s->out.push_back(std::move(*frame));
   if (s->queued_bytes > config_.max_queue_bytes && s->state != Session::State::kClosing) {
     // A client that does not read must not hold the server's memory: drop it.
-    log_event("drop", {{"client", std::to_string(s->id)}, {"reason", "send queue over " + std::to_string(config_.max_queue_bytes) + " bytes"}});
+    log_event("drop", {{"client", std::to_string(s->id)},
+                       {"reason", "send queue over " + std::to_string(config_.max_queue_bytes) + " bytes"}});
     s->out.clear();
     s->queued_bytes = 0;
     close(s, "send queue full (client not reading)");
@@ -417,15 +438,19 @@ void Server::flush(const SessionPtr& s) {
   });
 }
 
-void Server::violation(const SessionPtr& s, wire::WireErrorCode code, const std::string& field, const std::string& text) {
+void Server::violation(const SessionPtr& s, wire::WireErrorCode code, const std::string& field,
+                       const std::string& text) {
   ++stats_.violations;
   ++s->violations;
-  log_event("violation", {{"client", std::to_string(s->id)}, {"code", wire::to_string(code)}, {"field", field}, {"text", text}});
-  send(s, wire::ErrorMsg{code, field.substr(0, wire::kMaxFieldNameBytes), text.substr(0, wire::kMaxErrorTextBytes)});
+  log_event(
+      "violation",
+      {{"client", std::to_string(s->id)}, {"code", wire::to_string(code)}, {"field", field}, {"text", text}});
+  send(s, wire::ErrorMsg{code, field.substr(0, wire::kMaxFieldNameBytes),
+                         text.substr(0, wire::kMaxErrorTextBytes)});
 }
 
-void Server::fatal(const SessionPtr& s, wire::WireErrorCode code, const std::string& field, const std::string& text,
-                   wire::ByeReason reason) {
+void Server::fatal(const SessionPtr& s, wire::WireErrorCode code, const std::string& field,
+                   const std::string& text, wire::ByeReason reason) {
   violation(s, code, field, text);
   send(s, wire::Bye{reason, text.substr(0, wire::kMaxErrorTextBytes)});
   close(s, text);
@@ -465,7 +490,8 @@ void Server::finish_close(const SessionPtr& s) {
 }
 
 void Server::schedule_tick() {
-  const auto period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / config_.tick_hz));
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / config_.tick_hz));
   next_tick_ += period;
   const auto now = Clock::now();
   if (next_tick_ < now - period) next_tick_ = now;  // after a long stall, do not burst
@@ -480,7 +506,8 @@ void Server::schedule_tick() {
 void Server::send_region(const SessionPtr& s, const TileCoord& c) {
   const World& w = terrain_.world();
   Result<std::vector<uint8_t>> payload = [&]() -> Result<std::vector<uint8_t>> {
-    if (c.layer == Layer::kCoarse) return encode_region(RegionEncoding::kFast, w.coarse_tile(c.mip, c.tx, c.ty), kTileSize, kTileSize);
+    if (c.layer == Layer::kCoarse)
+      return encode_region(RegionEncoding::kFast, w.coarse_tile(c.mip, c.tx, c.ty), kTileSize, kTileSize);
     const auto tile = w.detail_tile(c.tx, c.ty);
     if (tile.empty()) {
       const std::vector<int8_t> zeros(kTileSamples, 0);
@@ -551,7 +578,8 @@ void Server::tick() {
     for (const PendingDeform& p : batch) {
       const uint64_t s_seq = terrain_.last_seq() + 1;
       auto applied = terrain_.apply(p.stamp, s_seq, p.client_id);
-      if (!applied) log_event("apply_error", {{"seq", std::to_string(s_seq)}, {"error", applied.error().describe()}});
+      if (!applied)
+        log_event("apply_error", {{"seq", std::to_string(s_seq)}, {"error", applied.error().describe()}});
       ++stats_.deforms_accepted;
       if (auto sender = p.session.lock()) {
         wire::DeformAck ack;
@@ -617,7 +645,9 @@ void Server::tick() {
   tick_ms_.push_back(ms);
   if (ms > 1000.0 / config_.tick_hz) {
     ++stats_.tick_overruns;
-    log_event("tick_overrun", {{"tick", std::to_string(tick_)}, {"ms", std::to_string(ms)}, {"stamps", std::to_string(batch.size())}});
+    log_event("tick_overrun", {{"tick", std::to_string(tick_)},
+                               {"ms", std::to_string(ms)},
+                               {"stamps", std::to_string(batch.size())}});
   }
 }
 
@@ -636,9 +666,10 @@ void Server::maybe_snapshot(bool force) {
     log_event("snapshot_error", {{"error", path.error().describe()}});
     return;
   }
-  log_event("snapshot", {{"path", *path},
-                         {"seq", std::to_string(terrain_.last_seq())},
-                         {"ms", std::to_string(std::chrono::duration<double, std::milli>(Clock::now() - t0).count())}});
+  log_event("snapshot",
+            {{"path", *path},
+             {"seq", std::to_string(terrain_.last_seq())},
+             {"ms", std::to_string(std::chrono::duration<double, std::milli>(Clock::now() - t0).count())}});
 }
 
 void Server::report_stats() {
@@ -646,6 +677,8 @@ void Server::report_stats() {
   tick_ms_.clear();
   std::sort(t.begin(), t.end());
   auto pct = [&](double p) { return t.empty() ? 0.0 : t[size_t(p * double(t.size() - 1))]; };
+  last_p50_ms_ = pct(0.5);
+  last_p99_ms_ = pct(0.99);
   uint64_t max_queue = 0;
   for (const auto& [id, s] : sessions_) max_queue = std::max(max_queue, s->queued_bytes);
   log_event("stats", {{"clients", std::to_string(sessions_.size())},
@@ -659,10 +692,37 @@ void Server::report_stats() {
                       {"tick_p50_ms", std::to_string(pct(0.5))},
                       {"tick_p99_ms", std::to_string(pct(0.99))}});
   if (stopping_) return;
-  stats_timer_.expires_after(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.stats_interval_s)));
+  stats_timer_.expires_after(
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.stats_interval_s)));
   stats_timer_.async_wait([this](const asio::error_code& e) {
     if (!e) report_stats();
   });
+}
+
+wire::Stats Server::stats_message(uint32_t request_id) const {
+  wire::Stats st;
+  st.request_id = request_id;
+  st.clients = uint32_t(sessions_.size());
+  st.global_sequence = terrain_.last_seq();
+  st.deforms_accepted = stats_.deforms_accepted;
+  st.deforms_rejected = stats_.deforms_rejected;
+  st.violations = stats_.violations;
+  st.bytes_in = stats_.bytes_in;
+  st.bytes_out = stats_.bytes_out;
+  st.tick_overruns = stats_.tick_overruns;
+  // Without a completed stats period yet, report the ticks so far.
+  double p50 = last_p50_ms_, p99 = last_p99_ms_;
+  if (p50 == 0 && !tick_ms_.empty()) {
+    std::vector<double> t = tick_ms_;
+    std::sort(t.begin(), t.end());
+    p50 = t[t.size() / 2];
+    p99 = t[size_t(0.99 * double(t.size() - 1))];
+  }
+  st.tick_p50_us = uint32_t(p50 * 1000.0);
+  st.tick_p99_us = uint32_t(p99 * 1000.0);
+  st.uptime_ms =
+      uint64_t(std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - started_).count());
+  return st;
 }
 
 void Server::shutdown(const std::string& reason) {

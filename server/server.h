@@ -9,7 +9,6 @@
 #pragma once
 
 #include <asio.hpp>
-
 #include <cstdint>
 #include <deque>
 #include <map>
@@ -74,7 +73,8 @@ class Server {
 
   void send(const SessionPtr& s, const wire::Message& m);
   void flush(const SessionPtr& s);
-  void violation(const SessionPtr& s, wire::WireErrorCode code, const std::string& field, const std::string& text);
+  void violation(const SessionPtr& s, wire::WireErrorCode code, const std::string& field,
+                 const std::string& text);
   void fatal(const SessionPtr& s, wire::WireErrorCode code, const std::string& field, const std::string& text,
              wire::ByeReason reason);
   void close(const SessionPtr& s, const std::string& reason);
@@ -88,6 +88,7 @@ class Server {
   bool valid_tile(const TileCoord& c) const;
   void maybe_snapshot(bool force);
   void report_stats();
+  wire::Stats stats_message(uint32_t request_id) const;
 
   asio::io_context& io_;
   ServerConfig config_;
@@ -107,7 +108,9 @@ class Server {
   bool stopping_ = false;
   bool failed_ = false;
   ServerStats stats_;
-  std::vector<double> tick_ms_;  // since the last stats line
+  std::vector<double> tick_ms_;               // since the last stats line
+  double last_p50_ms_ = 0, last_p99_ms_ = 0;  // of the last stats period
+  std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
 };
 
 }  // namespace loam::server

@@ -13,11 +13,11 @@ namespace loam::server {
 
 struct ServerConfig {
   std::string bind_address = "127.0.0.1";
-  uint16_t port = 7878;          // 0: an ephemeral port (see port_file)
-  std::string port_file;         // when set, the bound port is written there once listening
-  std::string dem_path;          // empty: the embedded default terrain
+  uint16_t port = 7878;   // 0: an ephemeral port (see port_file)
+  std::string port_file;  // when set, the bound port is written there once listening
+  std::string dem_path;   // empty: the embedded default terrain
   std::string data_dir = "loam-data";
-  std::string backend = "cpu";   // auto | gpu | cpu
+  std::string backend = "cpu";  // auto | gpu | cpu
   uint32_t tick_hz = 30;
   // Access: with any token configured, a client must present one (hex, 32 digits) in Hello.
   std::vector<std::string> editor_tokens;
@@ -26,9 +26,9 @@ struct ServerConfig {
   uint32_t max_clients = 64;
   uint32_t max_frame_bytes = 1u << 20;
   uint32_t max_subscriptions = 4096;
-  uint32_t max_pending_deforms = 64;   // per client per tick
-  double deforms_per_second = 60.0;    // token bucket rate per client
-  double deform_burst = 120.0;         // token bucket capacity
+  uint32_t max_pending_deforms = 64;  // per client per tick
+  double deforms_per_second = 60.0;   // token bucket rate per client
+  double deform_burst = 120.0;        // token bucket capacity
   double handshake_timeout_s = 5.0;
   double idle_timeout_s = 60.0;
   uint64_t max_queue_bytes = 32u << 20;  // a client whose unsent data exceeds this is dropped

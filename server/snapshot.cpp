@@ -42,7 +42,8 @@ struct Reader {
   std::string path;
   template <typename T>
   Result<T> get(const char* field) {
-    if (bytes.size() - at < sizeof(T)) return make_error(ErrorCode::kTruncated, path, std::string("truncated at ") + field);
+    if (bytes.size() - at < sizeof(T))
+      return make_error(ErrorCode::kTruncated, path, std::string("truncated at ") + field);
     T v;
     std::memcpy(&v, bytes.data() + at, sizeof v);
     at += sizeof v;
@@ -74,11 +75,15 @@ Status write_file_synced(const std::string& path, std::span<const uint8_t> bytes
 }
 
 nlohmann::json world_json(const WorldParams& p) {
-  return {{"meters_per_sample", p.meters_per_sample}, {"height_offset", p.height_offset},
-          {"meters_per_unit", p.meters_per_unit},     {"detail_factor", p.detail_factor},
+  return {{"meters_per_sample", p.meters_per_sample},
+          {"height_offset", p.height_offset},
+          {"meters_per_unit", p.meters_per_unit},
+          {"detail_factor", p.detail_factor},
           {"detail_meters_per_unit", p.detail_meters_per_unit},
-          {"origin_tile_x", p.origin_tile_x},         {"origin_tile_y", p.origin_tile_y},
-          {"tiles_x", p.tiles_x},                     {"tiles_y", p.tiles_y}};
+          {"origin_tile_x", p.origin_tile_x},
+          {"origin_tile_y", p.origin_tile_y},
+          {"tiles_x", p.tiles_x},
+          {"tiles_y", p.tiles_y}};
 }
 
 Result<WorldParams> world_from_json(const nlohmann::json& j, const std::string& path) {
@@ -164,7 +169,8 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
   for (int32_t m = 1; m < p.mip_count(); ++m) {
     const RectI t = p.tile_range(m);
     for (int64_t ty = t.y0; ty < t.y1; ++ty) {
-      for (int64_t tx = t.x0; tx < t.x1; ++tx) mip_tiles.push_back({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)});
+      for (int64_t tx = t.x0; tx < t.x1; ++tx)
+        mip_tiles.push_back({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)});
     }
   }
   put_le<uint32_t>(bin, uint32_t(mip_tiles.size()));
@@ -172,16 +178,17 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
   put_le<uint64_t>(bin, XXH3_64bits(bin.data(), bin.size()));
 
   const auto now = std::chrono::system_clock::now().time_since_epoch();
-  nlohmann::json m = {{"format", kFormat},
-                      {"snapshot_id", last_seq},
-                      {"last_seq", last_seq},
-                      {"world_hash", world.world_hash()},
-                      {"created_unix_us", uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(now).count())},
-                      {"next_segment_index", next_segment_index},
-                      {"coarse_tiles", coarse},
-                      {"detail_tiles", detail},
-                      {"tiles_bytes", bin.size()},
-                      {"world", world_json(p)}};
+  nlohmann::json m = {
+      {"format", kFormat},
+      {"snapshot_id", last_seq},
+      {"last_seq", last_seq},
+      {"world_hash", world.world_hash()},
+      {"created_unix_us", uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(now).count())},
+      {"next_segment_index", next_segment_index},
+      {"coarse_tiles", coarse},
+      {"detail_tiles", detail},
+      {"tiles_bytes", bin.size()},
+      {"world", world_json(p)}};
   const std::string text = m.dump(1) + "\n";
 
   std::error_code ec;
@@ -209,7 +216,8 @@ Result<SnapshotManifest> read_snapshot_manifest(const std::string& path) {
   std::ifstream in(mpath);
   if (!in) return make_error(ErrorCode::kNotFound, mpath, "cannot open");
   const nlohmann::json j = nlohmann::json::parse(in, nullptr, false);
-  if (j.is_discarded() || !j.is_object()) return make_error(ErrorCode::kCorrupt, mpath, "manifest does not parse");
+  if (j.is_discarded() || !j.is_object())
+    return make_error(ErrorCode::kCorrupt, mpath, "manifest does not parse");
   SnapshotManifest m;
   try {
     if (j.at("format").get<uint32_t>() != kFormat) {
@@ -240,13 +248,16 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path) {
   if (!in) return make_error(ErrorCode::kNotFound, tpath, "cannot open");
   const std::vector<uint8_t> bytes{std::istreambuf_iterator<char>(in), {}};
   if (bytes.size() != manifest->tiles_bytes || bytes.size() < 20) {
-    return make_error(ErrorCode::kCorrupt, tpath, "size " + std::to_string(bytes.size()) + " does not match the manifest");
+    return make_error(ErrorCode::kCorrupt, tpath,
+                      "size " + std::to_string(bytes.size()) + " does not match the manifest");
   }
   uint64_t stored_sum;
   std::memcpy(&stored_sum, bytes.data() + bytes.size() - 8, 8);
-  if (XXH3_64bits(bytes.data(), bytes.size() - 8) != stored_sum) return make_error(ErrorCode::kCorrupt, tpath, "checksum mismatch");
+  if (XXH3_64bits(bytes.data(), bytes.size() - 8) != stored_sum)
+    return make_error(ErrorCode::kCorrupt, tpath, "checksum mismatch");
   Reader r{std::span(bytes).first(bytes.size() - 8), 0, tpath};
-  if (bytes.size() < 12 || std::memcmp(bytes.data(), kMagic, 8) != 0) return make_error(ErrorCode::kCorrupt, tpath, "bad magic");
+  if (bytes.size() < 12 || std::memcmp(bytes.data(), kMagic, 8) != 0)
+    return make_error(ErrorCode::kCorrupt, tpath, "bad magic");
   r.at = 8;
   auto fmt = r.get<uint32_t>("format");
   if (!fmt) return fmt.error();
@@ -270,8 +281,10 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path) {
       auto version = r.get<uint64_t>("version");
       auto hash = r.get<uint64_t>("hash");
       auto size = r.get<uint32_t>("payload size");
-      if (!layer || !mip || !tx || !ty || !version || !hash || !size) return make_error(ErrorCode::kTruncated, tpath, "tile record truncated");
-      if (*size > r.bytes.size() - r.at) return make_error(ErrorCode::kTruncated, tpath, "tile payload truncated");
+      if (!layer || !mip || !tx || !ty || !version || !hash || !size)
+        return make_error(ErrorCode::kTruncated, tpath, "tile record truncated");
+      if (*size > r.bytes.size() - r.at)
+        return make_error(ErrorCode::kTruncated, tpath, "tile payload truncated");
       const auto payload = r.bytes.subspan(r.at, *size);
       r.at += *size;
       const TileCoord c{Layer(*layer), *mip, *tx, *ty};
@@ -282,14 +295,17 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path) {
           return make_error(ErrorCode::kCorrupt, tpath, "coarse tile " + to_string(c) + " outside the world");
         }
         auto s = decode_region(payload, kTileSize, kTileSize, {}, *hash);
-        if (!s) return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(c) + ": " + s.error().describe());
+        if (!s)
+          return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(c) + ": " + s.error().describe());
         world.write_coarse(rect, *s);
       } else if (section == 1) {
-        if (c.layer != Layer::kDetail || c.mip != 0 || !tiles_overlapping(manifest->world.detail_sample_rect()).contains(*tx, *ty)) {
+        if (c.layer != Layer::kDetail || c.mip != 0 ||
+            !tiles_overlapping(manifest->world.detail_sample_rect()).contains(*tx, *ty)) {
           return make_error(ErrorCode::kCorrupt, tpath, "detail tile " + to_string(c) + " outside the world");
         }
         auto s = decode_detail_region(payload, kTileSize, kTileSize, {}, *hash);
-        if (!s) return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(c) + ": " + s.error().describe());
+        if (!s)
+          return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(c) + ": " + s.error().describe());
         world.write_detail(rect, *s);
       }
       versions.push_back({c, *version, *hash});
@@ -298,10 +314,13 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path) {
   if (r.at != r.bytes.size()) return make_error(ErrorCode::kCorrupt, tpath, "trailing bytes");
   world.commit(0);
   for (const Versioned& v : versions) {
-    if (!world.restore_version(v.c, v.version)) return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(v.c) + " outside the world");
-    if (world.tile_state(v.c).hash != v.hash) return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(v.c) + " hash mismatch");
+    if (!world.restore_version(v.c, v.version))
+      return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(v.c) + " outside the world");
+    if (world.tile_state(v.c).hash != v.hash)
+      return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(v.c) + " hash mismatch");
   }
-  if (world.world_hash() != manifest->world_hash) return make_error(ErrorCode::kCorrupt, tpath, "world hash mismatch");
+  if (world.world_hash() != manifest->world_hash)
+    return make_error(ErrorCode::kCorrupt, tpath, "world hash mismatch");
   return LoadedSnapshot{*manifest, std::move(world), path};
 }
 

@@ -27,14 +27,16 @@ std::vector<std::string> list_segments(const std::string& data_dir) {
   if (!fs::is_directory(dir, ec)) return out;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     const std::string name = e.path().filename().string();
-    if (name.rfind("segment-", 0) == 0 && e.path().extension() == ".loamlog") out.push_back(e.path().string());
+    if (name.rfind("segment-", 0) == 0 && e.path().extension() == ".loamlog")
+      out.push_back(e.path().string());
   }
   std::sort(out.begin(), out.end());  // zero-padded indices sort numerically
   return out;
 }
 
 struct StorageOpener {
-  static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path, const StampLimits& limits) {
+  static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path,
+                                    const StampLimits& limits) {
     std::error_code ec;
     fs::create_directories(fs::path(data_dir) / "log", ec);
     if (ec) return make_error(ErrorCode::kIo, data_dir, "cannot create the data folder: " + ec.message());
@@ -45,7 +47,8 @@ struct StorageOpener {
 
     if (segments.empty()) {
       if (!list_snapshots(data_dir).empty()) {
-        return make_error(ErrorCode::kCorrupt, data_dir, "snapshots without a log: refusing to guess the session");
+        return make_error(ErrorCode::kCorrupt, data_dir,
+                          "snapshots without a log: refusing to guess the session");
       }
       log::InitialTerrain initial;
       auto world = load_initial_terrain(dem_path, &initial);
@@ -70,8 +73,9 @@ struct StorageOpener {
     if (!recovered) return recovered.error();
     if (recovered->removed_bytes > 0) {
       report.truncated_bytes = recovered->removed_bytes;
-      report.damage = recovered->damage + " (truncated " + std::to_string(recovered->removed_bytes) + " bytes at offset " +
-                      std::to_string(recovered->truncated_at) + " of " + segments.back() + ")";
+      report.damage = recovered->damage + " (truncated " + std::to_string(recovered->removed_bytes) +
+                      " bytes at offset " + std::to_string(recovered->truncated_at) + " of " +
+                      segments.back() + ")";
     }
     auto scans = log::read_log(segments);
     if (!scans) return scans.error();
@@ -112,8 +116,9 @@ struct StorageOpener {
       for (const log::LogRecord& r : scan.records) {
         if (r.global_seq <= base) continue;
         if (r.global_seq != terrain.last_seq() + 1) {
-          return make_error(ErrorCode::kCorrupt, "log", "sequence gap: expected " + std::to_string(terrain.last_seq() + 1) +
-                                                            ", found " + std::to_string(r.global_seq));
+          return make_error(ErrorCode::kCorrupt, "log",
+                            "sequence gap: expected " + std::to_string(terrain.last_seq() + 1) + ", found " +
+                                std::to_string(r.global_seq));
         }
         (void)terrain.apply(r.stamp, r.global_seq, r.client_id);  // a failing stamp is a no-op, as live
         ++report.replayed_records;
@@ -129,7 +134,8 @@ struct StorageOpener {
   }
 };
 
-Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path, const StampLimits& limits) {
+Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
+                                   const StampLimits& limits) {
   return StorageOpener::open(data_dir, dem_path, limits);
 }
 

@@ -24,8 +24,8 @@ struct RecoveryReport {
   size_t segments = 0;
   uint64_t replayed_records = 0;
   uint64_t truncated_bytes = 0;
-  std::string damage;                 // what recovery repaired, for the server's log
-  std::vector<std::string> skipped;   // invalid snapshots, with why
+  std::string damage;                // what recovery repaired, for the server's log
+  std::vector<std::string> skipped;  // invalid snapshots, with why
   uint64_t last_seq = 0;
 };
 

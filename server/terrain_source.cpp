@@ -49,7 +49,8 @@ Result<World> load_described_terrain(const log::InitialTerrain& initial, const s
         return load_initial_terrain("", nullptr);
       case log::InitialSource::kDem: return load_initial_terrain(initial.dem_path, nullptr);
       case log::InitialSource::kSnapshot: {
-        const auto path = std::filesystem::path(data_dir) / "snapshots" / snapshot_dir_name(initial.snapshot_id);
+        const auto path =
+            std::filesystem::path(data_dir) / "snapshots" / snapshot_dir_name(initial.snapshot_id);
         auto snap = read_snapshot(path.string());
         if (!snap) return snap.error();
         return std::move(snap->world);

@@ -15,9 +15,12 @@ void ConfirmedStore::forget(const TileCoord& c) {
   mip_tiles_.erase(c);
 }
 
-Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version, std::span<const uint16_t> samples) {
-  if (samples.size() != size_t(kTileSamples)) return make_error(ErrorCode::kInvalidArgument, "region", "not a whole tile");
-  if (c.layer != Layer::kCoarse) return make_error(ErrorCode::kInvalidArgument, "region.layer", "not a coarse tile");
+Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version,
+                                      std::span<const uint16_t> samples) {
+  if (samples.size() != size_t(kTileSamples))
+    return make_error(ErrorCode::kInvalidArgument, "region", "not a whole tile");
+  if (c.layer != Layer::kCoarse)
+    return make_error(ErrorCode::kInvalidArgument, "region.layer", "not a coarse tile");
   const WorldParams& p = mirror_.params();
   if (c.mip >= p.mip_count() || !p.tile_range(c.mip).contains(c.tx, c.ty)) {
     return make_error(ErrorCode::kInvalidArgument, "region.tile", to_string(c) + " is not in the world");
@@ -34,10 +37,12 @@ Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version, std:
 }
 
 Status ConfirmedStore::replace_detail(const TileCoord& c, uint64_t version, std::span<const int8_t> samples) {
-  if (samples.size() != size_t(kTileSamples)) return make_error(ErrorCode::kInvalidArgument, "region", "not a whole tile");
+  if (samples.size() != size_t(kTileSamples))
+    return make_error(ErrorCode::kInvalidArgument, "region", "not a whole tile");
   if (c.layer != Layer::kDetail || c.mip != 0 ||
       !tiles_overlapping(mirror_.params().detail_sample_rect()).contains(c.tx, c.ty)) {
-    return make_error(ErrorCode::kInvalidArgument, "region.tile", to_string(c) + " is not a detail tile of the world");
+    return make_error(ErrorCode::kInvalidArgument, "region.tile",
+                      to_string(c) + " is not a detail tile of the world");
   }
   mirror_.write_detail(tile_rect(c.tx, c.ty), samples);
   mirror_.commit(version);

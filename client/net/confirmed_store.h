@@ -62,11 +62,11 @@ class ConfirmedStore {
   void retry_buffered(const TextureRegistry* textures);
   void after_region(uint64_t version);
 
-  World mirror_;  // mip-0 samples of both layers; only held tiles are meaningful
-  std::map<TileCoord, uint64_t> versions_;               // held tiles
-  std::map<TileCoord, std::vector<uint16_t>> mip_tiles_; // held coarse tiles at mip > 0
+  World mirror_;                            // mip-0 samples of both layers; only held tiles are meaningful
+  std::map<TileCoord, uint64_t> versions_;  // held tiles
+  std::map<TileCoord, std::vector<uint16_t>> mip_tiles_;  // held coarse tiles at mip > 0
   std::map<TileCoord, bool> wanted_;
-  std::map<uint64_t, wire::DeformEvent> buffer_;         // by global sequence
+  std::map<uint64_t, wire::DeformEvent> buffer_;  // by global sequence
   const TextureRegistry* last_textures_ = nullptr;
   StoreCounters counters_;
 };

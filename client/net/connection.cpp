@@ -15,7 +15,8 @@ Result<wire::Welcome> Connection::connect(const std::string& host, uint16_t port
   const auto endpoints = resolver.resolve(host, std::to_string(port), ec);
   if (ec) return make_error(ErrorCode::kNotFound, host, "cannot resolve: " + ec.message());
   asio::connect(socket_, endpoints, ec);
-  if (ec) return make_error(ErrorCode::kIo, host + ":" + std::to_string(port), "cannot connect: " + ec.message());
+  if (ec)
+    return make_error(ErrorCode::kIo, host + ":" + std::to_string(port), "cannot connect: " + ec.message());
   socket_.set_option(tcp::no_delay(true), ec);
   work_.emplace(io_.get_executor());
   start_read();
@@ -23,7 +24,8 @@ Result<wire::Welcome> Connection::connect(const std::string& host, uint16_t port
   LOAM_TRY(send(hello));
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (true) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) return make_error(ErrorCode::kIo, "welcome", "no Welcome within the timeout");
     auto m = next(left);
     if (!m) return m.error();
@@ -41,7 +43,8 @@ Result<wire::Welcome> Connection::connect(const std::string& host, uint16_t port
 void Connection::start_read() {
   socket_.async_read_some(asio::buffer(buffer_), [this](const asio::error_code& ec, size_t n) {
     if (ec) {
-      push(make_error(ErrorCode::kIo, "connection", ec == asio::error::eof ? "server closed the connection" : ec.message()));
+      push(make_error(ErrorCode::kIo, "connection",
+                      ec == asio::error::eof ? "server closed the connection" : ec.message()));
       return;
     }
     bytes_in_ += n;

@@ -5,9 +5,8 @@
 // ephemeral ports and wait for messages, never sleep).
 #pragma once
 
-#include <asio.hpp>
-
 #include <array>
+#include <asio.hpp>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>

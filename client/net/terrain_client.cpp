@@ -4,8 +4,8 @@
 
 namespace loam::client {
 
-Status TerrainClient::connect(const std::string& host, uint16_t port, const std::string& name, wire::Role role,
-                              std::optional<wire::SessionToken> token) {
+Status TerrainClient::connect(const std::string& host, uint16_t port, const std::string& name,
+                              wire::Role role, std::optional<wire::SessionToken> token) {
   wire::Hello hello;
   hello.client_name = name;
   hello.requested_role = role;
@@ -22,7 +22,8 @@ std::vector<TileCoord> TerrainClient::all_coarse_tiles(int32_t mip) const {
   std::vector<TileCoord> out;
   const RectI t = welcome_.world.tile_range(mip);
   for (int64_t ty = t.y0; ty < t.y1; ++ty) {
-    for (int64_t tx = t.x0; tx < t.x1; ++tx) out.push_back({Layer::kCoarse, uint8_t(mip), int32_t(tx), int32_t(ty)});
+    for (int64_t tx = t.x0; tx < t.x1; ++tx)
+      out.push_back({Layer::kCoarse, uint8_t(mip), int32_t(tx), int32_t(ty)});
   }
   return out;
 }
@@ -53,12 +54,14 @@ Status TerrainClient::on_region_chunk(const wire::RegionUpdate& r) {
   if (!done->has_value()) return {};
   const std::vector<uint8_t> payload = std::move(**done);
   if (r.base_version != 0 || r.rect != RectI{0, 0, kTileSize, kTileSize}) {
-    return make_error(ErrorCode::kUnsupported, "region", "only whole-tile regions are handled by this client");
+    return make_error(ErrorCode::kUnsupported, "region",
+                      "only whole-tile regions are handled by this client");
   }
   if (r.tile.layer == Layer::kCoarse) {
     std::vector<uint16_t> samples;
     if (r.encoding == wire::RegionEncoding::kRaw) {
-      if (payload.size() != size_t(kTileSamples) * 2) return make_error(ErrorCode::kCorrupt, "region.payload", "raw size");
+      if (payload.size() != size_t(kTileSamples) * 2)
+        return make_error(ErrorCode::kCorrupt, "region.payload", "raw size");
       samples.resize(kTileSamples);
       std::memcpy(samples.data(), payload.data(), payload.size());
     } else {
@@ -70,8 +73,10 @@ Status TerrainClient::on_region_chunk(const wire::RegionUpdate& r) {
   }
   std::vector<int8_t> samples;
   if (r.encoding == wire::RegionEncoding::kRaw) {
-    if (payload.size() != size_t(kTileSamples)) return make_error(ErrorCode::kCorrupt, "region.payload", "raw size");
-    samples.assign(reinterpret_cast<const int8_t*>(payload.data()), reinterpret_cast<const int8_t*>(payload.data()) + payload.size());
+    if (payload.size() != size_t(kTileSamples))
+      return make_error(ErrorCode::kCorrupt, "region.payload", "raw size");
+    samples.assign(reinterpret_cast<const int8_t*>(payload.data()),
+                   reinterpret_cast<const int8_t*>(payload.data()) + payload.size());
   } else {
     auto decoded = decode_detail_region(payload, kTileSize, kTileSize);
     if (!decoded) return decoded.error();
@@ -108,7 +113,8 @@ Status TerrainClient::handle(wire::Message& m) {
     }
     case wire::MessageType::kError: errors_.push_back(std::get<wire::ErrorMsg>(m)); return {};
     case wire::MessageType::kBye: bye_ = std::get<wire::Bye>(m); return {};
-    case wire::MessageType::kPing: return connection_.send(wire::Pong{std::get<wire::Ping>(m).client_time_us, 0});
+    case wire::MessageType::kPing:
+      return connection_.send(wire::Pong{std::get<wire::Ping>(m).client_time_us, 0});
     default: return {};
   }
 }
@@ -130,7 +136,8 @@ Status TerrainClient::pump(std::chrono::milliseconds timeout) {
 bool TerrainClient::wait_until(const std::function<bool()>& pred, std::chrono::milliseconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   while (!pred()) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (left.count() <= 0) return false;
     if (!pump(std::min(left, std::chrono::milliseconds(50))).ok()) return pred();
   }

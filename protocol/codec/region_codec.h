@@ -4,9 +4,11 @@
 //
 // Encodings (the payload's first bytes say which one was used):
 //   kRaw    samples as little-endian bytes; the fallback when nothing else is smaller.
-//   kFast   MED predictor, zigzag residual byte planes, zstd level 1: streaming speed.
+//   kFast   MED predictor, zigzag residual byte planes, one zstd (level 1) frame per plane:
+//           streaming speed.
 //   kBest   blended context-adaptive predictor with bias correction and a context-modelled
-//           binary arithmetic coder: the smallest payload, ~10x slower than kFast.
+//           binary arithmetic coder: the smallest payload, ~10x slower than kFast. Where
+//           the kFast payload is smaller, that is what comes back (the header says so).
 //   kDelta  new - base over the same rect (the base is a version the receiver holds),
 //           coded like kBest; smooth stamp deltas cost a few bytes.
 //   kRefine the samples of mip m-1 given mip m: only the 3/4 of samples mip m does not hold

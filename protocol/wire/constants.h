@@ -15,7 +15,7 @@ inline constexpr uint32_t kHelloMagic = 0x4D414F4Cu;
 // A peer with a different major version cannot parse our messages; minor versions only add
 // optional behaviour negotiated in Hello/Welcome, never change a layout.
 inline constexpr uint16_t kProtocolMajor = 1;
-inline constexpr uint16_t kProtocolMinor = 0;
+inline constexpr uint16_t kProtocolMinor = 1;  // 1.1 added StatsRequest / Stats
 
 // Frame header: u32 payload length, u16 message type (little-endian), then the payload.
 inline constexpr size_t kFrameHeaderBytes = 6;
@@ -41,9 +41,11 @@ enum class MessageType : uint16_t {
   kTileHashes = 13,
   kStampImageRequest = 14,
   kStampImageResponse = 15,
+  kStatsRequest = 16,  // since 1.1
+  kStats = 17,         // since 1.1
 };
 inline constexpr uint16_t kFirstMessageType = 1;
-inline constexpr uint16_t kLastMessageType = 15;
+inline constexpr uint16_t kLastMessageType = 17;
 const char* to_string(MessageType type);
 
 // --- Caps (a decoder never loops or allocates past these) ---

@@ -24,6 +24,8 @@ const char* to_string(MessageType type) {
     case MessageType::kRegionUpdate: return "RegionUpdate";
     case MessageType::kTileHashes: return "TileHashes";
     case MessageType::kStampImageRequest: return "StampImageRequest";
+    case MessageType::kStatsRequest: return "StatsRequest";
+    case MessageType::kStats: return "Stats";
     case MessageType::kStampImageResponse: return "StampImageResponse";
   }
   return "unknown";
@@ -344,6 +346,27 @@ Status serialize(S& s, StampImageResponse& m) {
                           std::to_string(m.height) + " image, expected " + std::to_string(expect));
   }
   return {};
+}
+
+template <typename S>
+Status serialize(S& s, StatsRequest& m) {
+  return s.bits(m.request_id, "stats_request.request_id");
+}
+
+template <typename S>
+Status serialize(S& s, Stats& m) {
+  LOAM_TRY(s.bits(m.request_id, "stats.request_id"));
+  LOAM_TRY(s.bits(m.clients, "stats.clients"));
+  LOAM_TRY(s.bits(m.global_sequence, "stats.global_sequence"));
+  LOAM_TRY(s.bits(m.deforms_accepted, "stats.deforms_accepted"));
+  LOAM_TRY(s.bits(m.deforms_rejected, "stats.deforms_rejected"));
+  LOAM_TRY(s.bits(m.violations, "stats.violations"));
+  LOAM_TRY(s.bits(m.bytes_in, "stats.bytes_in"));
+  LOAM_TRY(s.bits(m.bytes_out, "stats.bytes_out"));
+  LOAM_TRY(s.bits(m.tick_overruns, "stats.tick_overruns"));
+  LOAM_TRY(s.bits(m.tick_p50_us, "stats.tick_p50_us"));
+  LOAM_TRY(s.bits(m.tick_p99_us, "stats.tick_p99_us"));
+  return s.bits(m.uptime_ms, "stats.uptime_ms");
 }
 
 template <size_t I>

@@ -217,10 +217,33 @@ struct StampImageResponse {
   friend bool operator==(const StampImageResponse&, const StampImageResponse&) = default;
 };
 
+// Asks the server for its counters (answered with Stats). Since protocol 1.1.
+struct StatsRequest {
+  uint32_t request_id = 0;  // echoed in Stats
+  friend bool operator==(const StatsRequest&, const StatsRequest&) = default;
+};
+
+// The server's counters since it started, and tick times over the last stats period.
+struct Stats {
+  uint32_t request_id = 0;
+  uint32_t clients = 0;
+  uint64_t global_sequence = 0;
+  uint64_t deforms_accepted = 0;
+  uint64_t deforms_rejected = 0;
+  uint64_t violations = 0;
+  uint64_t bytes_in = 0;
+  uint64_t bytes_out = 0;
+  uint64_t tick_overruns = 0;
+  uint32_t tick_p50_us = 0;
+  uint32_t tick_p99_us = 0;
+  uint64_t uptime_ms = 0;
+  friend bool operator==(const Stats&, const Stats&) = default;
+};
+
 // Alternative i holds the message whose MessageType is i + 1.
-using Message =
-    std::variant<Hello, Welcome, ErrorMsg, Ping, Pong, Bye, Subscribe, Unsubscribe, Deform, DeformAck,
-                 DeformEvent, RegionUpdate, TileHashes, StampImageRequest, StampImageResponse>;
+using Message = std::variant<Hello, Welcome, ErrorMsg, Ping, Pong, Bye, Subscribe, Unsubscribe, Deform,
+                             DeformAck, DeformEvent, RegionUpdate, TileHashes, StampImageRequest,
+                             StampImageResponse, StatsRequest, Stats>;
 
 MessageType message_type(const Message& m);
 

@@ -41,10 +41,12 @@ class BadInput : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = temp_data_dir("bad");
-    ASSERT_TRUE(server_.start(dir_, {"--tick-hz", "60", "--editor-token", kEditorToken, "--viewer-token", kViewerToken,
-                                      "--deforms-per-second", "20", "--deform-burst", "10", "--max-queue-bytes", "4000000"}))
+    ASSERT_TRUE(server_.start(
+        dir_, {"--tick-hz", "60", "--editor-token", kEditorToken, "--viewer-token", kViewerToken,
+               "--deforms-per-second", "20", "--deform-burst", "10", "--max-queue-bytes", "4000000"}))
         << server_.log();
-    ASSERT_TRUE(good_.connect("127.0.0.1", server_.port(), "good", wire::Role::kPlayer, token(kEditorToken)).ok());
+    ASSERT_TRUE(
+        good_.connect("127.0.0.1", server_.port(), "good", wire::Role::kPlayer, token(kEditorToken)).ok());
     ASSERT_TRUE(good_.subscribe(good_.all_coarse_tiles(0)).ok());
   }
   void TearDown() override {
@@ -126,7 +128,8 @@ TEST_F(BadInput, MissingOrWrongTokenIsRefused) {
 
 TEST_F(BadInput, ViewerDeformIsRejectedAndTheConnectionStays) {
   client::TerrainClient viewer;
-  ASSERT_TRUE(viewer.connect("127.0.0.1", server_.port(), "viewer", wire::Role::kPlayer, token(kViewerToken)).ok());
+  ASSERT_TRUE(
+      viewer.connect("127.0.0.1", server_.port(), "viewer", wire::Role::kPlayer, token(kViewerToken)).ok());
   EXPECT_EQ(viewer.welcome().granted_role, wire::Role::kSpectator);
   std::mt19937 rng(1);
   const uint32_t s = *viewer.deform(random_stamp(rng, viewer.welcome().world));
@@ -135,7 +138,11 @@ TEST_F(BadInput, ViewerDeformIsRejectedAndTheConnectionStays) {
   EXPECT_EQ(viewer.ack(s)->code, wire::WireErrorCode::kUnauthorized);
   // Still connected: subscriptions work.
   ASSERT_TRUE(viewer.subscribe({{Layer::kCoarse, 0, 0, 0}}).ok());
-  EXPECT_TRUE(viewer.wait_until([&] { return viewer.store().version({Layer::kCoarse, 0, 0, 0}).has_value(); }, 10s));
+  EXPECT_TRUE(viewer.wait_until(
+      [&] {
+        return viewer.store().version({Layer::kCoarse, 0, 0, 0}).has_value();
+      },
+      10s));
 }
 
 TEST_F(BadInput, NonFiniteAndOutOfRangeStampsAreRejectedNamingTheField) {
@@ -154,7 +161,8 @@ TEST_F(BadInput, NonFiniteAndOutOfRangeStampsAreRejectedNamingTheField) {
   bad.kind = StampKind::kGaussian;
   bad.radius = 0;
   client::TerrainClient c;
-  ASSERT_TRUE(c.connect("127.0.0.1", server_.port(), "crafty", wire::Role::kPlayer, token(kEditorToken)).ok());
+  ASSERT_TRUE(
+      c.connect("127.0.0.1", server_.port(), "crafty", wire::Role::kPlayer, token(kEditorToken)).ok());
   const uint32_t s1 = *c.deform(bad);
   QuantizedStamp tex = random_stamp(rng, good_.welcome().world);
   tex.kind = StampKind::kTexture;
@@ -173,10 +181,13 @@ TEST_F(BadInput, FloodBeyondTheRateLimitIsRejectedWithoutDisconnecting) {
   std::mt19937 rng(3);
   std::vector<uint32_t> seqs;
   for (int i = 0; i < 60; ++i) seqs.push_back(*c.deform(random_stamp(rng, c.welcome().world)));
-  ASSERT_TRUE(c.wait_until([&] {
-    for (uint32_t s : seqs) if (!c.ack(s)) return false;
-    return true;
-  }, 20s));
+  ASSERT_TRUE(c.wait_until(
+      [&] {
+        for (uint32_t s : seqs)
+          if (!c.ack(s)) return false;
+        return true;
+      },
+      20s));
   int limited = 0, accepted = 0;
   for (uint32_t s : seqs) {
     const auto a = c.ack(s);
@@ -191,7 +202,8 @@ TEST_F(BadInput, FloodBeyondTheRateLimitIsRejectedWithoutDisconnecting) {
 
 TEST_F(BadInput, ClientThatNeverReadsIsDroppedWithABoundedQueue) {
   client::TerrainClient lazy;
-  ASSERT_TRUE(lazy.connect("127.0.0.1", server_.port(), "lazy", wire::Role::kPlayer, token(kEditorToken)).ok());
+  ASSERT_TRUE(
+      lazy.connect("127.0.0.1", server_.port(), "lazy", wire::Role::kPlayer, token(kEditorToken)).ok());
   lazy.connection().pause_reading();
   // Every Subscribe with held version 0 asks for the tiles again: far more than any socket
   // buffer holds, so the server's queue for this client must hit its bound.

@@ -28,8 +28,10 @@ inline std::string temp_data_dir(const std::string& tag) {
 // conserving), footprints, flattens, small shockwaves, and detail-layer gaussians.
 inline QuantizedStamp random_stamp(std::mt19937& rng, const WorldParams& w) {
   const RectI r = w.sample_rect();
-  std::uniform_real_distribution<double> ux(double(r.x0) * w.meters_per_sample, double(r.x1 - 1) * w.meters_per_sample);
-  std::uniform_real_distribution<double> uy(double(r.y0) * w.meters_per_sample, double(r.y1 - 1) * w.meters_per_sample);
+  std::uniform_real_distribution<double> ux(double(r.x0) * w.meters_per_sample,
+                                            double(r.x1 - 1) * w.meters_per_sample);
+  std::uniform_real_distribution<double> uy(double(r.y0) * w.meters_per_sample,
+                                            double(r.y1 - 1) * w.meters_per_sample);
   std::uniform_real_distribution<double> radius(2.0, 40.0), depth(-3.0, 3.0), unit(0.0, 1.0);
   for (int attempt = 0; attempt < 100; ++attempt) {
     StampParams p;
@@ -88,8 +90,9 @@ inline ::testing::AssertionResult store_matches(client::TerrainClient& c, const 
   for (const TileCoord& t : c.store().held()) {
     const uint64_t want = expected.tile_state(t).hash;
     if (c.store().hash(t) != want) {
-      return ::testing::AssertionFailure() << "tile " << to_string(t) << " at version " << *c.store().version(t)
-                                           << " differs (expected version " << expected.tile_state(t).version << ")";
+      return ::testing::AssertionFailure()
+             << "tile " << to_string(t) << " at version " << *c.store().version(t)
+             << " differs (expected version " << expected.tile_state(t).version << ")";
     }
     ++checked;
   }

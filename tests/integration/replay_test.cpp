@@ -1,13 +1,13 @@
 // Replay determinism: the committed logs under tests/golden/replay/ (made by regenerate.sh
 // there) replay to the committed world hashes, through the library and through the
 // `loam-server replay` command a user runs.
+#include "server/replay.h"
+
 #include <gtest/gtest.h>
 
 #include <cstdio>
 #include <fstream>
 #include <sstream>
-
-#include "server/replay.h"
 
 namespace loam::test {
 namespace {
@@ -26,7 +26,8 @@ TEST(Replay, CommittedLogsReplayToCommittedWorldHashesWithTheCpuBackend) {
     EXPECT_EQ(got, hash) << name;
     EXPECT_EQ(r->failed_stamps, 0u) << name;
     // The same through the command line.
-    const std::string cmd = std::string(LOAM_SERVER_BINARY) + " replay " + dir + "/" + name + " --data-dir " + dir;
+    const std::string cmd =
+        std::string(LOAM_SERVER_BINARY) + " replay " + dir + "/" + name + " --data-dir " + dir;
     FILE* p = popen(cmd.c_str(), "r");
     ASSERT_NE(p, nullptr);
     std::stringstream out;

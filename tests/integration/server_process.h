@@ -38,8 +38,9 @@ class ServerProcess {
     port_file_ = data_dir + "/port";
     log_file_ = data_dir + "/server.log." + std::to_string(++starts_);
     fs::remove(port_file_);
-    std::vector<std::string> args = {LOAM_SERVER_BINARY, "serve", "--port", "0", "--port-file", port_file_,
-                                     "--data-dir", data_dir, "--stats-interval", "0"};
+    std::vector<std::string> args = {LOAM_SERVER_BINARY, "serve",    "--port",     "0",
+                                     "--port-file",      port_file_, "--data-dir", data_dir,
+                                     "--stats-interval", "0"};
     args.insert(args.end(), extra.begin(), extra.end());
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());

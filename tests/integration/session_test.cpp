@@ -50,10 +50,13 @@ TEST(Session, SixteenClientsDeformingConcurrentlyConvergeOnTheServersTiles) {
         auto s = c.deform(random_stamp(rng, c.welcome().world));
         if (s.ok()) seqs.push_back(*s);
       }
-      c.wait_until([&] {
-        for (uint32_t s : seqs) if (!c.ack(s)) return false;
-        return true;
-      }, 60s);
+      c.wait_until(
+          [&] {
+            for (uint32_t s : seqs)
+              if (!c.ack(s)) return false;
+            return true;
+          },
+          60s);
       for (uint32_t s : seqs) {
         const auto a = c.ack(s);
         if (a && a->accepted) {
@@ -75,8 +78,9 @@ TEST(Session, SixteenClientsDeformingConcurrentlyConvergeOnTheServersTiles) {
     client::TerrainClient& c = *clients[size_t(i)];
     const bool converged = c.wait_until([&] { return bool(store_matches(c, expected)); }, 60s);
     EXPECT_TRUE(converged) << "client " << i << ": " << store_matches(c, expected).message() << " regions "
-                           << c.store().counters().regions << " applied " << c.store().counters().events_applied
-                           << " buffered " << c.store().counters().events_buffered << " open " << c.connection().open()
+                           << c.store().counters().regions << " applied "
+                           << c.store().counters().events_applied << " buffered "
+                           << c.store().counters().events_buffered << " open " << c.connection().open()
                            << " in " << c.connection().bytes_in();
     EXPECT_EQ(c.hash_mismatches(), 0u) << "client " << i;
     EXPECT_EQ(c.store().buffered(), 0u) << "client " << i;
@@ -200,6 +204,22 @@ TEST(Recovery, CleanShutdownWritesASnapshotThatRestartsWithoutReplay) {
   client::TerrainClient c;
   ASSERT_TRUE(c.connect("127.0.0.1", again.port(), "two").ok());
   EXPECT_EQ(c.welcome().global_sequence, seq);
+  // Stats on request over the protocol.
+  ASSERT_TRUE(c.connection().send(wire::StatsRequest{99}).ok());
+  std::optional<wire::Stats> stats;
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (!stats && std::chrono::steady_clock::now() < deadline) {
+    auto m = c.connection().next(100ms);
+    ASSERT_TRUE(m.ok());
+    if (m->has_value()) {
+      if (auto* st = std::get_if<wire::Stats>(&**m)) stats = *st;
+    }
+  }
+  ASSERT_TRUE(stats.has_value());
+  EXPECT_EQ(stats->request_id, 99u);
+  EXPECT_EQ(stats->global_sequence, seq);
+  EXPECT_EQ(stats->clients, 1u);
+  EXPECT_GT(stats->bytes_out, 0u);
   EXPECT_EQ(again.terminate(), 0);
 }
 

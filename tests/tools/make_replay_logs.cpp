@@ -18,12 +18,15 @@ namespace {
 
 QuantizedStamp make_stamp(std::mt19937& rng, const WorldParams& w, int i) {
   const RectI r = w.sample_rect();
-  std::uniform_real_distribution<double> ux(double(r.x0) * w.meters_per_sample, double(r.x1 - 1) * w.meters_per_sample);
-  std::uniform_real_distribution<double> uy(double(r.y0) * w.meters_per_sample, double(r.y1 - 1) * w.meters_per_sample);
+  std::uniform_real_distribution<double> ux(double(r.x0) * w.meters_per_sample,
+                                            double(r.x1 - 1) * w.meters_per_sample);
+  std::uniform_real_distribution<double> uy(double(r.y0) * w.meters_per_sample,
+                                            double(r.y1 - 1) * w.meters_per_sample);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (;;) {
     StampParams p;
-    p.kind = StampKind(i % kStampKindCount == 0 ? 1 : i % kStampKindCount);  // no texture (no image registered)
+    p.kind =
+        StampKind(i % kStampKindCount == 0 ? 1 : i % kStampKindCount);  // no texture (no image registered)
     p.center_x = ux(rng);
     p.center_y = uy(rng);
     p.radius = 2.0 + 40.0 * unit(rng);
@@ -33,8 +36,10 @@ QuantizedStamp make_stamp(std::mt19937& rng, const WorldParams& w, int i) {
     if (p.kind == StampKind::kCrater) p.intensity = 0.5 + 3.0 * unit(rng), p.volume_conserving = i % 4 == 0;
     if (p.kind == StampKind::kFootprint) p.intensity = 0.3, p.radius = 3.0;
     if (p.kind == StampKind::kFlatten) p.intensity = 0.5, p.target = 30.0 * unit(rng);
-    if (p.kind == StampKind::kShockwave) p.radius = 6.0, p.intensity = 0.5, p.steps = 30, p.speed = 0.6, p.damping = 0.02;
-    if (i % 7 == 3) p.kind = StampKind::kGaussian, p.layer = Layer::kDetail, p.radius = 1.5, p.intensity = 0.05;
+    if (p.kind == StampKind::kShockwave)
+      p.radius = 6.0, p.intensity = 0.5, p.steps = 30, p.speed = 0.6, p.damping = 0.02;
+    if (i % 7 == 3)
+      p.kind = StampKind::kGaussian, p.layer = Layer::kDetail, p.radius = 1.5, p.intensity = 0.05;
     auto q = validate_stamp(p, w);
     if (q) return *q;
   }
@@ -72,7 +77,8 @@ int main(int argc, char** argv) {
     std::mt19937 rng(seed);
     const int count = 40 + int(seed) * 10;
     for (int i = 0; i < count; ++i) {
-      const Status st = writer->append({uint64_t(i + 1), uint64_t(i / 3), seed, make_stamp(rng, world->params(), i)});
+      const Status st =
+          writer->append({uint64_t(i + 1), uint64_t(i / 3), seed, make_stamp(rng, world->params(), i)});
       if (!st.ok()) {
         std::fprintf(stderr, "%s\n", st.error().describe().c_str());
         return 1;

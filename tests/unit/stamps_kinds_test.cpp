@@ -2,6 +2,8 @@
 // determinism, and the validation that guards it.
 #include <gtest/gtest.h>
 
+#include "tests/determinism/stamp_sequence.h"
+
 #include <cmath>
 #include <functional>
 #include <string>
@@ -563,42 +565,12 @@ TEST(StampSaturation, TenThousandAddSubtractPairsReturnToTheSameHashWithoutDrift
   EXPECT_EQ(w.world_hash(), h0);
 }
 
-// A fixed pseudo-random sequence of every kind on both layers (integer LCG: no libm).
+// The sequence lives in tests/determinism/ so a clang build can run it too.
 uint64_t seeded_sequence_hash() {
-  World w(corner_world_params(), kMid);
-  TextureRegistry reg;
-  const uint64_t tex = register_half_image(reg);
-  uint64_t state = 0x2545F4914F6CDD1Dull;
-  auto next = [&](uint32_t n) {
-    state = state * 6364136223846793005ull + 1442695040888963407ull;
-    return uint32_t((state >> 33) % n);
-  };
-  for (uint64_t seq = 1; seq <= 60; ++seq) {
-    StampParams s;
-    s.kind = StampKind(next(kStampKindCount));
-    s.layer = next(3) == 0 ? Layer::kDetail : Layer::kCoarse;
-    s.center_x = double(int32_t(next(4000)) - 2000) / 8.0;
-    s.center_y = double(int32_t(next(4000)) - 2000) / 8.0;
-    s.radius = 0.5 + double(next(400)) / 10.0;
-    s.rotation = double(next(1000)) / 100.0;
-    s.intensity = (double(next(200)) - 100.0) / (s.layer == Layer::kCoarse ? 20.0 : 200.0);
-    s.shape = double(next(100)) / 100.0;
-    s.texture_id = tex;
-    s.steps = 1 + next(20);
-    s.speed = 0.2 + double(next(70)) / 100.0;
-    s.damping = double(next(10)) / 100.0;
-    if (s.kind == StampKind::kFlatten) s.intensity = double(next(100)) / 100.0;
-    if (s.kind == StampKind::kFootprint) s.intensity = std::fabs(s.intensity);
-    if (s.kind == StampKind::kCrater) s.volume_conserving = next(2) == 1;
-    s.target = s.layer == Layer::kCoarse ? double(next(900)) + 100.0 : 0.1;
-    if (s.kind == StampKind::kGaussian || s.kind == StampKind::kTexture) s.blend = BlendMode(next(4));
-    const auto q = validate_stamp(s, w.params(), {}, &reg);
-    EXPECT_TRUE(q.ok()) << q.error().describe();
-    if (!q.ok()) continue;
-    EXPECT_TRUE(apply_stamp(w, q.value(), &reg).ok());
-    w.commit(seq);
-  }
-  return w.world_hash();
+  std::string error;
+  const uint64_t h = determinism::golden_stamp_sequence_hash(&error);
+  EXPECT_TRUE(error.empty()) << error;
+  return h;
 }
 
 TEST(StampDeterminism, TheSameStampSequenceTwiceGivesTheSameWorldHash) {
@@ -609,7 +581,7 @@ TEST(StampDeterminism, TheSameStampSequenceTwiceGivesTheSameWorldHash) {
 // platform) must reproduce it. If an intentional change of the stamp arithmetic moves it,
 // update the constant and docs/stamps.md together.
 TEST(StampDeterminism, SeededSequenceReproducesTheGoldenHashOnEveryCompiler) {
-  EXPECT_EQ(seeded_sequence_hash(), 0xc875caa4907e2017ull) << std::hex << seeded_sequence_hash();
+  EXPECT_EQ(seeded_sequence_hash(), determinism::kGoldenStampSequenceHash) << std::hex << seeded_sequence_hash();
 }
 
 }  // namespace

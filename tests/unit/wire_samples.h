@@ -123,6 +123,21 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   missing.image_id = 17;
   missing.found = false;
   v.emplace_back("stamp_image_missing", missing);
+  v.emplace_back("stats_request", StatsRequest{7});
+  Stats st;
+  st.request_id = 7;
+  st.clients = 3;
+  st.global_sequence = 123456;
+  st.deforms_accepted = 123456;
+  st.deforms_rejected = 12;
+  st.violations = 4;
+  st.bytes_in = 1u << 20;
+  st.bytes_out = 1ull << 33;
+  st.tick_overruns = 2;
+  st.tick_p50_us = 850;
+  st.tick_p99_us = 4100;
+  st.uptime_ms = 3600000;
+  v.emplace_back("stats", st);
   return v;
 }
 

@@ -1,0 +1,123 @@
+// The GPU geometry-clipmap renderer: per-level height textures kept current toroidally, one
+// shared index buffer (clipmap_mesh.h), vertex texture fetch at exact sample positions,
+// transition-band geomorphing of positions and normals, FD4 normals, sun + sky lighting with
+// height/slope materials, per-piece frustum culling and camera-relative positions.
+//
+// Level l reads mip l (spacing 2^l mip-0 samples) from a HeightSource into an R16UI texture of
+// N x N texels, N = n + 2 * kLevelPad: the n vertex samples plus the neighbours FD4 normals at
+// the coarser spacing reach. Mip-l sample (gx, gy) lives at texel (gx mod N, gy mod N), so a
+// camera move uploads only the strips that came into view. Positions are formed relative to
+// an integer anchor (the outermost level's origin, a multiple of 2^L samples) and the camera's
+// offset from it, so nothing large reaches float: a view 10,000 km out renders as at home.
+//
+// World frame: x east (+gx), y along +gy (south in a DEM), z up, meters. Needs the GL 4.5
+// context current; not thread-safe.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "client/render/clipmap_mesh.h"
+#include "gpu/gl_handle.h"
+#include "protocol/world.h"
+
+namespace loam::render {
+
+// Where level textures get their samples: the server's world, a local DEM, or (later) the
+// client's confirmed store plus its overlay.
+class HeightSource {
+ public:
+  virtual ~HeightSource() = default;
+  virtual const WorldParams& params() const = 0;
+  // Mip-`mip` samples of `rect` (that mip's grid: sample i is mip-0 sample i * 2^mip),
+  // row-major into `out` (rect.area() values). Samples outside the world clamp to its edge.
+  virtual void read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const = 0;
+};
+
+class WorldHeightSource final : public HeightSource {
+ public:
+  explicit WorldHeightSource(const World& world) : world_(world) {}
+  const WorldParams& params() const override { return world_.params(); }
+  void read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const override;
+
+ private:
+  const World& world_;
+};
+
+struct Camera {
+  double x = 0, y = 0, z = 100;    // world meters
+  double fx = 1, fy = 0, fz = 0;   // forward (world frame; need not be unit)
+  double ux = 0, uy = 0, uz = 1;   // up hint
+  double fov_y_degrees = 60.0;     // perspective
+  double ortho_half_height = 0.0;  // > 0: orthographic, this many meters up from centre
+  double near_m = 0.5, far_m = 20000.0;
+  // Where the clipmap is centred, when not under the camera (tests that hold the view still
+  // while the levels move); world meters.
+  std::optional<std::array<double, 2>> lod_center;
+};
+
+struct RendererConfig {
+  int32_t n = 127;     // vertices per level side, 2^k - 1
+  int32_t levels = 0;  // 0: enough to reach view_distance
+  double view_distance = 4000.0;
+  bool morph = true;                          // transition-band geomorphing
+  bool cull = true;                           // per-piece frustum culling
+  double min_height_m = 0, max_height_m = 0;  // material range; equal: from the source's mip
+  float sun_azimuth_degrees = 135.0f, sun_elevation_degrees = 35.0f;
+};
+
+struct FrameStats {
+  int64_t triangles = 0;  // non-degenerate triangles submitted
+  int32_t draw_calls = 0;
+  int32_t pieces_culled = 0;
+  int64_t texels_uploaded = 0;  // by this frame's level update
+};
+
+class ClipmapRenderer {
+ public:
+  static constexpr int32_t kLevelPad = 5;
+
+  // `source` must outlive the renderer.
+  static Result<std::unique_ptr<ClipmapRenderer>> create(const HeightSource& source,
+                                                         const RendererConfig& config);
+
+  // Brings the level textures to the camera (toroidal strips only) and draws into the bound
+  // framebuffer's viewport of width x height. Depth test on; clears nothing.
+  FrameStats render(const Camera& camera, int32_t width, int32_t height);
+  // The level-texture half of render(), for tests of the upload traffic.
+  int64_t update_levels(const Camera& camera);
+  // Samples of `mip0_rect` changed in the source: re-read them into every level holding them.
+  void invalidate(const RectI& mip0_rect);
+
+  int32_t levels() const { return levels_; }
+  const RendererConfig& config() const { return config_; }
+  void set_morph(bool on) { config_.morph = on; }
+  const std::vector<LevelPlacement>& placements() const { return placed_; }
+
+ private:
+  struct Level {
+    gpu::GlTexture texture;
+    std::vector<uint16_t> mirror;  // N x N, the texture's content, for culling bounds
+    bool valid = false;
+    int64_t region_x = 0, region_y = 0;  // level-grid sample at the region's low corner
+  };
+  ClipmapRenderer() = default;
+  int64_t upload(Level& level, int32_t mip, const RectI& rect);  // rect in the level grid
+  std::array<double, 2> lod_center_samples(const Camera& camera) const;
+
+  const HeightSource* source_ = nullptr;
+  RendererConfig config_;
+  int32_t levels_ = 0, tex_size_ = 0;
+  std::optional<ClipmapMesh> mesh_;
+  std::vector<Level> level_;
+  std::vector<LevelPlacement> placed_;
+  gpu::GlBuffer indices_;
+  gpu::GlVertexArray vao_;
+  gpu::GlProgram program_;
+  std::vector<uint16_t> scratch_;
+};
+
+}  // namespace loam::render

@@ -1,0 +1,195 @@
+#include "client/render/headless.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "dem/default_terrain.h"
+#include "dem/dem_import.h"
+#include "gpu/egl_context.h"
+
+namespace loam::render {
+
+Result<OffscreenTarget> OffscreenTarget::create(int32_t width, int32_t height) {
+  if (width < 1 || height < 1 || width > 16384 || height > 16384) {
+    return make_error(ErrorCode::kInvalidArgument, "render.size", "must be 1..16384 each way");
+  }
+  OffscreenTarget t;
+  t.width_ = width;
+  t.height_ = height;
+  t.color_ = gpu::make_texture(GL_TEXTURE_2D);
+  glTextureStorage2D(t.color_.get(), 1, GL_RGBA8, width, height);
+  t.depth_ = gpu::make_texture(GL_TEXTURE_2D);
+  glTextureStorage2D(t.depth_.get(), 1, GL_DEPTH_COMPONENT32F, width, height);
+  GLuint fbo = 0;
+  glCreateFramebuffers(1, &fbo);
+  t.fbo_ = gpu::GlFramebuffer(fbo);
+  glNamedFramebufferTexture(fbo, GL_COLOR_ATTACHMENT0, t.color_.get(), 0);
+  glNamedFramebufferTexture(fbo, GL_DEPTH_ATTACHMENT, t.depth_.get(), 0);
+  if (glCheckNamedFramebufferStatus(fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+    return make_error(ErrorCode::kUnsupported, "render.framebuffer",
+                      "RGBA8 + depth32F framebuffer incomplete");
+  }
+  return t;
+}
+
+void OffscreenTarget::begin(float r, float g, float b, float a) const {
+  glBindFramebuffer(GL_FRAMEBUFFER, fbo_.get());
+  glViewport(0, 0, width_, height_);
+  glClearColor(r, g, b, a);
+  glClearDepth(1.0);
+  glDepthMask(GL_TRUE);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+}
+
+std::vector<uint8_t> OffscreenTarget::read_rgba() const {
+  const size_t row = size_t(width_) * 4;
+  std::vector<uint8_t> gl(row * size_t(height_)), out(gl.size());
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glGetTextureImage(color_.get(), 0, GL_RGBA, GL_UNSIGNED_BYTE, GLsizei(gl.size()), gl.data());
+  // GL's row 0 is the bottom: flip so row 0 is the top, as images are stored.
+  for (int32_t y = 0; y < height_; ++y) {
+    std::copy_n(gl.begin() + ptrdiff_t(size_t(height_ - 1 - y) * row), row,
+                out.begin() + ptrdiff_t(size_t(y) * row));
+  }
+  return out;
+}
+
+std::vector<float> OffscreenTarget::read_depth() const {
+  const size_t w = size_t(width_);
+  std::vector<float> gl(w * size_t(height_)), out(gl.size());
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glGetTextureImage(depth_.get(), 0, GL_DEPTH_COMPONENT, GL_FLOAT, GLsizei(gl.size() * sizeof(float)),
+                    gl.data());
+  for (int32_t y = 0; y < height_; ++y) {
+    std::copy_n(gl.begin() + ptrdiff_t(size_t(height_ - 1 - y) * w), w,
+                out.begin() + ptrdiff_t(size_t(y) * w));
+  }
+  return out;
+}
+
+Status write_png(const std::string& path, int32_t width, int32_t height, const std::vector<uint8_t>& rgba,
+                 bool keep_alpha) {
+  const int channels = keep_alpha ? 4 : 3;
+  std::vector<uint8_t> pixels;
+  if (keep_alpha) {
+    pixels = rgba;
+  } else {
+    pixels.reserve(size_t(width) * size_t(height) * 3);
+    for (size_t i = 0; i < rgba.size(); i += 4)
+      pixels.insert(pixels.end(), {rgba[i], rgba[i + 1], rgba[i + 2]});
+  }
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) return make_error(ErrorCode::kIo, path, "no image writer for this file name");
+  OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
+  if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, pixels.data()) || !out->close()) {
+    return make_error(ErrorCode::kIo, path, out->geterror());
+  }
+  return {};
+}
+
+Camera look_at(double x, double y, double z, double tx, double ty, double tz) {
+  Camera c;
+  c.x = x, c.y = y, c.z = z;
+  c.fx = tx - x, c.fy = ty - y, c.fz = tz - z;
+  return c;
+}
+
+int run_render_command(const RenderCommandOptions& o) {
+  auto ctx = gpu::EglContext::create();
+  if (!ctx) {
+    std::fprintf(stderr, "loam-client render: %s\n", ctx.error().describe().c_str());
+    return 2;
+  }
+  if (const Status st = ctx->make_current(); !st.ok()) {
+    std::fprintf(stderr, "loam-client render: %s\n", st.error().describe().c_str());
+    return 2;
+  }
+  Result<ImportedWorld> imported = make_error(ErrorCode::kNotFound, "dem", "not loaded");
+  if (o.dem.empty()) {
+    imported = load_default_terrain();
+  } else {
+    auto raster = read_dem_file(o.dem);
+    if (!raster) {
+      std::fprintf(stderr, "loam-client render: %s\n", raster.error().describe().c_str());
+      return 1;
+    }
+    imported = import_dem(*raster);
+  }
+  if (!imported) {
+    std::fprintf(stderr, "loam-client render: %s\n", imported.error().describe().c_str());
+    return 1;
+  }
+  const World& world = imported->world;
+  WorldHeightSource source(world);
+  RendererConfig cfg;
+  cfg.n = o.n;
+  cfg.levels = o.levels;
+  cfg.view_distance = o.view_distance;
+  cfg.morph = o.morph;
+  auto renderer = ClipmapRenderer::create(source, cfg);
+  auto target = OffscreenTarget::create(o.width, o.height);
+  if (!renderer || !target) {
+    std::fprintf(stderr, "loam-client render: %s\n",
+                 (!renderer ? renderer.error() : target.error()).describe().c_str());
+    return 1;
+  }
+  std::vector<std::array<double, 6>> frames;
+  if (o.path.empty()) {
+    frames.push_back({o.camera[0], o.camera[1], o.camera[2], o.look[0], o.look[1], o.look[2]});
+  } else {
+    std::ifstream in(o.path);
+    if (!in) {
+      std::fprintf(stderr, "loam-client render: cannot read %s\n", o.path.c_str());
+      return 1;
+    }
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream ls(line);
+      std::array<double, 6> f{};
+      if (!(ls >> f[0] >> f[1] >> f[2] >> f[3] >> f[4] >> f[5])) {
+        std::fprintf(stderr, "loam-client render: %s: bad line \"%s\" (want x y z tx ty tz)\n",
+                     o.path.c_str(), line.c_str());
+        return 1;
+      }
+      frames.push_back(f);
+    }
+  }
+  std::printf("render: %s, %dx%d, n %d, %d levels, morph %s, renderer %s\n",
+              o.dem.empty() ? "default terrain" : o.dem.c_str(), o.width, o.height, o.n,
+              (*renderer)->levels(), o.morph ? "on" : "off", ctx->renderer().c_str());
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const auto& f = frames[i];
+    Camera cam = look_at(f[0], f[1], f[2], f[3], f[4], f[5]);
+    cam.fov_y_degrees = o.fov_y_degrees;
+    cam.far_m = o.view_distance * 2.0;
+    const auto t0 = std::chrono::steady_clock::now();
+    target->begin(0.50f, 0.60f, 0.75f, 0.0f);
+    const FrameStats s = (*renderer)->render(cam, o.width, o.height);
+    glFinish();
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    std::string file = o.out;
+    if (frames.size() > 1) {
+      char suffix[32];
+      std::snprintf(suffix, sizeof suffix, "_%04zu", i);
+      const size_t dot = file.rfind('.');
+      file = dot == std::string::npos ? file + suffix : file.substr(0, dot) + suffix + file.substr(dot);
+    }
+    if (const Status st = write_png(file, o.width, o.height, target->read_rgba()); !st.ok()) {
+      std::fprintf(stderr, "loam-client render: %s\n", st.error().describe().c_str());
+      return 1;
+    }
+    std::printf(
+        "frame %zu: %.2f ms, %lld triangles, %d draw calls, %d pieces culled, %lld texels uploaded -> %s\n",
+        i, ms, (long long)s.triangles, s.draw_calls, s.pieces_culled, (long long)s.texels_uploaded,
+        file.c_str());
+  }
+  return 0;
+}
+
+}  // namespace loam::render
