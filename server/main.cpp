@@ -36,7 +36,8 @@ int serve(const server::ServerConfig& config) {
   if (config.tick_hz < 1 || config.tick_hz > 1000) throw std::runtime_error("--tick-hz must be in 1..1000");
   const auto kind = gpu::parse_backend_kind(config.backend);
   if (!kind) die(kind.error());
-  auto opened = server::open_storage(config.data_dir, config.dem_path, config.stamp_limits);
+  auto opened =
+      server::open_storage(config.data_dir, config.dem_path, config.stamp_limits, config.stamp_images);
   if (!opened) die(opened.error());
   // Recovery replays on the CPU; the backend then starts from the recovered world.
   auto backend = gpu::make_stamp_backend(*kind, opened->terrain.world(), &opened->terrain.textures(),
@@ -55,6 +56,12 @@ int serve(const server::ServerConfig& config) {
                      {"truncated_bytes", std::to_string(r.truncated_bytes)},
                      {"last_seq", std::to_string(r.last_seq)}});
   if (!r.damage.empty()) server::log_event("log_repaired", {{"damage", r.damage}});
+  for (const StampTexture* t : opened->terrain.textures().all()) {
+    char id[20];
+    std::snprintf(id, sizeof id, "%016llx", (unsigned long long)t->id);
+    server::log_event("stamp_image",
+                      {{"id", id}, {"size", std::to_string(t->width) + "x" + std::to_string(t->height)}});
+  }
   for (const std::string& s : r.skipped) server::log_event("snapshot_skipped", {{"why", s}});
   asio::io_context io;
   server::Server srv(io, config, std::move(*opened));
@@ -91,6 +98,8 @@ int main(int argc, char** argv) {
   serve_cmd->add_option("--port-file", config.port_file, "Write the bound port to this file");
   serve_cmd->add_option("--dem", config.dem_path, "Initial terrain DEM (default: the embedded terrain)");
   serve_cmd->add_option("--data-dir", config.data_dir, "Log and snapshot folder")->capture_default_str();
+  serve_cmd->add_option("--stamp-image", config.stamp_images,
+                        "Grayscale image (PNG/TIFF/EXR) to register for texture stamps (repeatable)");
   serve_cmd->add_option("--backend", config.backend, "Stamp backend: auto, gpu or cpu")
       ->capture_default_str();
   serve_cmd->add_option("--tick-hz", config.tick_hz, "Ticks per second")->capture_default_str();

@@ -13,9 +13,10 @@ namespace loam::server {
 
 struct ServerConfig {
   std::string bind_address = "127.0.0.1";
-  uint16_t port = 7878;   // 0: an ephemeral port (see port_file)
-  std::string port_file;  // when set, the bound port is written there once listening
-  std::string dem_path;   // empty: the embedded default terrain
+  uint16_t port = 7878;                   // 0: an ephemeral port (see port_file)
+  std::string port_file;                  // when set, the bound port is written there once listening
+  std::string dem_path;                   // empty: the embedded default terrain
+  std::vector<std::string> stamp_images;  // texture-stamp image files to register
   std::string data_dir = "loam-data";
   std::string backend = "cpu";  // auto | gpu | cpu
   uint32_t tick_hz = 30;

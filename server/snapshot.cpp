@@ -21,7 +21,7 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr char kMagic[8] = {'L', 'O', 'A', 'M', 'S', 'N', 'A', 'P'};
-constexpr uint32_t kFormat = 1;
+constexpr uint32_t kFormat = 2;  // 2: texture-stamp images after the tile sections
 
 Error io_error(const std::string& path, const std::string& what) {
   return make_error(ErrorCode::kIo, path, what + ": " + std::strerror(errno));
@@ -126,7 +126,6 @@ std::string snapshot_dir_name(uint64_t snapshot_id) {
 
 Result<std::string> write_snapshot(const std::string& data_dir, const World& world, uint64_t last_seq,
                                    uint32_t next_segment_index, const TextureRegistry& textures) {
-  (void)textures;  // texture images are not yet stored (see docs/configuration.md)
   const WorldParams& p = world.params();
   std::vector<uint8_t> bin;
   put(bin, kMagic, sizeof kMagic);
@@ -175,6 +174,15 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
   }
   put_le<uint32_t>(bin, uint32_t(mip_tiles.size()));
   for (const TileCoord& c : mip_tiles) put_tile(c, {});
+  // Section 4: texture-stamp images (content-addressed: the id is recomputed on load).
+  const auto images = textures.all();
+  put_le<uint32_t>(bin, uint32_t(images.size()));
+  for (const StampTexture* t : images) {
+    put_le<uint64_t>(bin, t->id);
+    put_le<int32_t>(bin, t->width);
+    put_le<int32_t>(bin, t->height);
+    put(bin, t->samples.data(), t->samples.size() * sizeof(uint16_t));
+  }
   put_le<uint64_t>(bin, XXH3_64bits(bin.data(), bin.size()));
 
   const auto now = std::chrono::system_clock::now().time_since_epoch();
@@ -311,6 +319,31 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path) {
       versions.push_back({c, *version, *hash});
     }
   }
+  auto image_count = r.get<uint32_t>("texture count");
+  if (!image_count) return image_count.error();
+  if (*image_count > 4096) return make_error(ErrorCode::kCorrupt, tpath, "texture count too large");
+  std::vector<StampTexture> images;
+  for (uint32_t i = 0; i < *image_count; ++i) {
+    auto id = r.get<uint64_t>("texture id");
+    auto w = r.get<int32_t>("texture width");
+    auto h = r.get<int32_t>("texture height");
+    if (!id || !w || !h) return make_error(ErrorCode::kTruncated, tpath, "texture record truncated");
+    if (*w <= 0 || *h <= 0 || *w > kMaxTextureSide || *h > kMaxTextureSide) {
+      return make_error(ErrorCode::kCorrupt, tpath, "texture size out of range");
+    }
+    const size_t bytes_needed = size_t(*w) * size_t(*h) * sizeof(uint16_t);
+    if (bytes_needed > r.bytes.size() - r.at)
+      return make_error(ErrorCode::kTruncated, tpath, "texture samples truncated");
+    StampTexture t;
+    t.width = *w;
+    t.height = *h;
+    t.samples.resize(size_t(*w) * size_t(*h));
+    std::memcpy(t.samples.data(), r.bytes.data() + r.at, bytes_needed);
+    r.at += bytes_needed;
+    t.id = texture_content_id(t.width, t.height, t.samples);
+    if (t.id != *id) return make_error(ErrorCode::kCorrupt, tpath, "texture content does not match its id");
+    images.push_back(std::move(t));
+  }
   if (r.at != r.bytes.size()) return make_error(ErrorCode::kCorrupt, tpath, "trailing bytes");
   world.commit(0);
   for (const Versioned& v : versions) {
@@ -321,7 +354,7 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path) {
   }
   if (world.world_hash() != manifest->world_hash)
     return make_error(ErrorCode::kCorrupt, tpath, "world hash mismatch");
-  return LoadedSnapshot{*manifest, std::move(world), path};
+  return LoadedSnapshot{*manifest, std::move(world), path, std::move(images)};
 }
 
 std::vector<std::string> list_snapshots(const std::string& data_dir) {

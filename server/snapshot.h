@@ -5,7 +5,8 @@
 // a temporary folder, every file fsynced, then renamed into place and the parent fsynced, so
 // a crash leaves either the old set or the complete new one. tiles.bin holds every mip-0
 // coarse tile and stored detail tile (region codec, fast mode) with its version and hash,
-// then the versions of every mip tile, then an XXH3-64 of the file. Reading verifies the
+// then the versions of every mip tile, then the texture-stamp images, then an XXH3-64 of the
+// file. Reading verifies the
 // checksum, every tile hash and the world hash: a damaged snapshot is an Error (recovery
 // then falls back to an older one), never a half-loaded world.
 #pragma once
@@ -35,6 +36,7 @@ struct LoadedSnapshot {
   SnapshotManifest manifest;
   World world;
   std::string path;
+  std::vector<StampTexture> textures;  // texture-stamp images, verified against their ids
 };
 
 std::string snapshot_dir_name(uint64_t snapshot_id);

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <filesystem>
 
+#include "dem/stamp_texture_io.h"
 #include "server/snapshot.h"
 #include "server/terrain_source.h"
 
@@ -35,8 +36,16 @@ std::vector<std::string> list_segments(const std::string& data_dir) {
 }
 
 struct StorageOpener {
+  static Status register_images(TerrainState& terrain, const std::vector<std::string>& files) {
+    for (const std::string& f : files) {
+      auto id = register_stamp_texture_file(terrain.textures(), f);
+      if (!id) return id.error();
+    }
+    return {};
+  }
+
   static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path,
-                                    const StampLimits& limits) {
+                                    const StampLimits& limits, const std::vector<std::string>& stamp_images) {
     std::error_code ec;
     fs::create_directories(fs::path(data_dir) / "log", ec);
     if (ec) return make_error(ErrorCode::kIo, data_dir, "cannot create the data folder: " + ec.message());
@@ -64,7 +73,9 @@ struct StorageOpener {
       if (!writer) return writer.error();
       storage.writer_.emplace(std::move(*writer));
       storage.initial_ = initial;
-      return OpenedStorage{std::move(storage), TerrainState(std::move(*world), 0, limits), report};
+      TerrainState terrain(std::move(*world), 0, limits);
+      LOAM_TRY(register_images(terrain, stamp_images));
+      return OpenedStorage{std::move(storage), std::move(terrain), report};
     }
 
     report.fresh = false;
@@ -112,6 +123,13 @@ struct StorageOpener {
       world = std::move(*initial_world);
     }
     TerrainState terrain(std::move(world), base, limits);
+    if (snap) {
+      for (const StampTexture& t : snap->textures) {
+        auto id = terrain.textures().add(t.width, t.height, t.samples);
+        if (!id) return id.error();
+      }
+    }
+    LOAM_TRY(register_images(terrain, stamp_images));
     for (const log::SegmentScan& scan : *scans) {
       for (const log::LogRecord& r : scan.records) {
         if (r.global_seq <= base) continue;
@@ -135,8 +153,8 @@ struct StorageOpener {
 };
 
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
-                                   const StampLimits& limits) {
-  return StorageOpener::open(data_dir, dem_path, limits);
+                                   const StampLimits& limits, const std::vector<std::string>& stamp_images) {
+  return StorageOpener::open(data_dir, dem_path, limits, stamp_images);
 }
 
 Result<std::string> Storage::snapshot(const TerrainState& terrain) {

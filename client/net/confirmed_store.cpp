@@ -151,6 +151,12 @@ uint64_t ConfirmedStore::hash(const TileCoord& c) const {
   return d.empty() ? zero_detail_tile_hash() : hash_detail_tile(d);
 }
 
+std::vector<TileCoord> ConfirmedStore::wanted() const {
+  std::vector<TileCoord> out;
+  for (const auto& [c, w] : wanted_) out.push_back(c);
+  return out;
+}
+
 std::vector<TileCoord> ConfirmedStore::held() const {
   std::vector<TileCoord> out;
   for (const auto& [c, v] : versions_) out.push_back(c);

@@ -52,6 +52,8 @@ class ConfirmedStore {
   std::optional<uint64_t> version(const TileCoord& c) const;
   uint64_t hash(const TileCoord& c) const;  // of the held samples (0 if not held)
   std::vector<TileCoord> held() const;
+  // Every tile the client asked for (held or still awaiting its first region).
+  std::vector<TileCoord> wanted() const;
   size_t buffered() const { return buffer_.size(); }
   const StoreCounters& counters() const { return counters_; }
   // Samples of a held coarse tile (empty span if not held).

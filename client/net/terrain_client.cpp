@@ -4,18 +4,39 @@
 
 namespace loam::client {
 
-Status TerrainClient::connect(const std::string& host, uint16_t port, const std::string& name,
-                              wire::Role role, std::optional<wire::SessionToken> token) {
+Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   wire::Hello hello;
-  hello.client_name = name;
-  hello.requested_role = role;
-  hello.session_token = token;
-  auto w = connection_.connect(host, port, hello);
+  hello.client_name = name_;
+  hello.requested_role = role_;
+  hello.session_token = token_;
+  auto w = connection_->connect(host, port, hello);
   if (!w) return w.error();
   welcome_ = *w;
+  return {};
+}
+
+Status TerrainClient::connect(const std::string& host, uint16_t port, const std::string& name,
+                              wire::Role role, std::optional<wire::SessionToken> token) {
+  name_ = name;
+  role_ = role;
+  token_ = token;
+  LOAM_TRY(handshake(host, port));
   store_ = std::make_unique<ConfirmedStore>(welcome_.world);
   last_seen_seq_ = welcome_.global_sequence;
   return {};
+}
+
+Status TerrainClient::reconnect(const std::string& host, uint16_t port) {
+  if (!store_) return make_error(ErrorCode::kInvalidArgument, "reconnect", "never connected");
+  const WorldParams before = welcome_.world;
+  connection_ = std::make_unique<Connection>();
+  assemblers_.clear();  // a region cut off mid-transfer is requested again below
+  LOAM_TRY(handshake(host, port));
+  if (!(welcome_.world == before)) {
+    return make_error(ErrorCode::kUnsupported, "welcome.world", "the server hosts a different world now");
+  }
+  std::vector<TileCoord> tiles = store_->wanted();
+  return subscribe(tiles);
 }
 
 std::vector<TileCoord> TerrainClient::all_coarse_tiles(int32_t mip) const {
@@ -34,17 +55,17 @@ Status TerrainClient::subscribe(const std::vector<TileCoord>& tiles) {
     store_->want(c);
     sub.entries.push_back({c, store_->version(c).value_or(0)});
     if (sub.entries.size() == wire::kMaxSubscribeEntries) {
-      LOAM_TRY(connection_.send(sub));
+      LOAM_TRY(connection_->send(sub));
       sub.entries.clear();
     }
   }
-  if (!sub.entries.empty()) LOAM_TRY(connection_.send(sub));
+  if (!sub.entries.empty()) LOAM_TRY(connection_->send(sub));
   return {};
 }
 
 Result<uint32_t> TerrainClient::deform(const QuantizedStamp& stamp) {
   const uint32_t seq = next_client_seq_++;
-  LOAM_TRY(connection_.send(wire::Deform{seq, stamp}));
+  LOAM_TRY(connection_->send(wire::Deform{seq, stamp}));
   return seq;
 }
 
@@ -107,20 +128,20 @@ Status TerrainClient::handle(wire::Message& m) {
         // Repair: ask for the tiles again as if we held nothing.
         wire::Subscribe sub;
         for (const TileCoord& c : bad) sub.entries.push_back({c, 0});
-        return connection_.send(sub);
+        return connection_->send(sub);
       }
       return {};
     }
     case wire::MessageType::kError: errors_.push_back(std::get<wire::ErrorMsg>(m)); return {};
     case wire::MessageType::kBye: bye_ = std::get<wire::Bye>(m); return {};
     case wire::MessageType::kPing:
-      return connection_.send(wire::Pong{std::get<wire::Ping>(m).client_time_us, 0});
+      return connection_->send(wire::Pong{std::get<wire::Ping>(m).client_time_us, 0});
     default: return {};
   }
 }
 
 Status TerrainClient::pump(std::chrono::milliseconds timeout) {
-  auto m = connection_.next(timeout);
+  auto m = connection_->next(timeout);
   while (true) {
     if (!m) return m.error();
     if (!m->has_value()) return {};
@@ -129,7 +150,7 @@ Status TerrainClient::pump(std::chrono::milliseconds timeout) {
       // repaired by the next hash check; it does not end the session.
       local_errors_.push_back(st.error());
     }
-    m = connection_.next(std::chrono::milliseconds(0));
+    m = connection_->next(std::chrono::milliseconds(0));
   }
 }
 

@@ -31,8 +31,11 @@ class TerrainClient {
 
   Status connect(const std::string& host, uint16_t port, const std::string& name,
                  wire::Role role = wire::Role::kPlayer, std::optional<wire::SessionToken> token = {});
+  // Reconnects after a lost connection and resumes: the store is kept, and every tile is
+  // subscribed again with the version held, so the server sends only tiles that changed.
+  Status reconnect(const std::string& host, uint16_t port);
   const wire::Welcome& welcome() const { return welcome_; }
-  Connection& connection() { return connection_; }
+  Connection& connection() { return *connection_; }
 
   // Subscribes to tiles (held versions from the store, so a reconnect resumes).
   Status subscribe(const std::vector<TileCoord>& tiles);
@@ -61,7 +64,12 @@ class TerrainClient {
   Status handle(wire::Message& m);
   Status on_region_chunk(const wire::RegionUpdate& r);
 
-  Connection connection_;
+  Status handshake(const std::string& host, uint16_t port);
+
+  std::unique_ptr<Connection> connection_ = std::make_unique<Connection>();
+  std::string name_;
+  wire::Role role_ = wire::Role::kPlayer;
+  std::optional<wire::SessionToken> token_;
   wire::Welcome welcome_;
   std::unique_ptr<ConfirmedStore> store_;
   std::map<TileCoord, wire::RegionAssembler> assemblers_;

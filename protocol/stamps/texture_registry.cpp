@@ -2,6 +2,7 @@
 
 #include <xxhash.h>
 
+#include <algorithm>
 #include <string>
 
 namespace loam {
@@ -48,6 +49,15 @@ Result<uint64_t> TextureRegistry::add(int32_t width, int32_t height, std::span<c
 const StampTexture* TextureRegistry::find(uint64_t id) const {
   const auto it = textures_.find(id);
   return it == textures_.end() ? nullptr : it->second.get();
+}
+
+std::vector<const StampTexture*> TextureRegistry::all() const {
+  std::vector<const StampTexture*> out;
+  out.reserve(textures_.size());
+  for (const auto& [id, t] : textures_) out.push_back(t.get());
+  std::sort(out.begin(), out.end(),
+            [](const StampTexture* a, const StampTexture* b) { return a->id < b->id; });
+  return out;
 }
 
 }  // namespace loam

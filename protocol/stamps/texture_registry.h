@@ -39,6 +39,8 @@ class TextureRegistry {
   // The image with this id, or nullptr.
   const StampTexture* find(uint64_t id) const;
   bool contains(uint64_t id) const { return find(id) != nullptr; }
+  // Every registered image, ordered by id (snapshots store them in this order).
+  std::vector<const StampTexture*> all() const;
   size_t size() const { return textures_.size(); }
 
  private:

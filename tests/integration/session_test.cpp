@@ -5,6 +5,9 @@
 #include <atomic>
 #include <thread>
 
+#include "dem/default_terrain.h"
+#include "dem/dem_export.h"
+#include "dem/stamp_texture_io.h"
 #include "integration_util.h"
 #include "server_process.h"
 
@@ -220,6 +223,122 @@ TEST(Recovery, CleanShutdownWritesASnapshotThatRestartsWithoutReplay) {
   EXPECT_EQ(stats->global_sequence, seq);
   EXPECT_EQ(stats->clients, 1u);
   EXPECT_GT(stats->bytes_out, 0u);
+  EXPECT_EQ(again.terminate(), 0);
+}
+
+}  // namespace
+}  // namespace loam::test
+
+namespace loam::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+TEST(Session, ReconnectingClientResumesFromHeldVersionsAndConverges) {
+  const std::string dir = temp_data_dir("resume");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--tick-hz", "60"})) << server.log();
+  client::TerrainClient roamer, other;
+  ASSERT_TRUE(roamer.connect("127.0.0.1", server.port(), "roamer").ok());
+  ASSERT_TRUE(other.connect("127.0.0.1", server.port(), "other").ok());
+  const auto tiles = roamer.all_coarse_tiles(0);
+  ASSERT_TRUE(roamer.subscribe(tiles).ok());
+  ASSERT_TRUE(roamer.wait_until([&] { return roamer.store().held().size() == tiles.size(); }, 30s));
+  // A wide stamp gives every tile a nonzero version first: version 0 (the initial terrain)
+  // cannot be claimed in Subscribe, where 0 means "none" (docs/protocol.md).
+  StampParams wide;
+  wide.kind = StampKind::kGaussian;
+  wide.center_x = 512 * roamer.welcome().world.meters_per_sample;
+  wide.center_y = 384 * roamer.welcome().world.meters_per_sample;
+  wide.radius = 1400;
+  wide.intensity = 1;
+  const uint32_t w0 = *roamer.deform(*validate_stamp(wide, roamer.welcome().world));
+  ASSERT_TRUE(roamer.wait_until(
+      [&] {
+        if (!roamer.ack(w0)) return false;
+        for (const auto& t : tiles)
+          if (roamer.store().version(t) != roamer.ack(w0)->global_seq) return false;
+        return true;
+      },
+      30s));
+  const uint64_t regions_before = roamer.store().counters().regions;
+  roamer.connection().close();
+  // While it is away: one stamp in the middle of tile (1, 1) only.
+  StampParams p;
+  p.kind = StampKind::kGaussian;
+  p.center_x = (256 + 128) * other.welcome().world.meters_per_sample;
+  p.center_y = (256 + 128) * other.welcome().world.meters_per_sample;
+  p.radius = 10;
+  p.intensity = 2;
+  const uint32_t s = *other.deform(*validate_stamp(p, other.welcome().world));
+  ASSERT_TRUE(other.wait_until([&] { return other.ack(s).has_value(); }, 10s));
+  const uint64_t seq = other.ack(s)->global_seq;
+  ASSERT_TRUE(roamer.reconnect("127.0.0.1", server.port()).ok());
+  const World expected = replayed_world(dir, seq);
+  EXPECT_TRUE(roamer.wait_until([&] { return bool(store_matches(roamer, expected)); }, 30s))
+      << store_matches(roamer, expected).message();
+  // Only the changed tile travelled again.
+  EXPECT_EQ(roamer.store().counters().regions - regions_before, 1u);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
+TEST(Recovery, TextureStampImagesAreStoredWithTheSnapshot) {
+  const std::string dir = temp_data_dir("tex");
+  // A 32x32 grayscale PNG: a region of the default terrain, written by the exporter.
+  const std::string png = dir + "/stamp.png";
+  {
+    auto w = load_default_terrain();
+    ASSERT_TRUE(w.ok());
+    ASSERT_TRUE(export_png16(w->world, {100, 100, 132, 132}, png).ok());
+  }
+  auto decoded = read_stamp_texture_file(png);
+  ASSERT_TRUE(decoded.ok()) << decoded.error().describe();
+  const uint64_t id = texture_content_id(decoded->width, decoded->height, decoded->samples);
+  auto texture_stamp = [&](const WorldParams& w) {
+    TextureRegistry reg;
+    EXPECT_TRUE(reg.add(decoded->width, decoded->height, decoded->samples).ok());
+    StampParams p;
+    p.kind = StampKind::kTexture;
+    p.center_x = 500;
+    p.center_y = 500;
+    p.radius = 20;
+    p.intensity = 3;
+    p.texture_id = id;
+    auto q = validate_stamp(p, w, {}, &reg);
+    EXPECT_TRUE(q.ok()) << q.error().describe();
+    return *q;
+  };
+  {
+    ServerProcess server;
+    ASSERT_TRUE(server.start(dir + "/data", {"--stamp-image", png})) << server.log();
+    client::TerrainClient c;
+    ASSERT_TRUE(c.connect("127.0.0.1", server.port(), "painter").ok());
+    const uint32_t s = *c.deform(texture_stamp(c.welcome().world));
+    ASSERT_TRUE(c.wait_until([&] { return c.ack(s).has_value(); }, 10s));
+    EXPECT_TRUE(c.ack(s)->accepted) << c.ack(s)->field;
+    EXPECT_EQ(server.terminate(), 0) << server.log();
+  }
+  // Restarted without --stamp-image: the snapshot brings the image back.
+  ServerProcess again;
+  ASSERT_TRUE(again.start(dir + "/data")) << again.log();
+  client::TerrainClient c;
+  ASSERT_TRUE(c.connect("127.0.0.1", again.port(), "painter2").ok());
+  const uint32_t s = *c.deform(texture_stamp(c.welcome().world));
+  ASSERT_TRUE(c.wait_until([&] { return c.ack(s).has_value(); }, 10s));
+  EXPECT_TRUE(c.ack(s)->accepted) << c.ack(s)->field << "\n" << again.log();
+  ASSERT_TRUE(c.connection().send(wire::StampImageRequest{id}).ok());
+  std::optional<wire::StampImageResponse> image;
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (!image && std::chrono::steady_clock::now() < deadline) {
+    auto m = c.connection().next(100ms);
+    ASSERT_TRUE(m.ok());
+    if (m->has_value()) {
+      if (auto* r = std::get_if<wire::StampImageResponse>(&**m)) image = *r;
+    }
+  }
+  ASSERT_TRUE(image.has_value());
+  EXPECT_TRUE(image->found);
+  EXPECT_EQ(image->width, 32);
   EXPECT_EQ(again.terminate(), 0);
 }
 
