@@ -142,6 +142,9 @@ int main(int argc, char** argv) {
   replay_cmd->add_option("--snapshot-out", replay_snapshot,
                          "Write the result as a snapshot under this folder");
   std::string replay_backend = "cpu";
+  std::vector<std::string> replay_images;
+  replay_cmd->add_option("--stamp-image", replay_images,
+                         "Texture-stamp image the session registered (repeatable)");
   replay_cmd->add_option("--backend", replay_backend, "Stamp backend: auto, gpu or cpu")
       ->capture_default_str();
 
@@ -180,7 +183,7 @@ int main(int argc, char** argv) {
       const auto segs = expand_logs(logs, &replay_data);
       const auto kind = gpu::parse_backend_kind(replay_backend);
       if (!kind) die(kind.error());
-      auto r = server::replay_log(segs, replay_data, until, *kind);
+      auto r = server::replay_log(segs, replay_data, until, *kind, replay_images);
       if (!r) die(r.error());
       std::printf("records %llu, last sequence %llu, failed stamps %llu\n", (unsigned long long)r->records,
                   (unsigned long long)r->last_seq, (unsigned long long)r->failed_stamps);

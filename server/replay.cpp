@@ -1,5 +1,6 @@
 #include "server/replay.h"
 
+#include "dem/stamp_texture_io.h"
 #include "gpu/stamp_backend.h"
 #include "protocol/log/log_file.h"
 #include "server/terrain_source.h"
@@ -8,7 +9,8 @@
 namespace loam::server {
 
 Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const std::string& data_dir,
-                                uint64_t until_seq, gpu::BackendKind backend) {
+                                uint64_t until_seq, gpu::BackendKind backend,
+                                const std::vector<std::string>& stamp_images) {
   if (segments.empty()) return make_error(ErrorCode::kInvalidArgument, "log", "no log segments given");
   auto scans = log::read_log(segments);
   if (!scans) return scans.error();
@@ -21,6 +23,10 @@ Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const 
   auto world = load_described_terrain(first.initial, data_dir);
   if (!world) return world.error();
   TerrainState terrain(std::move(*world), 0);
+  for (const std::string& f : stamp_images) {
+    auto id = register_stamp_texture_file(terrain.textures(), f);
+    if (!id) return id.error();
+  }
   if (backend != gpu::BackendKind::kCpu) {
     auto made = gpu::make_stamp_backend(backend, terrain.world(), &terrain.textures(), terrain.limits());
     if (!made) return made.error();

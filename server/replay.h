@@ -24,8 +24,10 @@ struct ReplayResult {
 // `segments` in order (segment 0 first); `data_dir` is where snapshot-based initial terrains
 // are found (the folder holding snapshots/). Stops after `until_seq`. `backend` evaluates the
 // stamps (the GPU must give the CPU reference's integers, so the hash is the same).
+// `stamp_images` are the texture-stamp image files the session registered (--stamp-image).
 Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const std::string& data_dir,
                                 uint64_t until_seq = std::numeric_limits<uint64_t>::max(),
-                                gpu::BackendKind backend = gpu::BackendKind::kCpu);
+                                gpu::BackendKind backend = gpu::BackendKind::kCpu,
+                                const std::vector<std::string>& stamp_images = {});
 
 }  // namespace loam::server

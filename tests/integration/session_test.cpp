@@ -339,7 +339,14 @@ TEST(Recovery, TextureStampImagesAreStoredWithTheSnapshot) {
   ASSERT_TRUE(image.has_value());
   EXPECT_TRUE(image->found);
   EXPECT_EQ(image->width, 32);
+  const uint64_t last = c.ack(s)->global_seq;
   EXPECT_EQ(again.terminate(), 0);
+  // Replay of the log needs the image too, and applies both texture stamps.
+  auto replayed = server::replay_log(server::list_segments(dir + "/data"), dir + "/data", last,
+                                     gpu::BackendKind::kCpu, {png});
+  ASSERT_TRUE(replayed.ok()) << replayed.error().describe();
+  EXPECT_EQ(replayed->failed_stamps, 0u);
+  EXPECT_EQ(replayed->last_seq, last);
 }
 
 }  // namespace
