@@ -111,7 +111,13 @@ int main(int argc, char** argv) {
   render::RenderCommandOptions ro;
   std::string size = "1280x720";
   auto* render_cmd = app.add_subcommand("render", "Render one frame or a camera path headless (EGL) to PNG");
-  render_cmd->add_option("--dem", ro.dem, "DEM file (default: the embedded default terrain)");
+  auto* src_dem = render_cmd->add_option("--dem", ro.dem, "DEM file (default: the embedded default terrain)");
+  auto* src_snap = render_cmd->add_option("--snapshot", ro.snapshot,
+                                          "Snapshot folder, or a data folder (its newest snapshot)");
+  auto* src_server =
+      render_cmd->add_option("--server", ro.server, "HOST:PORT of a loam-server: render its live session");
+  src_dem->excludes(src_snap)->excludes(src_server);
+  src_snap->excludes(src_server);
   render_cmd->add_option("--camera", ro.camera, "Camera position x,y,z (world meters)")->delimiter(',');
   render_cmd->add_option("--look", ro.look, "Point looked at x,y,z (world meters)")->delimiter(',');
   render_cmd->add_option("--size", size, "WIDTHxHEIGHT")->capture_default_str();

@@ -16,7 +16,8 @@ Result<std::unique_ptr<NormalPass>> NormalPass::create(const WorldParams& params
   std::unique_ptr<NormalPass> n(new NormalPass());
   n->params_ = params;
   n->world_ = params.sample_rect();
-  auto program = build_compute_program("normals.comp.glsl");
+  const std::string_view files[] = {"fd4_normal.glsl", "normals.comp.glsl"};
+  auto program = build_compute_program_from(files);
   if (!program) return program.error();
   n->program_ = std::move(*program);
   n->normals_ = make_texture(GL_TEXTURE_2D);
@@ -52,6 +53,37 @@ std::vector<uint32_t> NormalPass::read(const RectI& rect) {
                        GLsizei(r.width()), GLsizei(r.height()), 1, GL_RED_INTEGER, GL_UNSIGNED_INT,
                        GLsizei(out.size() * 4), out.data());
   return out;
+}
+
+Result<LevelNormalPass> LevelNormalPass::create() {
+  const std::string_view files[] = {"fd4_normal.glsl", "level_normals.comp.glsl"};
+  auto program = build_compute_program_from(files);
+  if (!program) return program.error();
+  LevelNormalPass pass;
+  pass.program_ = std::move(*program);
+  return pass;
+}
+
+void LevelNormalPass::update(GLuint heights, GLuint normals, int32_t tex_size, const RectI& region,
+                             const RectI& rect, const RectI& world, const WorldParams& params,
+                             double spacing_m) const {
+  if (rect.empty() || world.empty()) return;
+  const GLuint p = program_.get();
+  glUseProgram(p);
+  glProgramUniform1i(p, glGetUniformLocation(p, "tex_size"), tex_size);
+  glProgramUniform2i(p, glGetUniformLocation(p, "region_lo"), GLint(region.x0), GLint(region.y0));
+  glProgramUniform2i(p, glGetUniformLocation(p, "region_base"), GLint(floor_mod(region.x0, tex_size)),
+                     GLint(floor_mod(region.y0, tex_size)));
+  glProgramUniform4i(p, glGetUniformLocation(p, "rect"), GLint(rect.x0), GLint(rect.y0), GLint(rect.x1),
+                     GLint(rect.y1));
+  glProgramUniform2i(p, glGetUniformLocation(p, "world_lo"), GLint(world.x0), GLint(world.y0));
+  glProgramUniform2i(p, glGetUniformLocation(p, "world_size"), GLint(world.width()), GLint(world.height()));
+  glProgramUniform1d(p, glGetUniformLocation(p, "height_offset"), params.height_offset);
+  glProgramUniform1d(p, glGetUniformLocation(p, "meters_per_unit"), params.meters_per_unit);
+  glProgramUniform1d(p, glGetUniformLocation(p, "spacing"), spacing_m);
+  glBindTextureUnit(0, heights);
+  glBindImageTexture(1, normals, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32UI);
+  glDispatchCompute(GLuint((rect.width() + 7) / 8), GLuint((rect.height() + 7) / 8), 1);
 }
 
 }  // namespace loam::gpu

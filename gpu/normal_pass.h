@@ -46,4 +46,22 @@ class NormalPass {
   GlProgram program_;
 };
 
+// The same FD4 normals for one clipmap level (client/render): the level's heights live in a
+// toroidal R16UI texture (level sample p at texel p mod tex_size) and its normals in a
+// toroidal R32UI texture with the same packing. Level samples are the world's samples at
+// the level's spacing, so the finest level's normals equal NormalPass's bit for bit.
+class LevelNormalPass {
+ public:
+  static Result<LevelNormalPass> create();
+  // Recomputes the normals of `rect` (level samples) of a level holding `region` (tex_size^2
+  // samples). Every stencil of rect must stay in the region: rect grown by 2, or by 4 at the
+  // world's edges. `world` is the world's sample rect in the level's grid (one-sided stencils
+  // at its edges), `spacing_m` meters per level sample.
+  void update(GLuint heights, GLuint normals, int32_t tex_size, const RectI& region, const RectI& rect,
+              const RectI& world, const WorldParams& params, double spacing_m) const;
+
+ private:
+  GlProgram program_;
+};
+
 }  // namespace loam::gpu

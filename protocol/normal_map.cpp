@@ -35,8 +35,16 @@ int16_t snorm16(double v) {
 
 void coarse_gradients(const World& world, const RectI& rect, std::vector<double>& dhdx,
                       std::vector<double>& dhdy) {
+  decimated_gradients(world, 0, rect, dhdx, dhdy);
+}
+
+void decimated_gradients(const World& world, int32_t mip, const RectI& rect, std::vector<double>& dhdx,
+                         std::vector<double>& dhdy) {
   const WorldParams& p = world.params();
-  const RectI w = p.sample_rect();
+  const int64_t s = int64_t(1) << mip;
+  const RectI w0 = p.sample_rect();
+  // The world in the decimated grid: samples i with i * s inside it.
+  const RectI w{ceil_div(w0.x0, s), ceil_div(w0.y0, s), ceil_div(w0.x1, s), ceil_div(w0.y1, s)};
   dhdx.assign(size_t(rect.area()), 0.0);
   dhdy.assign(size_t(rect.area()), 0.0);
   if (rect.empty()) return;
@@ -45,11 +53,18 @@ void coarse_gradients(const World& world, const RectI& rect, std::vector<double>
                       std::clamp(rect.x1, w.x0 + 1, w.x1), std::clamp(rect.y1, w.y0 + 1, w.y1)};
   const RectI block = RectI{clamped.x0 - 4, clamped.y0 - 4, clamped.x1 + 4, clamped.y1 + 4}.intersect(w);
   std::vector<uint16_t> q(size_t(block.area()));
-  world.read_coarse(block, q);
+  if (mip == 0) {
+    world.read_coarse(block, q);
+  } else {
+    size_t i = 0;
+    for (int64_t y = block.y0; y < block.y1; ++y) {
+      for (int64_t x = block.x0; x < block.x1; ++x) q[i++] = world.coarse(x * s, y * s);
+    }
+  }
   std::vector<double> m(q.size());
   for (size_t i = 0; i < q.size(); ++i) m[i] = p.height_meters(q[i]);
   const int64_t bw = block.width();
-  const double h = p.meters_per_sample;
+  const double h = p.meters_per_sample * double(s);
   for (int64_t y = rect.y0; y < rect.y1; ++y) {
     const int64_t sy = std::clamp(y, w.y0, w.y1 - 1);
     for (int64_t x = rect.x0; x < rect.x1; ++x) {
@@ -75,8 +90,12 @@ void unpack_normal(uint32_t packed, double& nx, double& ny, double& nz) {
 }
 
 std::vector<uint32_t> generate_normal_map(const World& world, const RectI& rect) {
+  return generate_decimated_normal_map(world, 0, rect);
+}
+
+std::vector<uint32_t> generate_decimated_normal_map(const World& world, int32_t mip, const RectI& rect) {
   std::vector<double> gx, gy;
-  coarse_gradients(world, rect, gx, gy);
+  decimated_gradients(world, mip, rect, gx, gy);
   std::vector<uint32_t> out(gx.size());
   for (size_t i = 0; i < out.size(); ++i) out[i] = pack_normal(gx[i], gy[i]);
   return out;

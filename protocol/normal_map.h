@@ -26,6 +26,12 @@ namespace loam {
 void coarse_gradients(const World& world, const RectI& rect, std::vector<double>& dhdx,
                       std::vector<double>& dhdy);
 
+// The same at a decimated spacing: the world seen through every 2^mip-th sample (a mip-`mip`
+// grid, rect in it; spacing meters_per_sample * 2^mip), with the one-sided stencils at the
+// world's edges in that grid. What a clipmap level's normal map holds (client/render).
+void decimated_gradients(const World& world, int32_t mip, const RectI& rect, std::vector<double>& dhdx,
+                         std::vector<double>& dhdy);
+
 // Packs one gradient into the RG16_SNORM format above.
 uint32_t pack_normal(double dhdx, double dhdy);
 // Unpacks to a unit normal (nx, ny, nz).
@@ -33,5 +39,7 @@ void unpack_normal(uint32_t packed, double& nx, double& ny, double& nz);
 
 // The packed normal map of `rect`.
 std::vector<uint32_t> generate_normal_map(const World& world, const RectI& rect);
+// The packed normal map of `rect` of the mip-`mip` grid (decimated_gradients).
+std::vector<uint32_t> generate_decimated_normal_map(const World& world, int32_t mip, const RectI& rect);
 
 }  // namespace loam

@@ -14,10 +14,10 @@
 #include "dem/dem_import.h"
 #include "protocol/log/log_file.h"
 #include "protocol/log/log_json.h"
+#include "protocol/snapshot/snapshot.h"
 #include "server/event_log.h"
 #include "server/replay.h"
 #include "server/server.h"
-#include "server/snapshot.h"
 #include "server/storage.h"
 
 namespace {
@@ -195,7 +195,7 @@ int main(int argc, char** argv) {
       if (!replay_exr.empty() && !export_exr(r->world, all, replay_exr).ok())
         throw std::runtime_error("EXR export failed");
       if (!replay_snapshot.empty()) {
-        auto p = server::write_snapshot(replay_snapshot, r->world, r->last_seq, 0, TextureRegistry{});
+        auto p = write_snapshot(replay_snapshot, r->world, r->last_seq, 0, TextureRegistry{});
         if (!p) die(p.error());
         std::printf("snapshot %s\n", p->c_str());
       }
@@ -244,7 +244,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*info_cmd) {
-      auto snap = server::read_snapshot(snap_path);
+      auto snap = read_snapshot(snap_path);
       if (!snap) die(snap.error());
       const auto& m = snap->manifest;
       std::printf(

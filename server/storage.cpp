@@ -5,7 +5,7 @@
 #include <filesystem>
 
 #include "dem/stamp_texture_io.h"
-#include "server/snapshot.h"
+#include "protocol/snapshot/snapshot.h"
 #include "server/terrain_source.h"
 
 namespace loam::server {

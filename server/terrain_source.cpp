@@ -5,7 +5,7 @@
 
 #include "dem/default_terrain.h"
 #include "dem/dem_import.h"
-#include "server/snapshot.h"
+#include "protocol/snapshot/snapshot.h"
 
 namespace loam::server {
 

@@ -1,11 +1,28 @@
-// Terrain shading: height/slope materials (sand, grass, dry grass, rock, snow), a sun with a
-// sky hemisphere ambient, and distance fog into the sky colour. Alpha is 1 on terrain so a
-// background pixel (alpha 0 after the clear) is detectable in tests.
+// Terrain shading: normals from the level's FD4 normal map (bilinear, blended toward the
+// coarser level's in the geomorph band), perturbed by the detail layer's gradient near the
+// camera; height/slope materials (sand, grass, dry grass, rock, snow, sea floor); a sun with
+// a sky hemisphere ambient; distance fog into the sky colour; flat-shaded earth on the skirt.
+// Alpha is 1 on terrain so a background pixel (alpha 0 after the clear) is detectable in tests.
 in vec3 v_rel;
-in vec3 v_normal;
+in vec2 v_sample;
 in float v_height;
 in float v_alpha;
+in float v_skirt;
 
+layout(binding = 1) uniform usampler2D u_normals;         // this level, packed snorm16 x2
+layout(binding = 2) uniform usampler2D u_normals_coarse;  // the next coarser level
+layout(binding = 4) uniform sampler2D u_detail_gradient;  // RG16F, meters per meter
+
+uniform int u_tex_size;
+uniform ivec2 u_tex_base, u_tex_base_coarse;
+uniform ivec2 u_rel_origin, u_rel_origin_coarse;
+uniform int u_spacing;
+uniform int u_has_coarse;
+uniform int u_detail_on;
+uniform int u_detail_size;
+uniform int u_detail_factor;
+uniform ivec2 u_detail_rel_origin;
+uniform ivec2 u_detail_base;
 uniform vec3 u_sun_dir;       // render frame, unit, toward the sun
 uniform vec2 u_height_range;  // material range, meters above the height offset
 uniform float u_sea_level;    // meters above the height offset; below it is sea floor
@@ -15,14 +32,56 @@ uniform int u_debug_morph;    // tint by geomorph blend
 
 out vec4 o_color;
 
+vec2 packed_normal(usampler2D t, ivec2 base, ivec2 p) {
+  ivec2 i = (base + p + ivec2(u_tex_size)) % u_tex_size;
+  return unpackSnorm2x16(texelFetch(t, i, 0).r);
+}
+
+// (nx, ny) of a level's normal map at level-local coordinates c, bilinear between samples.
+vec2 normal_xy(usampler2D t, ivec2 base, vec2 c) {
+  vec2 f0 = floor(c);
+  ivec2 i = ivec2(f0);
+  vec2 f = c - f0;
+  vec2 a = mix(packed_normal(t, base, i), packed_normal(t, base, i + ivec2(1, 0)), f.x);
+  vec2 b = mix(packed_normal(t, base, i + ivec2(0, 1)), packed_normal(t, base, i + ivec2(1, 1)), f.x);
+  return mix(a, b, f.y);
+}
+
 void main() {
-  vec3 n = normalize(v_normal);
+  // Derivatives in uniform control flow only: the skirt's flat normal, the detail footprint.
+  vec3 face = cross(dFdx(v_rel), dFdy(v_rel));
+  vec2 dc = v_sample * float(u_detail_factor) - vec2(u_detail_rel_origin);
+  float footprint = max(length(dFdx(dc)), length(dFdy(dc)));
+  vec3 n;
+  bool wall = v_skirt > 1e-3;
+  if (wall) {
+    n = normalize(face);
+    if (dot(n, v_rel) > 0.0) n = -n;
+  } else {
+    vec2 nxy = normal_xy(u_normals, u_tex_base, (v_sample - vec2(u_rel_origin)) / float(u_spacing));
+    if (u_has_coarse != 0 && v_alpha > 0.0) {
+      vec2 c = (v_sample - vec2(u_rel_origin_coarse)) / float(2 * u_spacing);
+      nxy = mix(nxy, normal_xy(u_normals_coarse, u_tex_base_coarse, c), v_alpha);
+    }
+    // The terrain's gradient, plus the detail layer's where a pixel resolves it.
+    vec2 g = -nxy / sqrt(max(1.0 - dot(nxy, nxy), 1e-6));
+    if (u_detail_on != 0) {
+      // Gradients exist one sample inside the region and filtering reads one more: fade in
+      // from two samples in, so nothing outside the region (stale wrap-around) contributes.
+      float border = min(min(dc.x, dc.y), min(float(u_detail_size) - dc.x, float(u_detail_size) - dc.y)) - 2.0;
+      float w = clamp(border / 16.0, 0.0, 1.0) * clamp(2.0 - footprint, 0.0, 1.0);
+      if (w > 0.0) g += w * texture(u_detail_gradient, (vec2(u_detail_base) + dc + 0.5) / float(u_detail_size)).rg;
+    }
+    // World y runs south; the render frame's north.
+    n = normalize(vec3(-g.x, g.y, 1.0));
+  }
   float slope = 1.0 - n.z;  // 0 flat, 1 vertical
   float land = max(u_height_range.y - u_sea_level, 1e-3);
   float t = clamp((v_height - u_sea_level) / land, 0.0, 1.0);
   const vec3 sand = vec3(0.50, 0.44, 0.30), grass = vec3(0.13, 0.21, 0.07), dry = vec3(0.27, 0.25, 0.14);
   const vec3 rock = vec3(0.24, 0.22, 0.21), snow = vec3(0.85, 0.88, 0.93);
   const vec3 shallow = vec3(0.10, 0.28, 0.30), deep = vec3(0.02, 0.07, 0.16);
+  const vec3 earth = vec3(0.20, 0.14, 0.09), earth_deep = vec3(0.11, 0.08, 0.06);
   vec3 albedo = mix(sand, grass, smoothstep(0.01, 0.05, t));
   albedo = mix(albedo, dry, smoothstep(0.25, 0.50, t));
   albedo = mix(albedo, rock, smoothstep(0.18, 0.40, slope));
@@ -31,6 +90,7 @@ void main() {
     float depth = (u_sea_level - v_height) / max(u_sea_level - u_height_range.x, 1e-3);
     albedo = mix(shallow, deep, smoothstep(0.0, 0.35, depth));
   }
+  if (wall) albedo = mix(earth, earth_deep, v_skirt);
   float sun = max(dot(n, u_sun_dir), 0.0);
   vec3 sky = mix(vec3(0.18, 0.16, 0.14), vec3(0.42, 0.52, 0.70), 0.5 + 0.5 * n.z);
   vec3 c = albedo * (sun * vec3(1.10, 1.00, 0.85) * 1.7 + sky * 0.8);

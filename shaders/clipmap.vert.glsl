@@ -1,9 +1,13 @@
 // Geometry clipmap level: vertex (x, y) of the level's n x n grid is gl_VertexID; its height is
 // fetched from the level's toroidal R16UI texture at exactly that sample (integer texelFetch,
-// no filtering, no floor/round of a float coordinate). In the transition band the height and
-// the FD4 normal blend toward the coarser level's triangle surface, which decimation makes
-// readable from this level's texture: its samples are this level's even samples.
+// no filtering, no floor/round of a float coordinate). In the transition band the height
+// blends toward the coarser level's triangle surface, which decimation makes readable from
+// this level's texture: its samples are this level's even samples (normals blend in the
+// fragment shader, from the two levels' normal maps). Vertices outside the world are pulled
+// to its edge and down to the skirt's depth: the terrain ends in an earth wall, not in the
+// clamped samples beyond it.
 layout(binding = 0) uniform usampler2D u_heights;
+layout(binding = 3) uniform isampler2D u_detail;
 
 uniform int u_n;
 uniform int u_tex_size;
@@ -18,11 +22,20 @@ uniform vec2 u_viewer;         // LOD centre in level samples from the level ori
 uniform float u_band;          // geomorph band in level samples; 0: no morphing
 uniform int u_half_m;          // 2m - 2: where the band ends, before subtracting it
 uniform mat4 u_view_proj;
+uniform ivec4 u_world_rel;     // the world's mip-0 samples minus the anchor, [x0, x1) x [y0, y1)
+uniform float u_skirt_z;       // camera-relative height of the skirt's foot
+uniform int u_detail_displace; // add the detail offset under each vertex (finest level)
+uniform int u_detail_size;
+uniform int u_detail_factor;
+uniform ivec2 u_detail_rel_origin;  // detail region's first sample minus the anchor, detail samples
+uniform ivec2 u_detail_base;        // its texel
+uniform float u_detail_meters_per_unit;
 
 out vec3 v_rel;      // camera-relative position (render frame)
-out vec3 v_normal;   // render frame
+out vec2 v_sample;   // mip-0 sample coordinates minus the anchor
 out float v_height;  // meters above the height offset's zero
-out float v_alpha;
+out float v_alpha;   // geomorph blend toward the coarser level
+out float v_skirt;   // 1 on vertices pulled to the skirt
 
 float q(ivec2 p) {
   // p >= -kLevelPad > -u_tex_size, so the sum is non-negative and % is well defined.
@@ -30,18 +43,9 @@ float q(ivec2 p) {
   return float(texelFetch(u_heights, t, 0).r);
 }
 
-// FD4 gradient (dh/dx, dh/dy) in meters per meter at stride k level samples.
-vec2 grad(ivec2 p, int k) {
-  ivec2 dx = ivec2(k, 0), dy = ivec2(0, k);
-  float gx = q(p - 2 * dx) - 8.0 * q(p - dx) + 8.0 * q(p + dx) - q(p + 2 * dx);
-  float gy = q(p - 2 * dy) - 8.0 * q(p - dy) + 8.0 * q(p + dy) - q(p + 2 * dy);
-  return vec2(gx, gy) * u_meters_per_unit / (12.0 * float(k * u_spacing) * u_meters_per_sample);
-}
-
 void main() {
   ivec2 local = ivec2(gl_VertexID % u_n, gl_VertexID / u_n);
   float h = q(local);
-  vec2 g = grad(local, 1);
   float alpha = 0.0;
   if (u_band > 0.0) {
     bool edge = local.x == 0 || local.y == 0 || local.x == u_n - 1 || local.y == u_n - 1;
@@ -52,17 +56,27 @@ void main() {
     // The coarser quad is split along (x, y)-(x+1, y+1) like every quad: an odd vertex lies on
     // the coarse edge or diagonal between local - odd and local + odd.
     ivec2 odd = local & 1;
-    ivec2 a = local - odd, b = local + odd;
-    h = mix(h, 0.5 * (q(a) + q(b)), alpha);
-    g = mix(g, 0.5 * (grad(a, 2) + grad(b, 2)), alpha);
+    h = mix(h, 0.5 * (q(local - odd) + q(local + odd)), alpha);
   }
-  vec2 xy = vec2(u_rel_origin + local * u_spacing) * u_meters_per_sample - u_cam_offset;
+  ivec2 s = u_rel_origin + local * u_spacing;
+  ivec2 inside = clamp(s, u_world_rel.xy, u_world_rel.zw - 1);
+  bool skirt = inside != s;
   float z = u_height_base + h * u_meters_per_unit;
+  if (u_detail_displace != 0 && !skirt) {
+    ivec2 dp = s * u_detail_factor - u_detail_rel_origin;
+    if (all(greaterThanEqual(dp, ivec2(0))) && all(lessThan(dp, ivec2(u_detail_size)))) {
+      ivec2 t = (u_detail_base + dp) % u_detail_size;
+      z += float(texelFetch(u_detail, t, 0).r) * u_detail_meters_per_unit;
+    }
+  }
+  if (skirt) z = u_skirt_z;
+  vec2 xy = vec2(inside) * u_meters_per_sample - u_cam_offset;
   // World y runs along +gy (south): the render frame flips it so x east, y north, z up is
   // right-handed and the terrain is not mirrored.
   v_rel = vec3(xy.x, -xy.y, z);
-  v_normal = vec3(-g.x, g.y, 1.0);
+  v_sample = vec2(s);
   v_height = h * u_meters_per_unit;
   v_alpha = alpha;
+  v_skirt = skirt ? 1.0 : 0.0;
   gl_Position = u_view_proj * vec4(v_rel, 1.0);
 }

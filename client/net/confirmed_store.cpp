@@ -25,6 +25,10 @@ Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version,
   if (c.mip >= p.mip_count() || !p.tile_range(c.mip).contains(c.tx, c.ty)) {
     return make_error(ErrorCode::kInvalidArgument, "region.tile", to_string(c) + " is not in the world");
   }
+  if (!wanted_.count(c)) {  // sent before our Unsubscribe reached the server: not ours to hold
+    ++counters_.regions_unwanted;
+    return {};
+  }
   if (c.mip == 0) {
     mirror_.write_coarse(tile_rect(c.tx, c.ty), samples);
     mirror_.commit(version);
@@ -32,6 +36,7 @@ Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version,
     mip_tiles_[c].assign(samples.begin(), samples.end());
   }
   versions_[c] = version;
+  record_region(c, version);
   after_region(version);
   return {};
 }
@@ -44,11 +49,27 @@ Status ConfirmedStore::replace_detail(const TileCoord& c, uint64_t version, std:
     return make_error(ErrorCode::kInvalidArgument, "region.tile",
                       to_string(c) + " is not a detail tile of the world");
   }
+  if (!wanted_.count(c)) {
+    ++counters_.regions_unwanted;
+    return {};
+  }
   mirror_.write_detail(tile_rect(c.tx, c.ty), samples);
   mirror_.commit(version);
   versions_[c] = version;
+  record_region(c, version);
   after_region(version);
   return {};
+}
+
+void ConfirmedStore::record_region(const TileCoord& c, uint64_t version) {
+  if (!record_changes_) return;
+  StoreChange ch;
+  ch.kind = StoreChange::Kind::kRegion;
+  ch.seq = version;
+  ch.tile = c;
+  ch.layer = c.layer;
+  ch.rect = tile_rect(c.tx, c.ty);
+  changes_.push_back(ch);
 }
 
 // Events at or below a region's version are already in its tile (the server covers every
@@ -83,6 +104,16 @@ bool ConfirmedStore::try_apply(const wire::DeformEvent& e, const TextureRegistry
   auto applied = apply_stamp(mirror_, e.stamp, textures);
   const auto changes = mirror_.commit(e.global_seq);
   if (!applied) return true;  // the server's stamp failed the same way: a no-op everywhere
+  if (record_changes_) {
+    StoreChange ch;
+    ch.kind = StoreChange::Kind::kEvent;
+    ch.seq = e.global_seq;
+    ch.layer = e.stamp.layer;
+    ch.rect = *applied;
+    ch.stamp = e.stamp;
+    ch.origin_client_id = e.origin_client_id;
+    changes_.push_back(ch);
+  }
   for (const TileChange& c : changes) {
     if (c.coord.mip != 0) continue;
     const auto it = versions_.find(c.coord);

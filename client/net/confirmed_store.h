@@ -14,6 +14,7 @@
 #include <map>
 #include <optional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "protocol/result.h"
@@ -25,9 +26,25 @@ namespace loam::client {
 
 enum class EventOutcome { kApplied, kBuffered, kIgnored };
 
+// One change to the store's samples, in the order they happened, for a display that mirrors
+// the store (client/render/display_terrain.h). Recorded only when enabled.
+struct StoreChange {
+  enum class Kind : uint8_t { kEvent, kRegion };
+  Kind kind = Kind::kEvent;
+  uint64_t seq = 0;  // event: its global sequence; region: the tile's new version
+  TileCoord tile;    // region: the tile replaced
+  Layer layer = Layer::kCoarse;
+  // Samples that changed, in the layer's global grid at mip `tile.mip` (events: mip 0 of the
+  // stamp's layer; empty when the event changed nothing).
+  RectI rect;
+  QuantizedStamp stamp;           // event: the stamp applied
+  uint32_t origin_client_id = 0;  // event: who sent it
+};
+
 struct StoreCounters {
   uint64_t events_applied = 0, events_buffered = 0, events_dropped = 0;
   uint64_t regions = 0;
+  uint64_t regions_unwanted = 0;  // arrived after the tile was unsubscribed: dropped
   uint64_t hash_checks = 0, hash_mismatches = 0;
 };
 
@@ -55,6 +72,15 @@ class ConfirmedStore {
   // Every tile the client asked for (held or still awaiting its first region).
   std::vector<TileCoord> wanted() const;
   size_t buffered() const { return buffer_.size(); }
+  bool is_buffered(uint64_t global_seq) const { return buffer_.count(global_seq) != 0; }
+  bool holds(const TileCoord& c) const { return versions_.count(c) != 0; }
+  // The mip-0 samples of both layers; only held tiles are meaningful.
+  const World& mirror() const { return mirror_; }
+
+  // Changes are recorded from now on (off by default: bots and tests need none).
+  void record_changes(bool on) { record_changes_ = on; }
+  // The changes since the last call, oldest first.
+  std::vector<StoreChange> take_changes() { return std::exchange(changes_, {}); }
   const StoreCounters& counters() const { return counters_; }
   // Samples of a held coarse tile (empty span if not held).
   std::span<const uint16_t> coarse_samples(const TileCoord& c) const;
@@ -63,6 +89,7 @@ class ConfirmedStore {
   bool try_apply(const wire::DeformEvent& e, const TextureRegistry* textures);
   void retry_buffered(const TextureRegistry* textures);
   void after_region(uint64_t version);
+  void record_region(const TileCoord& c, uint64_t version);
 
   World mirror_;                            // mip-0 samples of both layers; only held tiles are meaningful
   std::map<TileCoord, uint64_t> versions_;  // held tiles
@@ -71,6 +98,8 @@ class ConfirmedStore {
   std::map<uint64_t, wire::DeformEvent> buffer_;  // by global sequence
   const TextureRegistry* last_textures_ = nullptr;
   StoreCounters counters_;
+  bool record_changes_ = false;
+  std::vector<StoreChange> changes_;
 };
 
 }  // namespace loam::client

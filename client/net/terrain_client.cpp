@@ -63,6 +63,21 @@ Status TerrainClient::subscribe(const std::vector<TileCoord>& tiles) {
   return {};
 }
 
+Status TerrainClient::unsubscribe(const std::vector<TileCoord>& tiles) {
+  wire::Unsubscribe u;
+  for (const TileCoord& c : tiles) {
+    store_->forget(c);
+    assemblers_.erase(c);
+    u.tiles.push_back(c);
+    if (u.tiles.size() == wire::kMaxSubscribeEntries) {
+      LOAM_TRY(connection_->send(u));
+      u.tiles.clear();
+    }
+  }
+  if (!u.tiles.empty()) LOAM_TRY(connection_->send(u));
+  return {};
+}
+
 Result<uint32_t> TerrainClient::deform(const QuantizedStamp& stamp) {
   const uint32_t seq = next_client_seq_++;
   LOAM_TRY(connection_->send(wire::Deform{seq, stamp}));
@@ -112,6 +127,7 @@ Status TerrainClient::handle(wire::Message& m) {
     case wire::MessageType::kDeformEvent: {
       const auto& e = std::get<wire::DeformEvent>(m);
       last_seen_seq_ = std::max(last_seen_seq_, e.global_seq);
+      last_event_seq_ = std::max(last_event_seq_, e.global_seq);
       store_->on_event(e);
       return {};
     }

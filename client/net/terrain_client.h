@@ -39,6 +39,8 @@ class TerrainClient {
 
   // Subscribes to tiles (held versions from the store, so a reconnect resumes).
   Status subscribe(const std::vector<TileCoord>& tiles);
+  // Drops tiles: the server stops sending them and the store forgets them.
+  Status unsubscribe(const std::vector<TileCoord>& tiles);
   // Every mip-0 coarse tile of the world.
   std::vector<TileCoord> all_coarse_tiles(int32_t mip = 0) const;
   // Sends a Deform; returns the client's own sequence number for it.
@@ -52,7 +54,11 @@ class TerrainClient {
   std::optional<AckResult> ack(uint32_t client_seq) const;
 
   ConfirmedStore& store() { return *store_; }
+  const ConfirmedStore& store() const { return *store_; }
   uint64_t last_seen_seq() const { return last_seen_seq_; }
+  // The newest DeformEvent received (events arrive in global order): an accepted stamp of
+  // ours with a global sequence at or below it has had its event delivered, if one was due.
+  uint64_t last_event_seq() const { return last_event_seq_; }
   const std::vector<wire::ErrorMsg>& errors() const { return errors_; }
   std::optional<wire::Bye> bye() const { return bye_; }
   uint64_t hash_mismatches() const { return store_ ? store_->counters().hash_mismatches : 0; }
@@ -79,6 +85,7 @@ class TerrainClient {
   std::optional<wire::Bye> bye_;
   uint32_t next_client_seq_ = 1;
   uint64_t last_seen_seq_ = 0;
+  uint64_t last_event_seq_ = 0;
   size_t tile_hash_messages_ = 0;
 };
 

@@ -140,6 +140,21 @@ double morph_alpha(int32_t n, double x, double y, double vx, double vy) {
   return std::clamp((d - double(2 * m - 2 - w)) / double(w), 0.0, 1.0);
 }
 
+std::vector<RectI> toroidal_strips(std::optional<std::array<int64_t, 2>> old, std::array<int64_t, 2> now,
+                                   int64_t size) {
+  const auto [rx, ry] = now;
+  const RectI next{rx, ry, rx + size, ry + size};
+  if (!old || std::abs(rx - (*old)[0]) >= size || std::abs(ry - (*old)[1]) >= size) return {next};
+  const RectI prev{(*old)[0], (*old)[1], (*old)[0] + size, (*old)[1] + size};
+  std::vector<RectI> out;
+  if (rx > prev.x0) out.push_back({prev.x1, ry, next.x1, next.y1});
+  if (rx < prev.x0) out.push_back({rx, ry, prev.x0, next.y1});
+  const int64_t sx0 = std::max(rx, prev.x0), sx1 = std::min(next.x1, prev.x1);
+  if (ry > prev.y0) out.push_back({sx0, prev.y1, sx1, next.y1});
+  if (ry < prev.y0) out.push_back({sx0, ry, sx1, prev.y0});
+  return out;
+}
+
 int32_t levels_for_view_distance(int32_t n, double meters_per_sample, double view_distance) {
   for (int32_t l = 1; l < kMaxClipmapLevels; ++l) {
     // The camera may sit a sample off a level's centre: count one sample less than half.

@@ -24,6 +24,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -98,6 +99,13 @@ int32_t morph_band(int32_t n);
 // (x, y) for a viewer at level-local (vx, vy); the vertex shader computes the same. Vertices on
 // the outer boundary are always 1.
 double morph_alpha(int32_t n, double x, double y, double vx, double vy);
+
+// Toroidal texture updates: a square region of `size` samples moved from `old` (its low corner;
+// nullopt when nothing is loaded) to `now`. Returns the rects (region-grid samples) to load:
+// the whole region after a jump of a full size or more, else the columns that entered over
+// the full new height, then the rows that entered over the shared columns.
+std::vector<RectI> toroidal_strips(std::optional<std::array<int64_t, 2>> old, std::array<int64_t, 2> now,
+                                   int64_t size);
 
 // The number of levels whose outermost extent reaches `view_distance` meters from the camera.
 int32_t levels_for_view_distance(int32_t n, double meters_per_sample, double view_distance);

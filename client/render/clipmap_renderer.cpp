@@ -12,6 +12,10 @@
 
 namespace loam::render {
 
+void HeightSource::read_detail(const RectI&, std::span<int8_t> out) const {
+  std::fill(out.begin(), out.end(), 0);
+}
+
 void WorldHeightSource::read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const {
   if (mip == 0) {
     world_.read_coarse(rect, out);
@@ -24,10 +28,30 @@ void WorldHeightSource::read(int32_t mip, const RectI& rect, std::span<uint16_t>
   }
 }
 
+void WorldHeightSource::read_detail(const RectI& rect, std::span<int8_t> out) const {
+  world_.read_detail(rect, out);
+}
+
+namespace {
+
+GLint loc(GLuint program, const char* name) { return glGetUniformLocation(program, name); }
+
+// Level samples whose mip-0 sample (i * s) lies in [x0, x1): [ceil(x0 / s), ceil(x1 / s)).
+RectI in_level_grid(const RectI& mip0, int64_t s) {
+  return {ceil_div(mip0.x0, s), ceil_div(mip0.y0, s), ceil_div(mip0.x1, s), ceil_div(mip0.y1, s)};
+}
+
+constexpr double kSkirtDepthM = 30.0;  // the earth skirt reaches this far below the lowest terrain
+
+}  // namespace
+
 Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSource& source,
                                                                  const RendererConfig& config) {
   auto mesh = ClipmapMesh::build(config.n);
   if (!mesh) return mesh.error();
+  if (config.detail_size < 0 || config.detail_size > 4096) {
+    return make_error(ErrorCode::kInvalidArgument, "clipmap.detail_size", "must be 0..4096");
+  }
   std::unique_ptr<ClipmapRenderer> r(new ClipmapRenderer());
   r->source_ = &source;
   r->config_ = config;
@@ -46,24 +70,46 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
     const RectI world = p.sample_rect();
     int32_t mip = 0;
     while ((world.area() >> (2 * mip)) > (1 << 20)) ++mip;
-    const RectI r_mip{floor_div(world.x0, int64_t(1) << mip), floor_div(world.y0, int64_t(1) << mip),
-                      ceil_div(world.x1, int64_t(1) << mip), ceil_div(world.y1, int64_t(1) << mip)};
+    const RectI r_mip = in_level_grid(world, int64_t(1) << mip);
     std::vector<uint16_t> s(size_t(r_mip.area()));
     source.read(mip, r_mip, s);
     const auto [lo, hi] = std::minmax_element(s.begin(), s.end());
     r->config_.min_height_m = double(*lo) * p.meters_per_unit;
     r->config_.max_height_m = double(*hi) * p.meters_per_unit;
   }
+  auto integer_texture = [](GLenum format, int32_t size) {
+    gpu::GlTexture t = gpu::make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(t.get(), 1, format, size, size);
+    // An integer texture with the default mipmapped min filter is incomplete and reads 0.
+    glTextureParameteri(t.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(t.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    return t;
+  };
   for (int32_t l = 0; l < r->levels_; ++l) {
     Level level;
-    level.texture = gpu::make_texture(GL_TEXTURE_2D);
-    glTextureStorage2D(level.texture.get(), 1, GL_R16UI, r->tex_size_, r->tex_size_);
-    // An integer texture with the default mipmapped min filter is incomplete and reads 0.
-    glTextureParameteri(level.texture.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTextureParameteri(level.texture.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    level.texture = integer_texture(GL_R16UI, r->tex_size_);
+    level.normals = integer_texture(GL_R32UI, r->tex_size_);
     level.mirror.assign(size_t(r->tex_size_) * size_t(r->tex_size_), 0);
+    level.world = in_level_grid(p.sample_rect(), int64_t(1) << l);
     r->level_.push_back(std::move(level));
   }
+  if (config.detail_size > 0) {
+    r->detail_.offsets = integer_texture(GL_R8I, config.detail_size);
+    r->detail_.gradient = gpu::make_texture(GL_TEXTURE_2D);
+    const GLuint g = r->detail_.gradient.get();
+    glTextureStorage2D(g, 1, GL_RG16F, config.detail_size, config.detail_size);
+    // Filtered, and wrapping: the region is toroidal, so GL_REPEAT joins its seams.
+    glTextureParameteri(g, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(g, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(g, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(g, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    auto gradient = gpu::build_compute_program("detail_gradient.comp.glsl");
+    if (!gradient) return gradient.error();
+    r->gradient_program_ = std::move(*gradient);
+  }
+  auto normal_pass = gpu::LevelNormalPass::create();
+  if (!normal_pass) return normal_pass.error();
+  r->normal_pass_.emplace(std::move(*normal_pass));
   r->indices_ = gpu::make_buffer();
   const auto& idx = r->mesh_->indices();
   glNamedBufferStorage(r->indices_.get(), GLsizeiptr(idx.size() * sizeof(uint32_t)), idx.data(), 0);
@@ -107,58 +153,141 @@ int64_t ClipmapRenderer::upload(Level& level, int32_t mip, const RectI& rect) {
   return texels;
 }
 
+void ClipmapRenderer::update_normals(int32_t l, const RectI& uploaded) {
+  const Level& level = level_[size_t(l)];
+  // Normals depend on heights up to 4 samples away (the one-sided stencils at the world's
+  // edges), so they are computed where every stencil stays in the region: 4 samples in, which
+  // still covers every vertex (kLevelPad = 5) and the sample after it that filtering reads.
+  static_assert(kLevelPad >= 5);
+  const RectI region{level.region_x + 4, level.region_y + 4, level.region_x + tex_size_ - 4,
+                     level.region_y + tex_size_ - 4};
+  const RectI r = RectI{uploaded.x0 - 4, uploaded.y0 - 4, uploaded.x1 + 4, uploaded.y1 + 4}.intersect(region);
+  const WorldParams& p = source_->params();
+  normal_pass_->update(level.texture.get(), level.normals.get(), tex_size_, level_region(l), r, level.world,
+                       p, p.meters_per_sample * double(int64_t(1) << l));
+}
+
 int64_t ClipmapRenderer::update_levels(const Camera& camera) {
   const auto c = lod_center_samples(camera);
   placed_ = place_levels(config_.n, levels_, c[0], c[1]);
-  const int64_t n = tex_size_;
   int64_t texels = 0;
   for (int32_t l = 0; l < levels_; ++l) {
     Level& level = level_[size_t(l)];
     const int64_t rx = (placed_[size_t(l)].origin_x >> l) - kLevelPad;
     const int64_t ry = (placed_[size_t(l)].origin_y >> l) - kLevelPad;
-    const RectI now{rx, ry, rx + n, ry + n};
-    if (!level.valid || std::abs(rx - level.region_x) >= n || std::abs(ry - level.region_y) >= n) {
-      texels += upload(level, l, now);
-    } else {
-      // Only what came into view: the columns entering at one side over the full new height,
-      // then the rows entering over the columns both regions share.
-      const RectI old{level.region_x, level.region_y, level.region_x + n, level.region_y + n};
-      if (rx > old.x0) texels += upload(level, l, {old.x1, ry, now.x1, now.y1});
-      if (rx < old.x0) texels += upload(level, l, {rx, ry, old.x0, now.y1});
-      const int64_t sx0 = std::max(rx, old.x0), sx1 = std::min(now.x1, old.x1);
-      if (ry > old.y0) texels += upload(level, l, {sx0, old.y1, sx1, now.y1});
-      if (ry < old.y0) texels += upload(level, l, {sx0, ry, sx1, old.y0});
-    }
+    std::optional<std::array<int64_t, 2>> old;
+    if (level.valid) old = std::array<int64_t, 2>{level.region_x, level.region_y};
+    const std::vector<RectI> strips = toroidal_strips(old, {rx, ry}, tex_size_);
     level.valid = true;
     level.region_x = rx;
     level.region_y = ry;
+    for (const RectI& s : strips) texels += upload(level, l, s);
+    for (const RectI& s : strips) update_normals(l, s);
+  }
+  return texels + update_detail(camera);
+}
+
+int64_t ClipmapRenderer::upload_detail(const RectI& rect) {
+  const int64_t n = config_.detail_size;
+  int64_t texels = 0;
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  for (int64_t y = rect.y0; y < rect.y1;) {
+    const int64_t ty = floor_mod(y, n), h = std::min(rect.y1 - y, n - ty);
+    for (int64_t x = rect.x0; x < rect.x1;) {
+      const int64_t tx = floor_mod(x, n), w = std::min(rect.x1 - x, n - tx);
+      detail_scratch_.resize(size_t(w * h));
+      source_->read_detail({x, y, x + w, y + h}, detail_scratch_);
+      glTextureSubImage2D(detail_.offsets.get(), 0, GLint(tx), GLint(ty), GLsizei(w), GLsizei(h),
+                          GL_RED_INTEGER, GL_BYTE, detail_scratch_.data());
+      texels += w * h;
+      x += w;
+    }
+    y += h;
+  }
+  // Gradients by central differences: recompute one sample around what changed.
+  const RectI region{detail_.region_x + 1, detail_.region_y + 1, detail_.region_x + n - 1,
+                     detail_.region_y + n - 1};
+  const RectI g = RectI{rect.x0 - 1, rect.y0 - 1, rect.x1 + 1, rect.y1 + 1}.intersect(region);
+  if (!g.empty()) {
+    const WorldParams& p = source_->params();
+    const GLuint prog = gradient_program_.get();
+    glUseProgram(prog);
+    glProgramUniform1i(prog, loc(prog, "tex_size"), GLint(n));
+    glProgramUniform2i(prog, loc(prog, "region_lo"), GLint(detail_.region_x), GLint(detail_.region_y));
+    glProgramUniform2i(prog, loc(prog, "region_base"), GLint(floor_mod(detail_.region_x, n)),
+                       GLint(floor_mod(detail_.region_y, n)));
+    glProgramUniform4i(prog, loc(prog, "rect"), GLint(g.x0), GLint(g.y0), GLint(g.x1), GLint(g.y1));
+    // Central differences span two samples: meters per unit over twice the spacing.
+    glProgramUniform1f(prog, loc(prog, "scale"),
+                       float(p.detail_meters_per_unit / (2.0 * p.detail_meters_per_sample())));
+    glBindTextureUnit(0, detail_.offsets.get());
+    glBindImageTexture(1, detail_.gradient.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG16F);
+    glDispatchCompute(GLuint((g.width() + 7) / 8), GLuint((g.height() + 7) / 8), 1);
   }
   return texels;
+}
+
+int64_t ClipmapRenderer::update_detail(const Camera& camera) {
+  if (config_.detail_size == 0) return 0;
+  const WorldParams& p = source_->params();
+  const auto c = lod_center_samples(camera);
+  const int64_t n = config_.detail_size;
+  const int64_t rx = int64_t(std::floor(c[0] * p.detail_factor)) - n / 2;
+  const int64_t ry = int64_t(std::floor(c[1] * p.detail_factor)) - n / 2;
+  std::optional<std::array<int64_t, 2>> old;
+  if (detail_.valid) old = std::array<int64_t, 2>{detail_.region_x, detail_.region_y};
+  const std::vector<RectI> strips = toroidal_strips(old, {rx, ry}, n);
+  detail_.valid = true;
+  detail_.region_x = rx;
+  detail_.region_y = ry;
+  int64_t texels = 0;
+  for (const RectI& s : strips) texels += upload_detail(s);
+  return texels;
+}
+
+RectI ClipmapRenderer::level_region(int32_t l) const {
+  const Level& level = level_[size_t(l)];
+  return {level.region_x, level.region_y, level.region_x + tex_size_, level.region_y + tex_size_};
+}
+
+std::vector<uint32_t> ClipmapRenderer::read_level_normals(int32_t l, const RectI& rect) const {
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  std::vector<uint32_t> all(size_t(tex_size_) * size_t(tex_size_)), out;
+  glGetTextureImage(level_[size_t(l)].normals.get(), 0, GL_RED_INTEGER, GL_UNSIGNED_INT,
+                    GLsizei(all.size() * 4), all.data());
+  for (int64_t y = rect.y0; y < rect.y1; ++y) {
+    for (int64_t x = rect.x0; x < rect.x1; ++x) {
+      out.push_back(all[size_t(floor_mod(y, tex_size_) * tex_size_ + floor_mod(x, tex_size_))]);
+    }
+  }
+  return out;
 }
 
 void ClipmapRenderer::invalidate(const RectI& mip0_rect) {
   for (int32_t l = 0; l < levels_; ++l) {
     Level& level = level_[size_t(l)];
     if (!level.valid) continue;
-    const int64_t s = int64_t(1) << l;
-    // Level sample i is mip-0 sample i * s: those inside the rect.
-    const RectI mine{ceil_div(mip0_rect.x0, s), ceil_div(mip0_rect.y0, s), ceil_div(mip0_rect.x1, s),
-                     ceil_div(mip0_rect.y1, s)};
     const RectI held{level.region_x, level.region_y, level.region_x + tex_size_, level.region_y + tex_size_};
-    const RectI r = mine.intersect(held);
-    if (!r.empty()) upload(level, l, r);
+    const RectI r = in_level_grid(mip0_rect, int64_t(1) << l).intersect(held);
+    if (r.empty()) continue;
+    upload(level, l, r);
+    update_normals(l, r);
   }
 }
 
-namespace {
-
-GLint loc(GLuint program, const char* name) { return glGetUniformLocation(program, name); }
-
-}  // namespace
+void ClipmapRenderer::invalidate_detail(const RectI& detail_rect) {
+  if (!detail_.valid) return;
+  const int64_t n = config_.detail_size;
+  const RectI r =
+      detail_rect.intersect({detail_.region_x, detail_.region_y, detail_.region_x + n, detail_.region_y + n});
+  if (!r.empty()) upload_detail(r);
+}
 
 FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t height) {
   FrameStats stats;
   stats.texels_uploaded = update_levels(camera);
+  // Normal maps and detail gradients written by compute must be visible to the draw.
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
   const WorldParams& p = source_->params();
   const double mps = p.meters_per_sample;
   const auto c = lod_center_samples(camera);
@@ -195,6 +324,8 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
   glDepthFunc(GL_LESS);
   glViewport(0, 0, width, height);
   const int32_t n = config_.n, m = (n + 1) / 4;
+  const RectI world = p.sample_rect();
+  const double skirt_m = config_.min_height_m - kSkirtDepthM;
   glUniform1i(loc(prog, "u_n"), n);
   glUniform1i(loc(prog, "u_tex_size"), tex_size_);
   glUniform2fv(loc(prog, "u_cam_offset"), 1, glm::value_ptr(cam_offset));
@@ -204,6 +335,9 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
   glUniform1f(loc(prog, "u_band"), config_.morph ? float(morph_band(n)) : 0.0f);
   glUniform1i(loc(prog, "u_half_m"), 2 * m - 2);
   glUniformMatrix4fv(loc(prog, "u_view_proj"), 1, GL_FALSE, glm::value_ptr(vp));
+  glUniform4i(loc(prog, "u_world_rel"), GLint(world.x0 - ax), GLint(world.y0 - ay), GLint(world.x1 - ax),
+              GLint(world.y1 - ay));
+  glUniform1f(loc(prog, "u_skirt_z"), float(p.height_offset + skirt_m - camera.z));
   const float az = glm::radians(config_.sun_azimuth_degrees),
               el = glm::radians(config_.sun_elevation_degrees);
   // Azimuth clockwise from north, in the render frame (x east, y north).
@@ -215,6 +349,22 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
   glUniform3fv(loc(prog, "u_fog_color"), 1, glm::value_ptr(fog));
   glUniform1f(loc(prog, "u_fog_density"), float(1.0 / (config_.view_distance * 1.5)));
   glUniform1i(loc(prog, "u_debug_morph"), 0);
+  const bool detail = config_.detail_size > 0;
+  glUniform1i(loc(prog, "u_detail_on"), detail ? 1 : 0);
+  if (detail) {
+    const int64_t k = p.detail_factor;
+    glUniform1i(loc(prog, "u_detail_size"), config_.detail_size);
+    glUniform1i(loc(prog, "u_detail_factor"), GLint(k));
+    glUniform2i(loc(prog, "u_detail_rel_origin"), GLint(detail_.region_x - ax * k),
+                GLint(detail_.region_y - ay * k));
+    glUniform2i(loc(prog, "u_detail_base"), GLint(floor_mod(detail_.region_x, config_.detail_size)),
+                GLint(floor_mod(detail_.region_y, config_.detail_size)));
+    glUniform1f(loc(prog, "u_detail_meters_per_unit"), float(p.detail_meters_per_unit));
+    glBindTextureUnit(3, detail_.offsets.get());
+    glBindTextureUnit(4, detail_.gradient.get());
+  }
+  const float z_margin =
+      float(kSkirtDepthM + (config_.detail_displacement ? 128.0 * p.detail_meters_per_unit : 0.0));
 
   const int64_t tn = tex_size_;
   for (int32_t l = 0; l < levels_; ++l) {
@@ -222,12 +372,23 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
     const Level& level = level_[size_t(l)];
     const int64_t s = lp.spacing();
     glBindTextureUnit(0, level.texture.get());
+    glBindTextureUnit(1, level.normals.get());
     const int64_t ox = lp.origin_x >> l, oy = lp.origin_y >> l;
     glUniform2i(loc(prog, "u_tex_base"), GLint(floor_mod(ox, tn)), GLint(floor_mod(oy, tn)));
     glUniform2i(loc(prog, "u_rel_origin"), GLint(lp.origin_x - ax), GLint(lp.origin_y - ay));
     glUniform1i(loc(prog, "u_spacing"), GLint(s));
     glUniform2f(loc(prog, "u_viewer"), float((c[0] - double(lp.origin_x)) / double(s)),
                 float((c[1] - double(lp.origin_y)) / double(s)));
+    const bool coarser = l + 1 < levels_;
+    glUniform1i(loc(prog, "u_has_coarse"), coarser ? 1 : 0);
+    if (coarser) {
+      const LevelPlacement& cp = placed_[size_t(l + 1)];
+      glBindTextureUnit(2, level_[size_t(l + 1)].normals.get());
+      glUniform2i(loc(prog, "u_rel_origin_coarse"), GLint(cp.origin_x - ax), GLint(cp.origin_y - ay));
+      glUniform2i(loc(prog, "u_tex_base_coarse"), GLint(floor_mod(cp.origin_x >> (l + 1), tn)),
+                  GLint(floor_mod(cp.origin_y >> (l + 1), tn)));
+    }
+    glUniform1i(loc(prog, "u_detail_displace"), l == 0 && detail && config_.detail_displacement ? 1 : 0);
     std::vector<const Piece*> pieces;
     for (const Piece& piece : mesh_->ring()) pieces.push_back(&piece);
     pieces.push_back(lp.trim_variant < 0 ? &mesh_->fill() : &mesh_->trim(lp.trim_variant));
@@ -247,8 +408,9 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
         const float x1 = float(double(lp.origin_x - ax + piece->x1 * s) * mps) - cam_offset.x;
         const float y0 = -(float(double(lp.origin_y - ay + piece->y1 * s) * mps) - cam_offset.y);
         const float y1 = -(float(double(lp.origin_y - ay + piece->y0 * s) * mps) - cam_offset.y);
-        const float z0 = float(p.height_offset - camera.z + double(lo) * p.meters_per_unit);
-        const float z1 = float(p.height_offset - camera.z + double(hi) * p.meters_per_unit);
+        // Skirts and detail displacement reach below (and above) the level's samples.
+        const float z0 = float(p.height_offset - camera.z + double(lo) * p.meters_per_unit) - z_margin;
+        const float z1 = float(p.height_offset - camera.z + double(hi) * p.meters_per_unit) + z_margin;
         bool outside = false;
         for (const glm::vec4& pl : planes) {
           const glm::vec3 pv(pl.x >= 0 ? x1 : x0, pl.y >= 0 ? y1 : y0, pl.z >= 0 ? z1 : z0);

@@ -1,14 +1,22 @@
 // The GPU geometry-clipmap renderer: per-level height textures kept current toroidally, one
 // shared index buffer (clipmap_mesh.h), vertex texture fetch at exact sample positions,
-// transition-band geomorphing of positions and normals, FD4 normals, sun + sky lighting with
-// height/slope materials, per-piece frustum culling and camera-relative positions.
+// transition-band geomorphing of positions (vertex shader) and normals (fragment shader),
+// per-level FD4 normal maps from the shared normal pass (gpu/normal_pass.h), detail-layer
+// normals near the camera, sun + sky lighting with height/slope materials, an earth skirt at
+// the world's edge instead of the clamped terrain beyond it, per-piece frustum culling and
+// camera-relative positions.
 //
 // Level l reads mip l (spacing 2^l mip-0 samples) from a HeightSource into an R16UI texture of
 // N x N texels, N = n + 2 * kLevelPad: the n vertex samples plus the neighbours FD4 normals at
 // the coarser spacing reach. Mip-l sample (gx, gy) lives at texel (gx mod N, gy mod N), so a
-// camera move uploads only the strips that came into view. Positions are formed relative to
-// an integer anchor (the outermost level's origin, a multiple of 2^L samples) and the camera's
-// offset from it, so nothing large reaches float: a view 10,000 km out renders as at home.
+// camera move uploads only the strips that came into view; the level's normal map (R32UI,
+// packed like protocol/normal_map.h) is recomputed on the GPU for exactly those strips. The
+// detail layer around the camera (detail_size^2 samples, R8I, toroidal alike) gets a gradient
+// map (RG16F) that perturbs the normals where a pixel covers less than about two detail
+// samples, and optionally displaces the finest level's vertices. Positions are formed relative
+// to an integer anchor (the outermost level's origin, a multiple of 2^L samples) and the
+// camera's offset from it, so nothing large reaches float: a view 10,000 km out renders as at
+// home.
 //
 // World frame: x east (+gx), y along +gy (south in a DEM), z up, meters. Needs the GL 4.5
 // context current; not thread-safe.
@@ -22,6 +30,7 @@
 
 #include "client/render/clipmap_mesh.h"
 #include "gpu/gl_handle.h"
+#include "gpu/normal_pass.h"
 #include "protocol/world.h"
 
 namespace loam::render {
@@ -35,6 +44,8 @@ class HeightSource {
   // Mip-`mip` samples of `rect` (that mip's grid: sample i is mip-0 sample i * 2^mip),
   // row-major into `out` (rect.area() values). Samples outside the world clamp to its edge.
   virtual void read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const = 0;
+  // Detail offsets of a rect of the detail grid (0 where there are none).
+  virtual void read_detail(const RectI& rect, std::span<int8_t> out) const;
 };
 
 class WorldHeightSource final : public HeightSource {
@@ -42,6 +53,7 @@ class WorldHeightSource final : public HeightSource {
   explicit WorldHeightSource(const World& world) : world_(world) {}
   const WorldParams& params() const override { return world_.params(); }
   void read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const override;
+  void read_detail(const RectI& rect, std::span<int8_t> out) const override;
 
  private:
   const World& world_;
@@ -67,6 +79,8 @@ struct RendererConfig {
   bool cull = true;                           // per-piece frustum culling
   double min_height_m = 0, max_height_m = 0;  // material range; equal: from the source's mip
   float sun_azimuth_degrees = 135.0f, sun_elevation_degrees = 35.0f;
+  int32_t detail_size = 512;         // detail samples per side around the camera; 0: no detail
+  bool detail_displacement = false;  // also displace the finest level's vertices by the detail
 };
 
 struct FrameStats {
@@ -91,6 +105,13 @@ class ClipmapRenderer {
   int64_t update_levels(const Camera& camera);
   // Samples of `mip0_rect` changed in the source: re-read them into every level holding them.
   void invalidate(const RectI& mip0_rect);
+  // Detail samples of `detail_rect` (detail grid) changed in the source.
+  void invalidate_detail(const RectI& detail_rect);
+
+  // Reads level l's normal map over `rect` (level samples, inside its region; tests).
+  std::vector<uint32_t> read_level_normals(int32_t l, const RectI& rect) const;
+  // Level l's region of level samples (its texture's content).
+  RectI level_region(int32_t l) const;
 
   int32_t levels() const { return levels_; }
   const RendererConfig& config() const { return config_; }
@@ -99,13 +120,24 @@ class ClipmapRenderer {
 
  private:
   struct Level {
-    gpu::GlTexture texture;
+    gpu::GlTexture texture;        // heights, R16UI
+    gpu::GlTexture normals;        // R32UI, packed FD4 normals
     std::vector<uint16_t> mirror;  // N x N, the texture's content, for culling bounds
     bool valid = false;
     int64_t region_x = 0, region_y = 0;  // level-grid sample at the region's low corner
+    RectI world;                         // the world's samples in this level's grid
+  };
+  struct Detail {
+    gpu::GlTexture offsets;   // R8I
+    gpu::GlTexture gradient;  // RG16F, meters per meter
+    bool valid = false;
+    int64_t region_x = 0, region_y = 0;
   };
   ClipmapRenderer() = default;
   int64_t upload(Level& level, int32_t mip, const RectI& rect);  // rect in the level grid
+  void update_normals(int32_t l, const RectI& uploaded);
+  int64_t update_detail(const Camera& camera);
+  int64_t upload_detail(const RectI& rect);  // detail grid
   std::array<double, 2> lod_center_samples(const Camera& camera) const;
 
   const HeightSource* source_ = nullptr;
@@ -116,8 +148,11 @@ class ClipmapRenderer {
   std::vector<LevelPlacement> placed_;
   gpu::GlBuffer indices_;
   gpu::GlVertexArray vao_;
-  gpu::GlProgram program_;
+  gpu::GlProgram program_, gradient_program_;
+  std::optional<gpu::LevelNormalPass> normal_pass_;
+  Detail detail_;
   std::vector<uint16_t> scratch_;
+  std::vector<int8_t> detail_scratch_;
 };
 
 }  // namespace loam::render

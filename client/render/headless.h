@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "client/render/clipmap_renderer.h"
+#include "client/render/viewer_session.h"
 #include "gpu/gl_handle.h"
 #include "protocol/result.h"
 
@@ -41,7 +42,9 @@ Status write_png(const std::string& path, int32_t width, int32_t height, const s
 Camera look_at(double x, double y, double z, double tx, double ty, double tz);
 
 struct RenderCommandOptions {
-  std::string dem;  // empty: the embedded default terrain
+  std::string dem;       // empty: the embedded default terrain
+  std::string snapshot;  // a snapshot folder, or a data folder (its newest snapshot)
+  std::string server;    // host:port: render a live session instead (its confirmed tiles)
   std::array<double, 3> camera{1024.0, 1700.0, 300.0};
   std::array<double, 3> look{1024.0, 800.0, 60.0};
   int32_t width = 1280, height = 720;

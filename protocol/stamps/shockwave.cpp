@@ -35,6 +35,19 @@ void wave_step(WaveField& f, const RectI& active, int32_t nu2_q16, int32_t dampi
   std::swap(f.cur, f.prev);
 }
 
+namespace {
+RectI pulse_rect(const QuantizedStamp& q, const BakedStamp& b) {
+  return {ceil_div(q.center_x - b.support_q8, 256), ceil_div(q.center_y - b.support_q8, 256),
+          floor_div(q.center_x + b.support_q8, 256) + 1, floor_div(q.center_y + b.support_q8, 256) + 1};
+}
+}  // namespace
+
+RectI shockwave_box(const BakedStamp& b, const RectI& world_rect) {
+  const int64_t total = int64_t(b.q.steps) * shockwave_substeps(b.q.speed);
+  const RectI pulse = pulse_rect(b.q, b);
+  return RectI{pulse.x0 - total, pulse.y0 - total, pulse.x1 + total, pulse.y1 + total}.intersect(world_rect);
+}
+
 Result<RectI> apply_shockwave(World& world, const QuantizedStamp& q) {
   auto baked = bake_stamp(q, world.params());  // the Gaussian pulse
   LOAM_TRY(baked);
@@ -42,12 +55,8 @@ Result<RectI> apply_shockwave(World& world, const QuantizedStamp& q) {
   const int32_t sub = shockwave_substeps(q.speed);
   const int32_t nu2 = shockwave_nu2_q16(q.speed, sub);
   const int64_t total = int64_t(q.steps) * sub;
-  const RectI world_rect = layer_sample_rect(world.params(), q.layer);
-  const RectI pulse{ceil_div(q.center_x - b.support_q8, 256), ceil_div(q.center_y - b.support_q8, 256),
-                    floor_div(q.center_x + b.support_q8, 256) + 1,
-                    floor_div(q.center_y + b.support_q8, 256) + 1};
-  const RectI box =
-      RectI{pulse.x0 - total, pulse.y0 - total, pulse.x1 + total, pulse.y1 + total}.intersect(world_rect);
+  const RectI pulse = pulse_rect(q, b);
+  const RectI box = shockwave_box(b, layer_sample_rect(world.params(), q.layer));
   if (box.empty()) return RectI{};
   WaveField f(box.width(), box.height());
   for (int64_t y = box.y0; y < box.y1; ++y) {

@@ -38,6 +38,12 @@ struct WaveField {
 // One explicit step over the interior cells in `active` (interior coordinates).
 void wave_step(WaveField& f, const RectI& active, int32_t nu2_q16, int32_t damping_q16);
 
+struct BakedStamp;
+
+// The cells a shockwave may change: its pulse's rect grown by one cell per (sub-)step,
+// clipped to the layer (`world_rect`). `b` is the stamp's baked Gaussian pulse.
+RectI shockwave_box(const BakedStamp& b, const RectI& world_rect);
+
 // Applies a shockwave stamp (which must pass check_quantized) and returns the changed rect.
 Result<RectI> apply_shockwave(World& world, const QuantizedStamp& q);
 

@@ -99,6 +99,15 @@ Result<RectI> apply_stamp_with(World& world, const QuantizedStamp& q, FastIsa is
                     [&](auto* tile, int64_t tx, int64_t ty) { return fast.apply_in_tile(tile, tx, ty); });
 }
 
+Result<RectI> stamp_reach(const QuantizedStamp& q, const WorldParams& world, const TextureRegistry* textures,
+                          const StampLimits& limits) {
+  LOAM_TRY(check_quantized(q, world, limits, textures));
+  auto baked = bake_stamp(q, world, q.kind == StampKind::kShockwave ? nullptr : textures);
+  LOAM_TRY(baked);
+  if (q.kind == StampKind::kShockwave) return shockwave_box(baked.value(), layer_sample_rect(world, q.layer));
+  return baked.value().rect;
+}
+
 Result<RectI> apply_stamp(World& world, const QuantizedStamp& q, const TextureRegistry* textures,
                           const StampLimits& limits) {
   return apply_stamp_with(world, q, FastIsa::kBest, textures, limits);

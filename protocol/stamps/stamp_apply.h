@@ -36,6 +36,11 @@ Result<RectI> apply_stamp_reference(World& world, const QuantizedStamp& q,
                                     const TextureRegistry* textures = nullptr,
                                     const StampLimits& limits = {});
 
+// The samples a stamp may change (its layer's global grid, clipped to the world), without
+// applying it: the baked rect, or a shockwave's final box. Errors as check_quantized.
+Result<RectI> stamp_reach(const QuantizedStamp& q, const WorldParams& world,
+                          const TextureRegistry* textures = nullptr, const StampLimits& limits = {});
+
 // apply_stamp with the fast kernel's instruction set forced (tests compare every choice).
 // An `isa` this CPU lacks falls back to the portable kernel.
 Result<RectI> apply_stamp_with(World& world, const QuantizedStamp& q, FastIsa isa,

@@ -154,5 +154,35 @@ TEST(ClipmapMesh, LevelCountFollowsViewDistance) {
   EXPECT_LT((127 - 1) / 2.0 * double(int64_t(1) << (l - 2)) * 2.0, 3000.0);
 }
 
+// A toroidal region that moves loads exactly the samples that came into view, each once.
+TEST(ClipmapMesh, ToroidalStripsLoadExactlyTheSamplesThatCameIntoView) {
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int64_t> step(-9, 9), jump(-40, 40);
+  const int64_t size = 23;
+  std::array<int64_t, 2> at{-5, 17};
+  EXPECT_EQ(toroidal_strips(std::nullopt, at, size), (std::vector<RectI>{{-5, 17, 18, 40}}));
+  for (int i = 0; i < 300; ++i) {
+    const std::array<int64_t, 2> next{at[0] + (i % 10 == 0 ? jump(rng) : step(rng)),
+                                      at[1] + (i % 10 == 0 ? jump(rng) : step(rng))};
+    const RectI old{at[0], at[1], at[0] + size, at[1] + size},
+        now{next[0], next[1], next[0] + size, next[1] + size};
+    std::vector<int> loaded(size_t(size * size), 0);
+    for (const RectI& r : toroidal_strips(at, next, size)) {
+      ASSERT_TRUE(now.contains(r)) << "strip outside the new region";
+      for (int64_t y = r.y0; y < r.y1; ++y) {
+        for (int64_t x = r.x0; x < r.x1; ++x) ++loaded[size_t((y - now.y0) * size + (x - now.x0))];
+      }
+    }
+    const bool jumped = std::abs(next[0] - at[0]) >= size || std::abs(next[1] - at[1]) >= size;
+    for (int64_t y = now.y0; y < now.y1; ++y) {
+      for (int64_t x = now.x0; x < now.x1; ++x) {
+        const int want = jumped || !old.contains(x, y) ? 1 : 0;
+        ASSERT_EQ(loaded[size_t((y - now.y0) * size + (x - now.x0))], want) << "sample " << x << "," << y;
+      }
+    }
+    at = next;
+  }
+}
+
 }  // namespace
 }  // namespace loam::render

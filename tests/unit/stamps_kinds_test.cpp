@@ -2,14 +2,14 @@
 // determinism, and the validation that guards it.
 #include <gtest/gtest.h>
 
-#include "tests/determinism/stamp_sequence.h"
-
 #include <cmath>
 #include <functional>
+#include <random>
 #include <string>
 
 #include "protocol/stamps/stamp_apply.h"
 #include "stamps_test_util.h"
+#include "tests/determinism/stamp_sequence.h"
 
 namespace loam {
 namespace {
@@ -581,7 +581,39 @@ TEST(StampDeterminism, TheSameStampSequenceTwiceGivesTheSameWorldHash) {
 // platform) must reproduce it. If an intentional change of the stamp arithmetic moves it,
 // update the constant and docs/stamps.md together.
 TEST(StampDeterminism, SeededSequenceReproducesTheGoldenHashOnEveryCompiler) {
-  EXPECT_EQ(seeded_sequence_hash(), determinism::kGoldenStampSequenceHash) << std::hex << seeded_sequence_hash();
+  EXPECT_EQ(seeded_sequence_hash(), determinism::kGoldenStampSequenceHash)
+      << std::hex << seeded_sequence_hash();
+}
+
+// stamp_reach bounds what a stamp may change without applying it (the client's overlay
+// decides with it which tiles a prediction needs): every changed sample of every kind, on both
+// layers and across tile corners and world edges, lies inside it.
+TEST(StampReach, HoldsEverySampleTheStampChanges) {
+  const WorldParams w = stamps_test::corner_world_params();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> pos(-300, 300), unit(0, 1);
+  int checked = 0;
+  for (int i = 0; i < 300; ++i) {
+    StampParams p = stamps_test::make_params(StampKind(i % 6 == 0 ? 1 : i % 6), pos(rng), pos(rng),
+                                             1 + 40 * unit(rng), 0.5 + 2 * unit(rng));
+    if (p.kind == StampKind::kTexture) p.kind = StampKind::kGaussian;
+    p.layer = i % 5 == 0 ? Layer::kDetail : Layer::kCoarse;
+    p.shape = 0.3;
+    p.target = 10;
+    if (p.kind == StampKind::kShockwave)
+      p.steps = 1 + uint32_t(30 * unit(rng)), p.speed = 0.6, p.damping = 0.1;
+    if (p.layer == Layer::kDetail) p.intensity *= 0.1, p.radius *= 0.2;
+    auto q = validate_stamp(p, w);
+    if (!q) continue;
+    World world(w, 30000);
+    const auto reach = stamp_reach(*q, w);
+    ASSERT_TRUE(reach.ok()) << reach.error().describe();
+    const auto changed = apply_stamp(world, *q);
+    ASSERT_TRUE(changed.ok());
+    EXPECT_TRUE(reach->contains(*changed)) << to_string(q->kind) << " stamp " << i;
+    checked += !changed->empty();
+  }
+  EXPECT_GT(checked, 150);
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-#include "server/snapshot.h"
+#include "protocol/snapshot/snapshot.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -15,7 +15,7 @@
 #include "protocol/codec/region_codec.h"
 #include "protocol/tile_hash.h"
 
-namespace loam::server {
+namespace loam {
 namespace fs = std::filesystem;
 
 namespace {
@@ -370,4 +370,4 @@ std::vector<std::string> list_snapshots(const std::string& data_dir) {
   return out;
 }
 
-}  // namespace loam::server
+}  // namespace loam

@@ -1,5 +1,7 @@
 // Snapshots: the whole terrain at one sequence number, so recovery is the newest valid
-// snapshot plus the log segments after it.
+// snapshot plus the log segments after it. The server writes them; its recovery, the file
+// tools and the client's headless renderer read them (a file format both sides agree on, like
+// the log, hence protocol/).
 //
 // Layout: <data>/snapshots/snapshot-<seq, 20 digits>/{manifest.json, tiles.bin}. Written into
 // a temporary folder, every file fsynced, then renamed into place and the parent fsynced, so
@@ -19,7 +21,7 @@
 #include "protocol/stamps/texture_registry.h"
 #include "protocol/world.h"
 
-namespace loam::server {
+namespace loam {
 
 struct SnapshotManifest {
   uint64_t snapshot_id = 0;  // = last_seq: the world after this sequence
@@ -56,4 +58,4 @@ std::vector<std::string> list_snapshots(const std::string& data_dir);
 // fsync a file or directory by path (used by snapshots and the data folder).
 Status fsync_path(const std::string& path);
 
-}  // namespace loam::server
+}  // namespace loam

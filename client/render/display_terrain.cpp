@@ -1,0 +1,360 @@
+#include "client/render/display_terrain.h"
+
+#include <algorithm>
+#include <optional>
+
+#include "gpu/gpu_stamper.h"
+#include "protocol/stamps/stamp_apply.h"
+
+namespace loam::render {
+
+namespace {
+
+bool intersects(const RectI& a, const RectI& b) { return !a.intersect(b).empty(); }
+
+bool intersects_any(const std::vector<RectI>& rects, const RectI& r) {
+  return std::any_of(rects.begin(), rects.end(), [&](const RectI& s) { return intersects(s, r); });
+}
+
+size_t layer_index(Layer l) { return l == Layer::kCoarse ? 0 : 1; }
+
+// Samples of a layer over `rect` as int32 (either layer), for comparisons.
+std::vector<int32_t> read_layer(const World& w, Layer layer, const RectI& rect) {
+  std::vector<int32_t> out(size_t(rect.area()));
+  if (layer == Layer::kCoarse) {
+    std::vector<uint16_t> s(out.size());
+    w.read_coarse(rect, s);
+    std::copy(s.begin(), s.end(), out.begin());
+  } else {
+    std::vector<int8_t> s(out.size());
+    w.read_detail(rect, s);
+    std::copy(s.begin(), s.end(), out.begin());
+  }
+  return out;
+}
+
+}  // namespace
+
+DisplayTerrain::DisplayTerrain(const client::ConfirmedStore& store, const TextureRegistry* textures)
+    : store_(&store), textures_(textures), display_(store.mirror().params(), 0) {}
+
+DisplayTerrain::~DisplayTerrain() = default;
+
+Result<std::unique_ptr<DisplayTerrain>> DisplayTerrain::create(const client::ConfirmedStore& store,
+                                                               DisplayStamping stamping,
+                                                               const TextureRegistry* textures) {
+  std::unique_ptr<DisplayTerrain> d(new DisplayTerrain(store, textures));
+  // Start from whatever the store already holds (a reconnect keeps it).
+  const WorldParams& p = d->display_.params();
+  d->display_.write_coarse(p.sample_rect(), [&] {
+    std::vector<uint16_t> s(size_t(p.sample_rect().area()));
+    store.mirror().read_coarse(p.sample_rect(), s);
+    return s;
+  }());
+  for (const TileCoord& c : store.mirror().stored_detail_tiles()) {
+    d->display_.write_detail(tile_rect(c.tx, c.ty), store.mirror().detail_tile(c.tx, c.ty));
+  }
+  d->display_.commit(0);
+  if (stamping == DisplayStamping::kGpu) {
+    auto stamper = gpu::GpuStamper::create(d->display_, textures);
+    if (!stamper) return stamper.error();
+    d->stamper_ = std::move(*stamper);
+  }
+  return d;
+}
+
+bool DisplayTerrain::holds_mip0(Layer layer, const RectI& reach) const {
+  const RectI tiles = tiles_overlapping(reach);
+  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+      if (!store_->holds({layer, 0, int32_t(tx), int32_t(ty)})) return false;
+    }
+  }
+  return true;
+}
+
+void DisplayTerrain::stamp(const QuantizedStamp& q) {
+  if (stamper_) {
+    // The store has validated this stamp (or will reject it the same way): an error here is
+    // a stamp that changes nothing, as on the server.
+    (void)stamper_->submit(q);
+    return;
+  }
+  auto r = apply_stamp(display_, q, textures_);
+  if (r && !r->empty()) cpu_done_.push_back({q.layer, *r});
+}
+
+void DisplayTerrain::finish(std::vector<DisplayDirty>& dirty) {
+  if (stamper_) {
+    for (const gpu::StampReadback& rb : stamper_->collect(display_)) {
+      if (!rb.changed.empty()) dirty.push_back({rb.layer, rb.changed});
+    }
+  } else {
+    dirty.insert(dirty.end(), cpu_done_.begin(), cpu_done_.end());
+    cpu_done_.clear();
+  }
+}
+
+void DisplayTerrain::copy_from_store(Layer layer, const RectI& rect) {
+  const RectI r = rect.intersect(layer == Layer::kCoarse ? display_.params().sample_rect()
+                                                         : display_.params().detail_sample_rect());
+  if (r.empty()) return;
+  if (layer == Layer::kCoarse) {
+    std::vector<uint16_t> s(size_t(r.area()));
+    store_->mirror().read_coarse(r, s);
+    display_.write_coarse(r, s);
+  } else {
+    std::vector<int8_t> s(size_t(r.area()));
+    store_->mirror().read_detail(r, s);
+    display_.write_detail(r, s);
+  }
+  counters_.texels_copied += uint64_t(r.area());
+  if (stamper_) stamper_->upload(display_, layer, r);
+}
+
+std::vector<int32_t> DisplayTerrain::expected_after(const Pending& p,
+                                                    const std::vector<client::StoreChange>& changes) const {
+  // Other stamps' events of this sync that reach into ours, on our layer.
+  std::vector<const client::StoreChange*> others;
+  RectI reach = p.reach;
+  for (const client::StoreChange& c : changes) {
+    if (c.kind != client::StoreChange::Kind::kEvent || c.layer != p.stamp.layer || c.rect.empty()) continue;
+    const bool ours = std::any_of(pending_.begin(), pending_.end(),
+                                  [&](const Pending& q) { return q.acked && q.global_seq == c.seq; });
+    if (ours) continue;
+    auto r = stamp_reach(c.stamp, display_.params(), textures_);
+    if (!r || !intersects(*r, p.reach)) continue;
+    others.push_back(&c);
+    reach = reach.unite(*r);
+  }
+  if (others.empty()) return read_layer(display_, p.stamp.layer, p.reach);
+  // Apply them to a small copy of the displayed tiles holding every reach involved.
+  const WorldParams& wp = display_.params();
+  const int64_t k = p.stamp.layer == Layer::kCoarse ? 1 : wp.detail_factor;
+  const RectI coarse{floor_div(reach.x0, k), floor_div(reach.y0, k), ceil_div(reach.x1, k),
+                     ceil_div(reach.y1, k)};
+  const RectI tiles = tiles_overlapping(coarse).intersect(wp.tile_range(0));
+  WorldParams cp = wp;
+  cp.origin_tile_x = int32_t(tiles.x0);
+  cp.origin_tile_y = int32_t(tiles.y0);
+  cp.tiles_x = int32_t(tiles.width());
+  cp.tiles_y = int32_t(tiles.height());
+  World crop(cp, 0);
+  const RectI layer_rect = p.stamp.layer == Layer::kCoarse ? cp.sample_rect() : cp.detail_sample_rect();
+  if (p.stamp.layer == Layer::kCoarse) {
+    std::vector<uint16_t> s(size_t(layer_rect.area()));
+    display_.read_coarse(layer_rect, s);
+    crop.write_coarse(layer_rect, s);
+  } else {
+    std::vector<int8_t> s(size_t(layer_rect.area()));
+    display_.read_detail(layer_rect, s);
+    crop.write_detail(layer_rect, s);
+  }
+  for (const client::StoreChange* c : others) (void)apply_stamp(crop, c->stamp, textures_);
+  return read_layer(crop, p.stamp.layer, p.reach);
+}
+
+bool DisplayTerrain::predict(uint32_t client_seq, const QuantizedStamp& q) {
+  auto reach = stamp_reach(q, display_.params(), textures_);
+  if (!reach || reach->empty() || !holds_mip0(q.layer, *reach)) {
+    ++counters_.not_predicted;
+    return false;
+  }
+  Pending p;
+  p.client_seq = client_seq;
+  p.stamp = q;
+  p.reach = *reach;
+  pending_.push_back(p);
+  stamp(q);
+  ++counters_.predicted;
+  return true;
+}
+
+std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
+  std::vector<DisplayDirty> dirty;
+  const std::vector<client::StoreChange> changes = client.store().take_changes();
+  const auto now = std::chrono::steady_clock::now();
+
+  // 1. Which own stamps are settled: rejected, or their event is in (and not waiting).
+  std::vector<bool> retire(pending_.size(), false);
+  for (size_t i = 0; i < pending_.size(); ++i) {
+    Pending& p = pending_[i];
+    if (!p.acked) {
+      if (const auto a = client.ack(p.client_seq)) {
+        p.acked = true;
+        p.accepted = a->accepted;
+        p.global_seq = a->global_seq;
+        p.ack_time = now;
+      }
+    }
+    if (!p.acked) continue;
+    retire[i] = !p.accepted ||
+                (client.last_event_seq() >= p.global_seq && !client.store().is_buffered(p.global_seq)) ||
+                now - p.ack_time > retire_timeout_;
+  }
+
+  // 2. What each settled prediction should turn into: what it showed, plus the events of
+  // other stamps that arrive with it (the server may have ordered them either side of ours).
+  std::vector<RectI> stale[2], overlay[2];
+  struct Expected {
+    Layer layer;
+    RectI rect;
+    std::vector<int32_t> samples;
+  };
+  std::vector<Expected> expected;
+  // The display's CPU mirror must hold everything submitted before it is read or copied into.
+  finish(dirty);
+  for (size_t i = 0; i < pending_.size(); ++i) {
+    const Pending& p = pending_[i];
+    if (!retire[i]) {
+      overlay[layer_index(p.stamp.layer)].push_back(p.reach);
+      continue;
+    }
+    stale[layer_index(p.stamp.layer)].push_back(p.reach);
+    // A rejected stamp simply disappears; an accepted one is compared with what happened.
+    if (p.accepted) expected.push_back({p.stamp.layer, p.reach, expected_after(p, changes)});
+  }
+
+  // 3. Follow the store's changes: stamp events where the display is confirmed under their
+  // reach; everything else becomes a stale rect, copied from the store below.
+  std::vector<LayerRect> stamped;  // events stamped here, to compare with the store
+  for (const client::StoreChange& c : changes) {
+    const size_t li = layer_index(c.layer);
+    if (c.kind == client::StoreChange::Kind::kRegion) {
+      if (c.tile.mip == 0) {
+        stale[li].push_back(c.rect);
+      } else {
+        // Levels reading that mip (where mip 0 is not held) change: the tile's mip-0 extent.
+        const int64_t s = int64_t(1) << c.tile.mip;
+        dirty.push_back({Layer::kCoarse, {c.rect.x0 * s, c.rect.y0 * s, c.rect.x1 * s, c.rect.y1 * s}});
+      }
+      continue;
+    }
+    if (c.rect.empty()) continue;
+    auto reach = stamp_reach(c.stamp, display_.params(), textures_);
+    const RectI r = reach ? *reach : c.rect;
+    if (intersects_any(stale[li], r) || intersects_any(overlay[li], r)) {
+      stale[li].push_back(c.rect);
+      ++counters_.events_copied;
+    } else {
+      stamp(c.stamp);
+      stamped.push_back({c.layer, c.rect});
+      ++counters_.events_stamped;
+    }
+  }
+  finish(dirty);
+
+  // 4. Overlay stamps over a stale rect are rebuilt whole, which makes their reach stale too.
+  std::vector<bool> reapply(pending_.size(), false);
+  for (bool grew = true; grew;) {
+    grew = false;
+    for (size_t i = 0; i < pending_.size(); ++i) {
+      if (retire[i] || reapply[i]) continue;
+      const size_t li = layer_index(pending_[i].stamp.layer);
+      if (intersects_any(stale[li], pending_[i].reach)) {
+        stale[li].push_back(pending_[i].reach);
+        reapply[i] = true;
+        grew = true;
+      }
+    }
+  }
+
+  // 5. Stamped events must have given the store's samples: count and repair any difference
+  // (only where no overlay stamp stays on top).
+  for (const LayerRect& s : stamped) {
+    const size_t li = layer_index(s.layer);
+    bool covered = intersects_any(stale[li], s.rect);
+    for (size_t i = 0; i < pending_.size() && !covered; ++i) {
+      covered =
+          !retire[i] && layer_index(pending_[i].stamp.layer) == li && intersects(pending_[i].reach, s.rect);
+    }
+    if (covered) continue;
+    const auto mine = read_layer(display_, s.layer, s.rect);
+    const auto theirs = read_layer(store_->mirror(), s.layer, s.rect);
+    uint64_t diff = 0;
+    for (size_t k = 0; k < mine.size(); ++k) diff += mine[k] != theirs[k];
+    if (diff != 0) {
+      counters_.divergent_texels += diff;
+      stale[li].push_back(s.rect);
+    }
+  }
+
+  // 6. Copy the confirmed samples in, then re-apply the overlay stamps on top, in order.
+  for (size_t li = 0; li < 2; ++li) {
+    const Layer layer = li == 0 ? Layer::kCoarse : Layer::kDetail;
+    for (const RectI& r : stale[li]) {
+      copy_from_store(layer, r);
+      dirty.push_back({layer, r});
+    }
+  }
+  for (size_t i = 0; i < pending_.size(); ++i) {
+    if (reapply[i]) stamp(pending_[i].stamp);
+  }
+  finish(dirty);
+  display_.commit(0);
+
+  // 7. Corrections: texels where the confirmed result differs from what was expected.
+  for (const Expected& e : expected) {
+    const auto now_samples = read_layer(display_, e.layer, e.rect);
+    for (size_t k = 0; k < now_samples.size(); ++k) counters_.corrections += now_samples[k] != e.samples[k];
+  }
+  size_t kept = 0;
+  for (size_t i = 0; i < pending_.size(); ++i) {
+    if (retire[i]) {
+      ++counters_.retired;
+      if (!pending_[i].accepted) ++counters_.rejected;
+      continue;
+    }
+    pending_[kept++] = pending_[i];
+  }
+  pending_.resize(kept);
+  return dirty;
+}
+
+uint16_t DisplayTerrain::coarse_at(int32_t mip, int64_t x, int64_t y) const {
+  // (x, y): a mip-0 sample inside the world.
+  const int32_t tx = int32_t(floor_div(x, kTileSize)), ty = int32_t(floor_div(y, kTileSize));
+  if (store_->holds({Layer::kCoarse, 0, tx, ty})) return display_.coarse(x, y);
+  const int32_t mips = display_.params().mip_count();
+  auto from_mip = [&](int32_t m) -> std::optional<uint16_t> {
+    const int64_t j = floor_div(x, int64_t(1) << m), k = floor_div(y, int64_t(1) << m);
+    const TileCoord c{Layer::kCoarse, uint8_t(m), int32_t(floor_div(j, kTileSize)),
+                      int32_t(floor_div(k, kTileSize))};
+    const std::span<const uint16_t> t = store_->coarse_samples(c);
+    if (t.empty()) return std::nullopt;
+    return t[size_t(floor_mod(k, kTileSize) * kTileSize + floor_mod(j, kTileSize))];
+  };
+  // Exact: every mip up to `mip` holds the sample. Then coarser ones, the nearest sample below.
+  for (int32_t m = std::min(mip, mips - 1); m >= 1; --m) {
+    if (const auto v = from_mip(m)) return *v;
+  }
+  for (int32_t m = mip + 1; m < mips; ++m) {
+    if (const auto v = from_mip(m)) return *v;
+  }
+  return 0;
+}
+
+void DisplayTerrain::read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const {
+  const RectI w = display_.params().sample_rect();
+  const int64_t s = int64_t(1) << mip;
+  size_t i = 0;
+  for (int64_t y = rect.y0; y < rect.y1; ++y) {
+    const int64_t gy = std::clamp(y * s, w.y0, w.y1 - 1);
+    for (int64_t x = rect.x0; x < rect.x1; ++x) {
+      out[i++] = coarse_at(mip, std::clamp(x * s, w.x0, w.x1 - 1), gy);
+    }
+  }
+}
+
+void DisplayTerrain::read_detail(const RectI& rect, std::span<int8_t> out) const {
+  size_t i = 0;
+  for (int64_t y = rect.y0; y < rect.y1; ++y) {
+    for (int64_t x = rect.x0; x < rect.x1; ++x) {
+      const TileCoord c{Layer::kDetail, 0, int32_t(floor_div(x, kTileSize)),
+                        int32_t(floor_div(y, kTileSize))};
+      out[i++] = store_->holds(c) ? display_.detail(x, y) : int8_t(0);
+    }
+  }
+}
+
+}  // namespace loam::render

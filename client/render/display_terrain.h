@@ -1,0 +1,130 @@
+// The terrain as a viewer shows it: the confirmed store's state plus the user's own stamps
+// that the server has not settled yet (the overlay), so a crater appears the moment it is
+// made. It is kept in a GPU tile cache (a GpuStamper: the shared stamp shaders, bit-exact with
+// the CPU reference) and in the CPU mirror the clipmap levels read (a HeightSource).
+//
+// Each frame, sync() follows the client:
+//   - events the confirmed store applied are stamped on the GPU copy too, where the display
+//     equals the confirmed state under the stamp's whole reach; the result is compared with
+//     the store's (divergent texels are counted and repaired: 0 on every backend so far);
+//   - where the display cannot follow by stamping (a region replaced a tile, an event fell
+//     where the overlay is), the confirmed samples are copied in ("stale" rects);
+//   - an own stamp is retired once the server rejected it, or its event has arrived and been
+//     applied (or covered by a region); its reach is then rebuilt from the store, and every
+//     overlay stamp overlapping a rebuilt rect is re-applied, in order. A correction is a texel
+//     of a settled prediction where the confirmed result differs from what was shown with the
+//     other stamps' events of the same sync applied on top: 0 when the server applied our
+//     stamp on the state we predicted on (or the stamps commute), more when it ordered another
+//     stamp first and they do not commute (saturation, min/max blends, footprint contact).
+// Only held tiles are meaningful: an own stamp is predicted only where every mip-0 tile of
+// its layer under its reach is held. Mip l samples come from mip 0 where that tile is held
+// (decimation makes them equal), else from a held mip-l tile, else the nearest held coarser
+// mip (an approximation shown only while tiles load).
+//
+// With DisplayStamping::kGpu the GL 4.5 context it was created in must be current for every
+// call; not thread-safe. The store must outlive it.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "client/net/confirmed_store.h"
+#include "client/net/terrain_client.h"
+#include "client/render/clipmap_renderer.h"
+#include "protocol/result.h"
+#include "protocol/stamps/texture_registry.h"
+#include "protocol/world.h"
+
+namespace loam::gpu {
+class GpuStamper;
+}
+
+namespace loam::render {
+
+enum class DisplayStamping { kGpu, kCpu };
+
+struct DisplayCounters {
+  uint64_t events_stamped = 0;    // confirmed events stamped on the display copy
+  uint64_t events_copied = 0;     // confirmed events followed by copying (overlay or region in the way)
+  uint64_t predicted = 0;         // own stamps drawn as overlay
+  uint64_t not_predicted = 0;     // own stamps over tiles not held (shown when confirmed)
+  uint64_t retired = 0;           // overlay stamps settled (applied, rejected or timed out)
+  uint64_t rejected = 0;          // ... of which the server rejected
+  uint64_t corrections = 0;       // texels of the overlay that differed from the confirmed result
+  uint64_t divergent_texels = 0;  // display != store after stamping the same event (repaired)
+  uint64_t texels_copied = 0;     // samples copied from the store into the display
+};
+
+// Samples of the display that changed (a layer's global mip-0 grid), for the renderer.
+struct DisplayDirty {
+  Layer layer = Layer::kCoarse;
+  RectI rect;
+};
+
+class DisplayTerrain final : public HeightSource {
+ public:
+  static Result<std::unique_ptr<DisplayTerrain>> create(const client::ConfirmedStore& store,
+                                                        DisplayStamping stamping,
+                                                        const TextureRegistry* textures = nullptr);
+  ~DisplayTerrain() override;
+  DisplayTerrain(const DisplayTerrain&) = delete;
+  DisplayTerrain& operator=(const DisplayTerrain&) = delete;
+
+  const WorldParams& params() const override { return display_.params(); }
+  void read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const override;
+  // Detail offsets of a rect of the detail grid; 0 where the detail tile is not held.
+  void read_detail(const RectI& rect, std::span<int8_t> out) const;
+
+  // Shows the user's own stamp, sent as `client_seq`, at once. Returns false (nothing shown
+  // until the server confirms it) where the stamp is invalid or reaches a tile not held.
+  bool predict(uint32_t client_seq, const QuantizedStamp& q);
+
+  // Brings the display up to the client's store and acks; returns what changed on display.
+  std::vector<DisplayDirty> sync(client::TerrainClient& client);
+
+  size_t overlay_size() const { return pending_.size(); }
+  const DisplayCounters& counters() const { return counters_; }
+  const World& world() const { return display_; }
+  bool on_gpu() const { return stamper_ != nullptr; }
+  // Own stamps whose event never comes (the tiles were unsubscribed meanwhile) retire after this.
+  void set_retire_timeout(std::chrono::milliseconds t) { retire_timeout_ = t; }
+
+ private:
+  struct Pending {
+    uint32_t client_seq = 0;
+    QuantizedStamp stamp;
+    RectI reach;  // the stamp layer's global samples it may change
+    bool acked = false, accepted = false;
+    uint64_t global_seq = 0;
+    std::chrono::steady_clock::time_point ack_time{};
+  };
+  struct LayerRect {
+    Layer layer = Layer::kCoarse;
+    RectI rect;
+  };
+  DisplayTerrain(const client::ConfirmedStore& store, const TextureRegistry* textures);
+
+  bool holds_mip0(Layer layer, const RectI& reach) const;
+  void stamp(const QuantizedStamp& q);  // queued on the GPU, done at once on the CPU
+  void finish(std::vector<DisplayDirty>& dirty);
+  void copy_from_store(Layer layer, const RectI& rect);
+  uint16_t coarse_at(int32_t mip, int64_t x, int64_t y) const;
+  // What a settled prediction should become if it was right: the displayed samples of its
+  // reach with this sync's events of other stamps (in server order) applied on top.
+  std::vector<int32_t> expected_after(const Pending& p,
+                                      const std::vector<client::StoreChange>& changes) const;
+
+  const client::ConfirmedStore* store_;
+  const TextureRegistry* textures_;
+  World display_;
+  std::unique_ptr<gpu::GpuStamper> stamper_;
+  std::vector<DisplayDirty> cpu_done_;
+  std::vector<Pending> pending_;
+  DisplayCounters counters_;
+  std::chrono::milliseconds retire_timeout_{5000};
+};
+
+}  // namespace loam::render

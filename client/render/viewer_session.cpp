@@ -1,0 +1,105 @@
+#include "client/render/viewer_session.h"
+
+#include <vector>
+
+namespace loam::render {
+
+Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string& host, uint16_t port,
+                                                              const ViewerOptions& options,
+                                                              const Camera& camera) {
+  std::unique_ptr<ViewerSession> v(new ViewerSession());
+  LOAM_TRY(v->client_.connect(host, port, options.name, options.role));
+  const WorldParams& world = v->client_.welcome().world;
+  // The coarsest mip first: a few tiles that show the whole world and set the materials.
+  std::vector<TileCoord> top;
+  const int32_t mips = world.mip_count();
+  const RectI t = world.tile_range(mips - 1);
+  for (int64_t ty = t.y0; ty < t.y1; ++ty) {
+    for (int64_t tx = t.x0; tx < t.x1; ++tx)
+      top.push_back({Layer::kCoarse, uint8_t(mips - 1), int32_t(tx), int32_t(ty)});
+  }
+  v->client_.store().record_changes(true);
+  LOAM_TRY(v->client_.subscribe(top));
+  const bool loaded = v->client_.wait_until(
+      [&] {
+        for (const TileCoord& c : top) {
+          if (!v->client_.store().holds(c)) return false;
+        }
+        return true;
+      },
+      options.connect_timeout);
+  if (!loaded) {
+    return make_error(
+        ErrorCode::kIo, "viewer.connect",
+        "the coarsest mip did not arrive within " + std::to_string(options.connect_timeout.count()) + " ms");
+  }
+  auto display = DisplayTerrain::create(v->client_.store(), options.stamping);
+  if (!display) return display.error();
+  v->display_ = std::move(*display);
+  (void)v->display_->sync(v->client_);  // takes in the coarsest tiles
+  auto renderer = ClipmapRenderer::create(*v->display_, options.renderer);
+  if (!renderer) return renderer.error();
+  v->renderer_ = std::move(*renderer);
+  InterestConfig ic = options.interest;
+  ic.n = v->renderer_->config().n;
+  ic.levels = v->renderer_->levels();
+  ic.pad = ClipmapRenderer::kLevelPad;
+  v->interest_ = std::make_unique<ClipmapInterest>(world, ic);
+  LOAM_TRY(v->follow(camera));
+  return v;
+}
+
+Status ViewerSession::follow(const Camera& camera) {
+  const auto c = camera.lod_center.value_or(std::array<double, 2>{camera.x, camera.y});
+  const ClipmapInterest::Delta d = interest_->update(c[0], c[1]);
+  if (!d.unsubscribe.empty()) LOAM_TRY(client_.unsubscribe(d.unsubscribe));
+  if (!d.subscribe.empty()) LOAM_TRY(client_.subscribe(d.subscribe));
+  return {};
+}
+
+Status ViewerSession::update(const Camera& camera, std::chrono::milliseconds wait) {
+  const Status pumped = client_.pump(wait);
+  LOAM_TRY(follow(camera));
+  for (const DisplayDirty& d : display_->sync(client_)) {
+    if (d.layer == Layer::kCoarse) renderer_->invalidate(d.rect);
+  }
+  return pumped;
+}
+
+FrameStats ViewerSession::render(const Camera& camera, int32_t width, int32_t height) {
+  return renderer_->render(camera, width, height);
+}
+
+Result<uint32_t> ViewerSession::deform(const QuantizedStamp& stamp) {
+  auto seq = client_.deform(stamp);
+  if (!seq) return seq.error();
+  display_->predict(*seq, stamp);
+  return seq;
+}
+
+bool ViewerSession::wait_settled(const Camera& camera, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    if (!update(camera, std::chrono::milliseconds(20)).ok()) return false;
+    bool held = display_->overlay_size() == 0 && client_.store().buffered() == 0;
+    for (const TileCoord& c : interest_->subscribed()) held = held && client_.store().holds(c);
+    if (held) return true;
+    if (std::chrono::steady_clock::now() > deadline) return false;
+  }
+}
+
+ViewerStats ViewerSession::stats() const {
+  ViewerStats s;
+  s.tiles_subscribed = interest_->subscribed().size();
+  const client::ConfirmedStore& store = client_.store();
+  s.tiles_held = store.held().size();
+  const auto& k = store.counters();
+  s.regions = k.regions;
+  s.events_applied = k.events_applied;
+  s.hash_checks = k.hash_checks;
+  s.hash_mismatches = k.hash_mismatches;
+  s.display = display_->counters();
+  return s;
+}
+
+}  // namespace loam::render

@@ -1,0 +1,70 @@
+// A connected viewer: the network client (confirmed store), the display terrain (store +
+// overlay, stamped on the GPU), the tiles the clipmap needs (subscribed as the camera moves)
+// and the clipmap renderer fed from the display. The windowed viewer, `loam-client render
+// --server` and the end-to-end tests drive it the same way: update() once per frame, then
+// render(). Needs the GL 4.5 context current for every call; not thread-safe.
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "client/net/terrain_client.h"
+#include "client/render/clipmap_interest.h"
+#include "client/render/clipmap_renderer.h"
+#include "client/render/display_terrain.h"
+#include "protocol/result.h"
+
+namespace loam::render {
+
+struct ViewerOptions {
+  RendererConfig renderer;
+  InterestConfig interest;  // n and levels are taken from the renderer
+  DisplayStamping stamping = DisplayStamping::kGpu;
+  wire::Role role = wire::Role::kPlayer;
+  std::string name = "viewer";
+  std::chrono::milliseconds connect_timeout{10000};
+};
+
+struct ViewerStats {
+  uint64_t tiles_subscribed = 0, tiles_held = 0;
+  uint64_t regions = 0, events_applied = 0, hash_checks = 0, hash_mismatches = 0;
+  DisplayCounters display;
+};
+
+class ViewerSession {
+ public:
+  // Connects, subscribes to the coarsest mip and waits for it (it sets the material range),
+  // then creates the renderer and subscribes what `camera` needs.
+  static Result<std::unique_ptr<ViewerSession>> connect(const std::string& host, uint16_t port,
+                                                        const ViewerOptions& options, const Camera& camera);
+
+  // One frame's network and display work: handles what arrived (waiting up to `wait` for
+  // the first message), follows the camera's tiles, brings the display up to the store and
+  // refreshes the clipmap levels it changed. An error means the connection is gone.
+  Status update(const Camera& camera, std::chrono::milliseconds wait = std::chrono::milliseconds(0));
+  FrameStats render(const Camera& camera, int32_t width, int32_t height);
+
+  // Sends the user's stamp and shows it at once (where the tiles under it are held).
+  Result<uint32_t> deform(const QuantizedStamp& stamp);
+
+  // Pumps until every tile the camera needs is held and no own stamp awaits the server.
+  bool wait_settled(const Camera& camera, std::chrono::milliseconds timeout);
+
+  client::TerrainClient& client() { return client_; }
+  DisplayTerrain& display() { return *display_; }
+  ClipmapRenderer& renderer() { return *renderer_; }
+  const ClipmapInterest& interest() const { return *interest_; }
+  ViewerStats stats() const;
+
+ private:
+  ViewerSession() = default;
+  Status follow(const Camera& camera);
+
+  client::TerrainClient client_;
+  std::unique_ptr<DisplayTerrain> display_;
+  std::unique_ptr<ClipmapRenderer> renderer_;
+  std::unique_ptr<ClipmapInterest> interest_;
+};
+
+}  // namespace loam::render

@@ -1,0 +1,215 @@
+// End-to-end tests of the viewer stack: a real loam-server process on loopback, headless
+// viewers (client/render/viewer_session.h) rendering through EGL on llvmpipe, and bots. They
+// pin that a viewer's own stamps show before the server answers and settle without
+// corrections, that events stamped on the GPU tile cache match the confirmed store texel for
+// texel, and that two viewers converge on the server's hashes and render identical images.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <random>
+
+#include "client/render/headless.h"
+#include "client/render/viewer_session.h"
+#include "gl/gl_test_context.h"
+#include "integration/integration_util.h"
+#include "integration/server_process.h"
+
+namespace loam::test {
+namespace {
+
+using namespace std::chrono_literals;
+
+render::ViewerOptions small_viewer(const std::string& name) {
+  render::ViewerOptions o;
+  o.name = name;
+  o.renderer.n = 63;
+  o.renderer.view_distance = 2500;
+  o.interest.mip0_radius_m = 300;
+  o.interest.detail_radius_m = 40;
+  return o;
+}
+
+render::Camera overview() {
+  render::Camera c = render::look_at(900, 1300, 420, 1000, 700, 40);
+  c.far_m = 6000;
+  return c;
+}
+
+QuantizedStamp crater_at(const WorldParams& w, double x, double y, double r, double depth) {
+  StampParams p;
+  p.kind = StampKind::kCrater;
+  p.center_x = x;
+  p.center_y = y;
+  p.radius = r;
+  p.intensity = depth;
+  p.shape = 0.3;
+  auto q = validate_stamp(p, w);
+  EXPECT_TRUE(q.ok());
+  return *q;
+}
+
+std::vector<uint8_t> render_view(render::ViewerSession& v, const render::Camera& cam, int32_t w, int32_t h) {
+  auto target = render::OffscreenTarget::create(w, h);
+  EXPECT_TRUE(target.ok());
+  target->begin(0.5f, 0.6f, 0.75f, 0.0f);
+  v.render(cam, w, h);
+  return target->read_rgba();
+}
+
+TEST(ViewerEndToEnd, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrections) {
+  LOAM_REQUIRE_GL();
+  const std::string dir = temp_data_dir("own");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--hashes-every", "10"})) << server.log();
+  const render::Camera cam = overview();
+  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
+  ASSERT_TRUE(v.ok()) << v.error().describe();
+  render::ViewerSession& view = **v;
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  const auto before = render_view(view, cam, 160, 100);
+
+  const WorldParams& w = view.client().welcome().world;
+  const QuantizedStamp q = crater_at(w, 1000, 760, 40, 6);
+  ASSERT_TRUE(view.deform(q).ok());
+  // Nothing pumped yet: the server cannot have answered, the display already shows the crater.
+  EXPECT_EQ(view.display().overlay_size(), 1u);
+  (void)view.display().sync(view.client());
+  const RectI r{475, 355, 525, 405};  // the crater's middle, samples
+  std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
+  view.display().world().read_coarse(r, shown);
+  view.client().store().mirror().read_coarse(r, confirmed);
+  EXPECT_NE(shown, confirmed) << "the overlay did not change the display";
+  for (const RectI& d : {r}) view.renderer().invalidate(d);
+  EXPECT_NE(render_view(view, cam, 160, 100), before) << "the crater does not show in the render";
+
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  view.display().world().read_coarse(r, shown);
+  view.client().store().mirror().read_coarse(r, confirmed);
+  EXPECT_EQ(shown, confirmed);
+  const render::DisplayCounters& k = view.display().counters();
+  EXPECT_EQ(k.predicted, 1u);
+  EXPECT_EQ(k.retired, 1u);
+  EXPECT_EQ(k.corrections, 0u);
+  EXPECT_EQ(k.divergent_texels, 0u);
+  EXPECT_TRUE(view.display().on_gpu());
+}
+
+// The viewer predicts a stamp on the terrain it holds while a bot's raise at the same spot,
+// unseen by the viewer, is sequenced first, and the viewer learns of both in one sync. A
+// flatten does not commute with the raise: the confirmed result differs from the prediction
+// and the difference is counted as corrections. A second raise commutes: no correction, though
+// the same samples changed (the raise is accounted for as another client's event).
+TEST(ViewerEndToEnd, PredictionOverAnotherStampSequencedFirstCountsCorrectionsOnlyWhenTheyDoNotCommute) {
+  LOAM_REQUIRE_GL();
+  const std::string dir = temp_data_dir("order");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir)) << server.log();
+  const render::Camera cam = overview();
+  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
+  ASSERT_TRUE(v.ok()) << v.error().describe();
+  render::ViewerSession& view = **v;
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  client::TerrainClient bot;
+  ASSERT_TRUE(bot.connect("127.0.0.1", server.port(), "bot", wire::Role::kBot).ok());
+  const WorldParams& w = bot.welcome().world;
+  client::TerrainClient& c = view.client();
+
+  auto scenario = [&](StampKind kind, double x) -> uint64_t {
+    const uint64_t before = view.display().counters().corrections;
+    StampParams raise;
+    raise.kind = StampKind::kGaussian;
+    raise.center_x = x, raise.center_y = 760, raise.radius = 30, raise.intensity = 8;
+    auto sb = bot.deform(*validate_stamp(raise, w));
+    EXPECT_TRUE(sb.ok());
+    EXPECT_TRUE(bot.wait_until([&] { return bot.ack(*sb).has_value(); }, 30s));
+    // The viewer has not read anything since: it predicts on the terrain without the raise.
+    StampParams mine;
+    mine.kind = kind;
+    mine.center_x = x, mine.center_y = 760, mine.radius = 25, mine.intensity = 0.8, mine.target = 40;
+    if (kind == StampKind::kGaussian) mine.intensity = 3;
+    auto sa = view.deform(*validate_stamp(mine, w));
+    EXPECT_TRUE(sa.ok());
+    // The store takes in both events before the display looks again.
+    EXPECT_TRUE(
+        c.wait_until([&] { return c.ack(*sa) && c.last_event_seq() >= c.ack(*sa)->global_seq; }, 30s));
+    EXPECT_EQ(c.ack(*sa)->global_seq, bot.ack(*sb)->global_seq + 1);
+    (void)view.display().sync(c);
+    EXPECT_TRUE(view.wait_settled(cam, 30s));
+    const RectI r{int64_t(x / 2) - 60, 320, int64_t(x / 2) + 60, 440};
+    std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
+    view.display().world().read_coarse(r, shown);
+    c.store().mirror().read_coarse(r, confirmed);
+    EXPECT_EQ(shown, confirmed);
+    return view.display().counters().corrections - before;
+  };
+  const uint64_t flatten = scenario(StampKind::kFlatten, 1000);
+  const uint64_t add = scenario(StampKind::kGaussian, 1200);
+  std::printf("corrections: flatten after a raise %llu texels, raise after a raise %llu\n",
+              (unsigned long long)flatten, (unsigned long long)add);
+  EXPECT_GT(flatten, 0u) << "a flatten after a raise is not a raise after a flatten";
+  EXPECT_EQ(add, 0u);
+  EXPECT_EQ(view.display().counters().retired, 2u);
+}
+
+TEST(ViewerEndToEnd, TwoViewersAndABotConvergeOnTheServersHashesAndRenderTheSameView) {
+  LOAM_REQUIRE_GL();
+  const std::string dir = temp_data_dir("two");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--tick-hz", "60", "--hashes-every", "10"})) << server.log();
+  const render::Camera cam = overview();
+  auto a = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer-a"), cam);
+  ASSERT_TRUE(a.ok()) << a.error().describe();
+  auto b = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer-b"), cam);
+  ASSERT_TRUE(b.ok()) << b.error().describe();
+  client::TerrainClient bot;
+  ASSERT_TRUE(bot.connect("127.0.0.1", server.port(), "bot", wire::Role::kBot).ok());
+  ASSERT_TRUE(bot.subscribe(bot.all_coarse_tiles(0)).ok());
+
+  // The bot and viewer A deform (A's own stamps near the camera, so they are predicted);
+  // every viewer keeps its frames going meanwhile.
+  std::mt19937 rng(7);
+  const WorldParams& w = bot.welcome().world;
+  std::vector<uint32_t> bot_seqs;
+  std::uniform_real_distribution<double> ux(800, 1200), uy(600, 900), ur(6, 30);
+  for (int i = 0; i < 40; ++i) {
+    auto s = bot.deform(random_stamp(rng, w));
+    ASSERT_TRUE(s.ok());
+    bot_seqs.push_back(*s);
+    if (i % 4 == 0) {
+      ASSERT_TRUE((*a)->deform(crater_at(w, ux(rng), uy(rng), ur(rng), 2)).ok());
+    }
+    ASSERT_TRUE((*a)->update(cam, 5ms).ok());
+    ASSERT_TRUE((*b)->update(cam, 0ms).ok());
+    ASSERT_TRUE(bot.pump(0ms).ok());
+  }
+  ASSERT_TRUE(bot.wait_until([&] { return bot.ack(bot_seqs.back()).has_value(); }, 30s));
+  ASSERT_TRUE((*a)->wait_settled(cam, 30s));
+  ASSERT_TRUE((*b)->wait_settled(cam, 30s));
+  uint64_t last = bot.ack(bot_seqs.back())->global_seq;
+  last = std::max(last, (*a)->client().last_seen_seq());
+  // Let both viewers see every event up to the last one.
+  for (auto* v : {a->get(), b->get()}) {
+    ASSERT_TRUE(v->client().wait_until([&] { return v->client().last_event_seq() >= last; }, 30s));
+    ASSERT_TRUE(v->wait_settled(cam, 30s));
+  }
+  const World expected = replayed_world(dir, last);
+  EXPECT_TRUE(store_matches((*a)->client(), expected));
+  EXPECT_TRUE(store_matches((*b)->client(), expected));
+  for (auto* v : {a->get(), b->get()}) {
+    const render::DisplayCounters& k = v->display().counters();
+    EXPECT_EQ(k.divergent_texels, 0u);
+    EXPECT_GT(k.events_stamped, 0u);
+    EXPECT_EQ(v->display().overlay_size(), 0u);
+    std::printf(
+        "%s: %llu events stamped on the GPU, %llu followed by copying, %llu predicted, %llu corrections\n",
+        v->client().welcome().client_id == (*a)->client().welcome().client_id ? "viewer a" : "viewer b",
+        (unsigned long long)k.events_stamped, (unsigned long long)k.events_copied,
+        (unsigned long long)k.predicted, (unsigned long long)k.corrections);
+  }
+  EXPECT_GT((*a)->display().counters().predicted, 0u);
+  // Same view, same confirmed tiles: the same image, byte for byte.
+  EXPECT_EQ(render_view(**a, cam, 200, 120), render_view(**b, cam, 200, 120));
+}
+
+}  // namespace
+}  // namespace loam::test
