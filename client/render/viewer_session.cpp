@@ -61,7 +61,11 @@ Status ViewerSession::update(const Camera& camera, std::chrono::milliseconds wai
   const Status pumped = client_.pump(wait);
   LOAM_TRY(follow(camera));
   for (const DisplayDirty& d : display_->sync(client_)) {
-    if (d.layer == Layer::kCoarse) renderer_->invalidate(d.rect);
+    if (d.layer == Layer::kCoarse) {
+      renderer_->invalidate(d.rect);
+    } else {
+      renderer_->invalidate_detail(d.rect);
+    }
   }
   return pumped;
 }

@@ -197,5 +197,52 @@ TEST(ClipmapRender, ToroidalStripUploadsMatchAFreshFullUpload) {
   }
 }
 
+// The same terrain 10,000 km from the origin (shifted by a multiple of 2^L tiles, east and
+// north, so signed tile coordinates are crossed too) renders the same image bit for bit: only
+// small integers and camera-relative offsets reach the GPU.
+TEST(ClipmapRender, FarFromTheOriginTheSameTerrainRendersTheSameImage) {
+  LOAM_REQUIRE_GL();
+  const World& home = default_world();
+  RendererConfig cfg;
+  cfg.n = 63;
+  cfg.view_distance = 3000;
+  const int32_t levels = levels_for_view_distance(cfg.n, home.params().meters_per_sample, cfg.view_distance);
+  const int32_t kx = 153 << levels, ky = -(153 << levels);  // tiles
+  WorldParams far_params = home.params();
+  far_params.origin_tile_x += kx;
+  far_params.origin_tile_y += ky;
+  std::vector<uint16_t> samples(size_t(home.params().sample_rect().area()));
+  home.read_coarse(home.params().sample_rect(), samples);
+  auto far = World::from_samples(far_params, samples);
+  ASSERT_TRUE(far.ok());
+  const double dx = double(kx) * kTileSize * home.params().meters_per_sample;
+  const double dy = double(ky) * kTileSize * home.params().meters_per_sample;
+  ASSERT_GT(std::hypot(dx, dy), 1.0e7);
+  WorldHeightSource home_source(home), far_source(*far);
+  auto home_r = ClipmapRenderer::create(home_source, cfg);
+  auto far_r = ClipmapRenderer::create(far_source, cfg);
+  ASSERT_TRUE(home_r.ok() && far_r.ok());
+  auto target = OffscreenTarget::create(240, 160);
+  ASSERT_TRUE(target.ok());
+  struct View {
+    double x, y, z, tx, ty, tz;
+  };
+  for (const View& v : {View{900.25, 1100.5, 160, 1200, 600, 20}, View{300, 300, 60, 900, 700, 0},
+                        View{-200, 1800, 500, 1000, 700, 0}}) {
+    target->begin(0, 0, 0, 0);
+    (*home_r)->render(look_at(v.x, v.y, v.z, v.tx, v.ty, v.tz), 240, 160);
+    const auto a = target->read_rgba();
+    const auto da = target->read_depth();
+    target->begin(0, 0, 0, 0);
+    (*far_r)->render(look_at(v.x + dx, v.y + dy, v.z, v.tx + dx, v.ty + dy, v.tz), 240, 160);
+    const auto b = target->read_rgba();
+    EXPECT_TRUE(a == b) << "view from " << v.x << "," << v.y;
+    EXPECT_TRUE(da == target->read_depth());
+    size_t terrain = 0;
+    for (size_t i = 3; i < a.size(); i += 4) terrain += a[i] != 0;
+    EXPECT_GT(terrain, a.size() / 4 / 8) << "the view shows terrain";
+  }
+}
+
 }  // namespace
 }  // namespace loam::render

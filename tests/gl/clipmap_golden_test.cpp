@@ -1,0 +1,119 @@
+// Golden images: a few views of the embedded terrain, one of them deformed (craters on the
+// coarse layer, a trail of footprints on the detail layer near the camera), rendered headless
+// and compared with the committed PNGs in tests/golden/images/ by OpenImageIO's idiff. The
+// threshold: fail when more than 1% of pixels differ by more than 2/255, or any pixel by more
+// than half the range. On failure the rendered image and an absolute difference image (x10)
+// are left in golden-out/ beside the test binary's working folder. scripts/approve-goldens.sh
+// re-renders and replaces the goldens (LOAM_APPROVE_GOLDENS=<folder> makes this test write
+// them there instead of comparing).
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include "client/render/clipmap_renderer.h"
+#include "client/render/headless.h"
+#include "dem/default_terrain.h"
+#include "gl_test_context.h"
+#include "protocol/stamps/stamp_apply.h"
+#include "protocol/surface.h"
+#include "protocol/stamps/stamp_validate.h"
+
+namespace loam::render {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int32_t kWidth = 320, kHeight = 180;
+constexpr const char* kIdiffThresholds = "-fail 0.008 -failpercent 1 -warn 0.008 -warnpercent 1 -hardfail 0.5";
+
+// Camera and target positions in world meters; heights are above the ground under them.
+struct GoldenView {
+  const char* name;
+  double x, y, dz, tx, ty, tdz;
+  bool deformed;
+};
+
+const GoldenView kViews[] = {
+    {"overview", -250, 1850, 600, 1000, 700, 0, false},          // the whole world, its edge skirt
+    {"valley_low", 560, 1180, 12, 1100, 900, 10, false},          // grazing, along the plains
+    {"plateau_cliffs", 1500, 300, 120, 700, 700, 0, false},       // 80-degree cliffs, snow
+    {"deformed_close", 650, 498, 16, 620, 474, 0, true},          // craters and a trail of prints
+};
+
+// The embedded terrain (the Tarim basin, near the deformed view) with three craters and a
+// trail of footprints on the detail layer.
+World deformed(World w) {
+  const WorldParams& p = w.params();
+  auto stamp = [&](StampParams s) {
+    auto q = validate_stamp(s, p);
+    ASSERT_TRUE(q.ok()) << q.error().describe();
+    ASSERT_TRUE(apply_stamp(w, *q).ok());
+  };
+  for (int i = 0; i < 3; ++i) {
+    StampParams c;
+    c.kind = StampKind::kCrater;
+    c.center_x = 600 + 14 * i, c.center_y = 470 - 5 * i, c.radius = 3 + 1.5 * i, c.intensity = 1.0 + 0.4 * i;
+    c.shape = 0.35;
+    stamp(c);
+  }
+  for (int i = 0; i < 14; ++i) {
+    StampParams f;
+    f.kind = StampKind::kGaussian;
+    f.layer = Layer::kDetail;
+    f.center_x = 622 + 2.0 * i, f.center_y = 482 - 1.0 * i + (i % 2 ? 0.7 : -0.7);
+    f.radius = 1.0, f.intensity = -0.25;
+    stamp(f);
+  }
+  w.commit(1);
+  return w;
+}
+
+TEST(ClipmapGolden, ViewsOfTheEmbeddedTerrainMatchTheirGoldens) {
+  LOAM_REQUIRE_GL();
+  auto imported = load_default_terrain();
+  ASSERT_TRUE(imported.ok());
+  const World plain = std::move(imported->world);
+  const World dented = deformed(plain);
+  const char* approve = std::getenv("LOAM_APPROVE_GOLDENS");
+  const fs::path golden_dir = fs::path(LOAM_SOURCE_DIR) / "tests/golden/images";
+  const fs::path out_dir = fs::absolute("golden-out");
+  fs::create_directories(out_dir);
+  const bool have_idiff = std::system("idiff --version > /dev/null 2>&1") == 0;
+  if (!have_idiff && !approve) {
+    if (gpu::test::running_in_ci()) FAIL() << "idiff (openimageio-tools) is missing";
+    GTEST_SKIP() << "idiff (openimageio-tools) is missing";
+  }
+  auto target = OffscreenTarget::create(kWidth, kHeight);
+  ASSERT_TRUE(target.ok());
+  for (const GoldenView& v : kViews) {
+    WorldHeightSource source(v.deformed ? dented : plain);
+    RendererConfig cfg;  // the defaults users get
+    auto renderer = ClipmapRenderer::create(source, cfg);
+    ASSERT_TRUE(renderer.ok());
+    const World& w = v.deformed ? dented : plain;
+    Camera cam = look_at(v.x, v.y, height_at(w, v.x, v.y) + v.dz, v.tx, v.ty, height_at(w, v.tx, v.ty) + v.tdz);
+    cam.far_m = 8000;
+    target->begin(0.50f, 0.60f, 0.75f, 0.0f);
+    (*renderer)->render(cam, kWidth, kHeight);
+    const std::string name = std::string(v.name) + ".png";
+    const fs::path out = approve ? fs::path(approve) / name : out_dir / name;
+    ASSERT_TRUE(write_png(out.string(), kWidth, kHeight, target->read_rgba()).ok());
+    if (approve) {
+      std::printf("approved %s\n", out.c_str());
+      continue;
+    }
+    const fs::path golden = golden_dir / name, diff = out_dir / (std::string(v.name) + ".diff.png");
+    ASSERT_TRUE(fs::exists(golden)) << golden << " is missing: run scripts/approve-goldens.sh";
+    const std::string cmd = std::string("idiff -q ") + kIdiffThresholds + " -abs -scale 10 -od -o '" +
+                            diff.string() + "' '" + golden.string() + "' '" + out.string() + "'";
+    const int rc = std::system(cmd.c_str());
+    EXPECT_EQ(rc, 0) << v.name << ": the render differs from its golden beyond the threshold (" << kIdiffThresholds
+                     << "); rendered " << out << ", difference x10 in " << diff
+                     << "; if the change is intended, run scripts/approve-goldens.sh";
+  }
+}
+
+}  // namespace
+}  // namespace loam::render
