@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # The README's main command: sets up the machine, builds Loam (release) and runs the main
 # job: a loam-server session on the embedded default terrain (data folder ./loam-data, port
-# 7878) with two bots deforming it; the server keeps running until Ctrl-C (or for
-# LOAM_RUN_SECONDS seconds), then shuts down cleanly (log flushed, snapshot written).
-# The GPU viewer joins this job when the client-rendering issue lands.
+# 7878) with two bots deforming it and a viewer: a window when there is a display (fly with
+# WASD and the right mouse button, click to deform), otherwise the headless viewer, which
+# orbits the terrain for LOAM_VIEW_SECONDS (default 30), stamps at its view's centre every 2 s
+# and writes screenshots to the data folder. The server keeps running until Ctrl-C (or for
+# LOAM_RUN_SECONDS seconds after the bots and the viewer are done), then shuts down cleanly
+# (log flushed, snapshot written).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -25,7 +28,15 @@ done
 bot_a=$!
 ./build/release/client/loam-client bot --port "$port" --name bot-b --seed 2 --stamps 200 --rate 20 &
 bot_b=$!
-wait $bot_a $bot_b || true
+if [ -n "${DISPLAY:-}" ]; then
+  ./build/release/client/loam-client view --port "$port" --name viewer &
+else
+  echo "loam: no display: the viewer runs headless (screenshots in $data/viewer_*.png)"
+  ./build/release/client/loam-client view --headless --port "$port" --name viewer \
+    --seconds "${LOAM_VIEW_SECONDS:-30}" --stamp-every 2 --screenshot-every 10 --screenshot "$data/viewer.png" &
+fi
+viewer=$!
+wait $bot_a $bot_b $viewer || true
 if [ -n "${LOAM_RUN_SECONDS:-}" ]; then
   sleep "$LOAM_RUN_SECONDS"
   kill -INT $server

@@ -296,19 +296,7 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
   const int64_t ax = placed_.back().origin_x, ay = placed_.back().origin_y;
   const glm::vec2 cam_offset(float(camera.x - double(ax) * mps), float(camera.y - double(ay) * mps));
 
-  const glm::vec3 fwd(float(camera.fx), float(-camera.fy), float(camera.fz));
-  const glm::vec3 up(float(camera.ux), float(-camera.uy), float(camera.uz));
-  const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), fwd, up);
-  const float aspect = float(width) / float(std::max(height, 1));
-  glm::mat4 proj;
-  if (camera.ortho_half_height > 0) {
-    const float hh = float(camera.ortho_half_height);
-    proj = glm::ortho(-hh * aspect, hh * aspect, -hh, hh, float(camera.near_m), float(camera.far_m));
-  } else {
-    proj = glm::perspective(glm::radians(float(camera.fov_y_degrees)), aspect, float(camera.near_m),
-                            float(camera.far_m));
-  }
-  const glm::mat4 vp = proj * view;
+  const glm::mat4 vp = view_projection(camera, width, height);
   // Frustum planes (Gribb & Hartmann): rows of the view-projection matrix combined.
   std::array<glm::vec4, 6> planes;
   const glm::mat4 t = glm::transpose(vp);

@@ -22,12 +22,15 @@
 // context current; not thread-safe.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <glm/glm.hpp>
 #include <memory>
 #include <optional>
 #include <span>
 #include <vector>
 
+#include "client/render/camera.h"
 #include "client/render/clipmap_mesh.h"
 #include "gpu/gl_handle.h"
 #include "gpu/normal_pass.h"
@@ -57,18 +60,6 @@ class WorldHeightSource final : public HeightSource {
 
  private:
   const World& world_;
-};
-
-struct Camera {
-  double x = 0, y = 0, z = 100;    // world meters
-  double fx = 1, fy = 0, fz = 0;   // forward (world frame; need not be unit)
-  double ux = 0, uy = 0, uz = 1;   // up hint
-  double fov_y_degrees = 60.0;     // perspective
-  double ortho_half_height = 0.0;  // > 0: orthographic, this many meters up from centre
-  double near_m = 0.5, far_m = 20000.0;
-  // Where the clipmap is centred, when not under the camera (tests that hold the view still
-  // while the levels move); world meters.
-  std::optional<std::array<double, 2>> lod_center;
 };
 
 struct RendererConfig {

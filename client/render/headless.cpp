@@ -94,13 +94,6 @@ Status write_png(const std::string& path, int32_t width, int32_t height, const s
   return {};
 }
 
-Camera look_at(double x, double y, double z, double tx, double ty, double tz) {
-  Camera c;
-  c.x = x, c.y = y, c.z = z;
-  c.fx = tx - x, c.fy = ty - y, c.fz = tz - z;
-  return c;
-}
-
 namespace {
 
 int fail(const std::string& what, int code = 1) {

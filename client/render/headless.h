@@ -38,9 +38,6 @@ class OffscreenTarget {
 Status write_png(const std::string& path, int32_t width, int32_t height, const std::vector<uint8_t>& rgba,
                  bool keep_alpha = false);
 
-// The camera from a position and a look-at point (world meters).
-Camera look_at(double x, double y, double z, double tx, double ty, double tz);
-
 struct RenderCommandOptions {
   std::string dem;       // empty: the embedded default terrain
   std::string snapshot;  // a snapshot folder, or a data folder (its newest snapshot)

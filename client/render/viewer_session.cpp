@@ -1,12 +1,23 @@
 #include "client/render/viewer_session.h"
 
+#include <algorithm>
 #include <vector>
 
 namespace loam::render {
 
+Camera overview_camera(const WorldParams& world) {
+  const RectI r = world.sample_rect();
+  const double mps = world.meters_per_sample;
+  const double cx = 0.5 * double(r.x0 + r.x1) * mps, cy = 0.5 * double(r.y0 + r.y1) * mps;
+  const double span = double(std::max(r.width(), r.height())) * mps;
+  Camera c = look_at(cx, cy + 0.45 * span, 0.25 * span, cx, cy, 0.0);
+  c.far_m = 3.0 * span;
+  return c;
+}
+
 Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string& host, uint16_t port,
                                                               const ViewerOptions& options,
-                                                              const Camera& camera) {
+                                                              std::optional<Camera> initial) {
   std::unique_ptr<ViewerSession> v(new ViewerSession());
   LOAM_TRY(v->client_.connect(host, port, options.name, options.role));
   const WorldParams& world = v->client_.welcome().world;
@@ -45,7 +56,7 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   ic.levels = v->renderer_->levels();
   ic.pad = ClipmapRenderer::kLevelPad;
   v->interest_ = std::make_unique<ClipmapInterest>(world, ic);
-  LOAM_TRY(v->follow(camera));
+  LOAM_TRY(v->follow(initial.value_or(overview_camera(world))));
   return v;
 }
 
@@ -102,6 +113,7 @@ ViewerStats ViewerSession::stats() const {
   s.events_applied = k.events_applied;
   s.hash_checks = k.hash_checks;
   s.hash_mismatches = k.hash_mismatches;
+  s.overlay = display_->overlay_size();
   s.display = display_->counters();
   return s;
 }

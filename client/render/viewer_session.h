@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "client/net/terrain_client.h"
@@ -29,15 +30,20 @@ struct ViewerOptions {
 struct ViewerStats {
   uint64_t tiles_subscribed = 0, tiles_held = 0;
   uint64_t regions = 0, events_applied = 0, hash_checks = 0, hash_mismatches = 0;
+  size_t overlay = 0;  // own stamps shown, not settled yet
   DisplayCounters display;
 };
+
+// A camera south of the world's centre, high enough to see most of it, looking at the centre.
+Camera overview_camera(const WorldParams& world);
 
 class ViewerSession {
  public:
   // Connects, subscribes to the coarsest mip and waits for it (it sets the material range),
-  // then creates the renderer and subscribes what `camera` needs.
+  // then creates the renderer and subscribes what `camera` needs (default: overview_camera).
   static Result<std::unique_ptr<ViewerSession>> connect(const std::string& host, uint16_t port,
-                                                        const ViewerOptions& options, const Camera& camera);
+                                                        const ViewerOptions& options,
+                                                        std::optional<Camera> camera = std::nullopt);
 
   // One frame's network and display work: handles what arrived (waiting up to `wait` for
   // the first message), follows the camera's tiles, brings the display up to the store and

@@ -17,8 +17,8 @@
 #include "dem/default_terrain.h"
 #include "gl_test_context.h"
 #include "protocol/stamps/stamp_apply.h"
-#include "protocol/surface.h"
 #include "protocol/stamps/stamp_validate.h"
+#include "protocol/surface.h"
 
 namespace loam::render {
 namespace {
@@ -26,7 +26,8 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr int32_t kWidth = 320, kHeight = 180;
-constexpr const char* kIdiffThresholds = "-fail 0.008 -failpercent 1 -warn 0.008 -warnpercent 1 -hardfail 0.5";
+constexpr const char* kIdiffThresholds =
+    "-fail 0.008 -failpercent 1 -warn 0.008 -warnpercent 1 -hardfail 0.5";
 
 // Camera and target positions in world meters; heights are above the ground under them.
 struct GoldenView {
@@ -36,10 +37,10 @@ struct GoldenView {
 };
 
 const GoldenView kViews[] = {
-    {"overview", -250, 1850, 600, 1000, 700, 0, false},          // the whole world, its edge skirt
-    {"valley_low", 560, 1180, 12, 1100, 900, 10, false},          // grazing, along the plains
-    {"plateau_cliffs", 1500, 300, 120, 700, 700, 0, false},       // 80-degree cliffs, snow
-    {"deformed_close", 650, 498, 16, 620, 474, 0, true},          // craters and a trail of prints
+    {"overview", -250, 1850, 600, 1000, 700, 0, false},      // the whole world, its edge skirt
+    {"valley_low", 560, 1180, 12, 1100, 900, 10, false},     // grazing, along the plains
+    {"plateau_cliffs", 1500, 300, 120, 700, 700, 0, false},  // 80-degree cliffs, snow
+    {"deformed_close", 650, 498, 16, 620, 474, 0, true},     // craters and a trail of prints
 };
 
 // The embedded terrain (the Tarim basin, near the deformed view) with three craters and a
@@ -93,7 +94,8 @@ TEST(ClipmapGolden, ViewsOfTheEmbeddedTerrainMatchTheirGoldens) {
     auto renderer = ClipmapRenderer::create(source, cfg);
     ASSERT_TRUE(renderer.ok());
     const World& w = v.deformed ? dented : plain;
-    Camera cam = look_at(v.x, v.y, height_at(w, v.x, v.y) + v.dz, v.tx, v.ty, height_at(w, v.tx, v.ty) + v.tdz);
+    Camera cam =
+        look_at(v.x, v.y, height_at(w, v.x, v.y) + v.dz, v.tx, v.ty, height_at(w, v.tx, v.ty) + v.tdz);
     cam.far_m = 8000;
     target->begin(0.50f, 0.60f, 0.75f, 0.0f);
     (*renderer)->render(cam, kWidth, kHeight);
@@ -109,8 +111,8 @@ TEST(ClipmapGolden, ViewsOfTheEmbeddedTerrainMatchTheirGoldens) {
     const std::string cmd = std::string("idiff -q ") + kIdiffThresholds + " -abs -scale 10 -od -o '" +
                             diff.string() + "' '" + golden.string() + "' '" + out.string() + "'";
     const int rc = std::system(cmd.c_str());
-    EXPECT_EQ(rc, 0) << v.name << ": the render differs from its golden beyond the threshold (" << kIdiffThresholds
-                     << "); rendered " << out << ", difference x10 in " << diff
+    EXPECT_EQ(rc, 0) << v.name << ": the render differs from its golden beyond the threshold ("
+                     << kIdiffThresholds << "); rendered " << out << ", difference x10 in " << diff
                      << "; if the change is intended, run scripts/approve-goldens.sh";
   }
 }

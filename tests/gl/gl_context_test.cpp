@@ -70,7 +70,8 @@ TEST(GlContext, EveryEmbeddedShaderIsNonEmpty) {
 }
 
 TEST(ShaderLog, DriverLineNumbersBecomeFileAndLine) {
-  EXPECT_EQ(annotate_shader_log("0:12(5): error: x undeclared", "a.glsl"), "a.glsl:12:5: error: x undeclared");
+  EXPECT_EQ(annotate_shader_log("0:12(5): error: x undeclared", "a.glsl"),
+            "a.glsl:12:5: error: x undeclared");
   EXPECT_EQ(annotate_shader_log("0(7) : error C1008", "b.glsl"), "b.glsl:7 : error C1008");
 }
 

@@ -1,0 +1,94 @@
+#include "client/bot.h"
+
+#include <chrono>
+#include <cstdio>
+#include <random>
+
+#include "client/net/terrain_client.h"
+#include "protocol/stamps/stamp_validate.h"
+
+namespace loam::client {
+
+namespace {
+
+using namespace std::chrono_literals;
+
+QuantizedStamp bot_stamp(std::mt19937& rng, const WorldParams& w) {
+  const RectI r = w.sample_rect();
+  std::uniform_real_distribution<double> ux(double(r.x0) * w.meters_per_sample,
+                                            double(r.x1 - 1) * w.meters_per_sample);
+  std::uniform_real_distribution<double> uy(double(r.y0) * w.meters_per_sample,
+                                            double(r.y1 - 1) * w.meters_per_sample);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (;;) {
+    StampParams p;
+    const uint32_t pick = uint32_t(rng() % 10);
+    p.center_x = ux(rng);
+    p.center_y = uy(rng);
+    p.radius = 2.0 + 30.0 * unit(rng);
+    p.rotation = 6.28 * unit(rng);
+    p.intensity = -2.0 + 4.0 * unit(rng);
+    p.kind = StampKind::kGaussian;
+    if (pick < 4) p.kind = StampKind::kCrater, p.intensity = 0.5 + 2.0 * unit(rng), p.shape = 0.3;
+    if (pick == 4) p.kind = StampKind::kFootprint, p.intensity = 0.2, p.radius = 1.5;
+    if (pick == 5)
+      p.kind = StampKind::kShockwave, p.radius = 6.0, p.intensity = 0.4, p.steps = 40, p.speed = 0.6,
+      p.damping = 0.02;
+    if (pick == 6)
+      p.kind = StampKind::kGaussian, p.layer = Layer::kDetail, p.radius = 1.0, p.intensity = 0.05;
+    auto q = validate_stamp(p, w);
+    if (q) return *q;
+  }
+}
+
+}  // namespace
+
+int run_bot(const BotOptions& o) {
+  const std::string& host = o.host;
+  const uint16_t port = o.port;
+  const std::string& name = o.name;
+  const uint32_t stamps = o.stamps, seed = o.seed;
+  const double rate = o.rate;
+  client::TerrainClient c;
+  if (const Status st = c.connect(host, port, name, wire::Role::kBot); !st.ok()) {
+    std::fprintf(stderr, "loam-client bot: %s\n", st.error().describe().c_str());
+    return 1;
+  }
+  std::printf("bot %s: joined as client %u at sequence %llu\n", name.c_str(), c.welcome().client_id,
+              (unsigned long long)c.welcome().global_sequence);
+  if (!c.subscribe(c.all_coarse_tiles(0)).ok()) return 1;
+  std::mt19937 rng(seed);
+  std::vector<uint32_t> sent;
+  const auto period = std::chrono::duration<double>(1.0 / rate);
+  auto next = std::chrono::steady_clock::now();
+  for (uint32_t i = 0; i < stamps; ++i) {
+    auto s = c.deform(bot_stamp(rng, c.welcome().world));
+    if (!s) break;
+    sent.push_back(*s);
+    next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
+    while (std::chrono::steady_clock::now() < next) {
+      if (!c.pump(std::chrono::duration_cast<std::chrono::milliseconds>(next -
+                                                                        std::chrono::steady_clock::now()) +
+                  1ms)
+               .ok())
+        break;
+    }
+  }
+  c.wait_until([&] { return sent.empty() || c.ack(sent.back()).has_value(); }, 10s);
+  size_t accepted = 0;
+  for (uint32_t s : sent) accepted += c.ack(s) && c.ack(s)->accepted;
+  // Let the next TileHashes arrive so the report includes a comparison.
+  const size_t hashes = c.tile_hash_messages();
+  c.wait_until([&] { return c.tile_hash_messages() > hashes; }, 5s);
+  const auto& k = c.store().counters();
+  std::printf(
+      "bot %s: %zu/%zu stamps accepted; events applied %llu, regions %llu, hash checks %llu, mismatches "
+      "%llu\n",
+      name.c_str(), accepted, sent.size(), (unsigned long long)k.events_applied,
+      (unsigned long long)k.regions, (unsigned long long)k.hash_checks,
+      (unsigned long long)k.hash_mismatches);
+  (void)c.connection().send(wire::Bye{wire::ByeReason::kNormal, "bot done"});
+  return k.hash_mismatches == 0 ? 0 : 3;
+}
+
+}  // namespace loam::client

@@ -1,0 +1,109 @@
+// loam-client: the client program.
+//   view     the viewer: a window over a live session (GLFW, HUD), or --headless (EGL)
+//   render   draw one frame or a camera path headless through EGL into PNGs, from a live
+//            session, a DEM, a snapshot or the embedded terrain (client/render/headless.h)
+//   bot      the headless bot (no GL): joins, deforms with seeded random stamps, checks hashes
+#include <CLI/CLI.hpp>
+#include <cstdio>
+
+#include "client/bot.h"
+#ifdef LOAM_HAVE_RENDER
+#include "client/render/headless.h"
+#endif
+#ifdef LOAM_HAVE_VIEWER
+#include "client/view/viewer_app.h"
+#endif
+
+namespace {
+
+bool parse_size(const std::string& size, int32_t& w, int32_t& h) {
+  return std::sscanf(size.c_str(), "%dx%d", &w, &h) == 2 && w > 0 && h > 0 && w <= 16384 && h <= 16384;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace loam;
+  CLI::App app{"loam-client: Loam's client (viewer, headless renderer, bot)"};
+  app.require_subcommand(1);
+
+  client::BotOptions bo;
+  auto* bot = app.add_subcommand("bot", "Join a session and deform it with random stamps");
+  bot->add_option("--host", bo.host)->capture_default_str();
+  bot->add_option("--port", bo.port)->capture_default_str();
+  bot->add_option("--name", bo.name)->capture_default_str();
+  bot->add_option("--stamps", bo.stamps, "How many stamps to send")->capture_default_str();
+  bot->add_option("--rate", bo.rate, "Stamps per second")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 1000.0));
+  bot->add_option("--seed", bo.seed)->capture_default_str();
+
+#ifdef LOAM_HAVE_RENDER
+  render::RenderCommandOptions ro;
+  std::string size = "1280x720";
+  auto* render_cmd = app.add_subcommand("render", "Render one frame or a camera path headless (EGL) to PNG");
+  auto* src_dem = render_cmd->add_option("--dem", ro.dem, "DEM file (default: the embedded default terrain)");
+  auto* src_snap = render_cmd->add_option("--snapshot", ro.snapshot,
+                                          "Snapshot folder, or a data folder (its newest snapshot)");
+  auto* src_server =
+      render_cmd->add_option("--server", ro.server, "HOST:PORT of a loam-server: render its live session");
+  src_dem->excludes(src_snap)->excludes(src_server);
+  src_snap->excludes(src_server);
+  render_cmd->add_option("--camera", ro.camera, "Camera position x,y,z (world meters)")->delimiter(',');
+  render_cmd->add_option("--look", ro.look, "Point looked at x,y,z (world meters)")->delimiter(',');
+  render_cmd->add_option("--size", size, "WIDTHxHEIGHT")->capture_default_str();
+  render_cmd->add_option("--out", ro.out, "PNG file (a path numbers them: out_0000.png, ...)")
+      ->capture_default_str();
+  render_cmd->add_option("--path", ro.path, "Camera path file: one 'x y z tx ty tz' line per frame");
+  render_cmd->add_flag("!--no-morph", ro.morph, "Disable geomorphing (shows level pops)");
+  render_cmd->add_option("--n", ro.n, "Vertices per clipmap level side (2^k - 1)")->capture_default_str();
+  render_cmd->add_option("--levels", ro.levels, "Clipmap levels (0: from --view-distance)")
+      ->capture_default_str();
+  render_cmd->add_option("--view-distance", ro.view_distance, "Meters")->capture_default_str();
+  render_cmd->add_option("--fov", ro.fov_y_degrees, "Vertical field of view, degrees")->capture_default_str();
+#endif
+
+#ifdef LOAM_HAVE_VIEWER
+  view::ViewerAppOptions vo;
+  std::string view_size = "1280x720";
+  auto* view_cmd = app.add_subcommand("view", "View a live session: a window, or --headless (EGL)");
+  view_cmd->add_option("--host", vo.host)->capture_default_str();
+  view_cmd->add_option("--port", vo.port)->capture_default_str();
+  view_cmd->add_option("--name", vo.name)->capture_default_str();
+  view_cmd->add_option("--size", view_size, "WIDTHxHEIGHT")->capture_default_str();
+  view_cmd->add_flag("--headless", vo.headless, "No window: orbit the world, stamp now and then, write PNGs");
+  view_cmd->add_option("--seconds", vo.seconds,
+                       "Stop after this long (0: until closed; headless default 30)");
+  view_cmd->add_option("--stamp-every", vo.stamp_every_s,
+                       "Headless: a stamp at the view's centre this often (s)");
+  view_cmd->add_option("--screenshot-every", vo.screenshot_every_s, "Headless: a PNG this often (s)");
+  view_cmd->add_option("--screenshot", vo.screenshot, "PNG file (numbered when several)")
+      ->capture_default_str();
+  view_cmd->add_option("--n", vo.renderer.n, "Vertices per clipmap level side (2^k - 1)")
+      ->capture_default_str();
+  view_cmd->add_option("--view-distance", vo.renderer.view_distance, "Meters")->capture_default_str();
+  view_cmd->add_flag("!--no-vsync", vo.vsync, "Render as fast as possible");
+#endif
+
+  CLI11_PARSE(app, argc, argv);
+  if (*bot) return client::run_bot(bo);
+#ifdef LOAM_HAVE_RENDER
+  if (*render_cmd) {
+    if (!parse_size(size, ro.width, ro.height)) {
+      std::fprintf(stderr, "loam-client render: --size wants WIDTHxHEIGHT, got %s\n", size.c_str());
+      return 2;
+    }
+    return render::run_render_command(ro);
+  }
+#endif
+#ifdef LOAM_HAVE_VIEWER
+  if (*view_cmd) {
+    if (!parse_size(view_size, vo.width, vo.height)) {
+      std::fprintf(stderr, "loam-client view: --size wants WIDTHxHEIGHT, got %s\n", view_size.c_str());
+      return 2;
+    }
+    return view::run_viewer(vo);
+  }
+#endif
+  return 0;
+}

@@ -1,0 +1,44 @@
+#include "client/render/camera.h"
+
+#include <algorithm>
+#include <glm/gtc/matrix_transform.hpp>
+
+namespace loam::render {
+
+Camera look_at(double x, double y, double z, double tx, double ty, double tz) {
+  Camera c;
+  c.x = x, c.y = y, c.z = z;
+  c.fx = tx - x, c.fy = ty - y, c.fz = tz - z;
+  return c;
+}
+
+glm::mat4 view_projection(const Camera& camera, int32_t width, int32_t height) {
+  // The render frame: camera at the origin, x east, y north (world y flipped), z up.
+  const glm::vec3 fwd(float(camera.fx), float(-camera.fy), float(camera.fz));
+  const glm::vec3 up(float(camera.ux), float(-camera.uy), float(camera.uz));
+  const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), fwd, up);
+  const float aspect = float(width) / float(std::max(height, 1));
+  glm::mat4 proj;
+  if (camera.ortho_half_height > 0) {
+    const float hh = float(camera.ortho_half_height);
+    proj = glm::ortho(-hh * aspect, hh * aspect, -hh, hh, float(camera.near_m), float(camera.far_m));
+  } else {
+    proj = glm::perspective(glm::radians(float(camera.fov_y_degrees)), aspect, float(camera.near_m),
+                            float(camera.far_m));
+  }
+  return proj * view;
+}
+
+std::optional<std::array<double, 3>> unproject(const Camera& camera, int32_t width, int32_t height, double px,
+                                               double py, float depth) {
+  if (depth >= 1.0f || width < 1 || height < 1) return std::nullopt;  // background
+  const glm::mat4 inv = glm::inverse(view_projection(camera, width, height));
+  const glm::vec4 ndc(float(2.0 * (px + 0.5) / width - 1.0), float(1.0 - 2.0 * (py + 0.5) / height),
+                      2.0f * depth - 1.0f, 1.0f);
+  const glm::vec4 rel = inv * ndc;
+  if (rel.w == 0.0f) return std::nullopt;
+  return std::array<double, 3>{camera.x + double(rel.x / rel.w), camera.y - double(rel.y / rel.w),
+                               camera.z + double(rel.z / rel.w)};
+}
+
+}  // namespace loam::render

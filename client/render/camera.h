@@ -1,0 +1,37 @@
+// The renderer's camera and its projection, without GL: a position, a view direction and a
+// lens in world meters, the view-projection matrix in the render frame (camera at the origin,
+// x east, y north = world -y, z up, so nothing large reaches float) and picking (the world
+// point under a pixel, from its depth). World frame: x east (+gx), y along +gy, z up.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <optional>
+
+namespace loam::render {
+
+struct Camera {
+  double x = 0, y = 0, z = 100;    // world meters
+  double fx = 1, fy = 0, fz = 0;   // forward (world frame; need not be unit)
+  double ux = 0, uy = 0, uz = 1;   // up hint
+  double fov_y_degrees = 60.0;     // perspective
+  double ortho_half_height = 0.0;  // > 0: orthographic, this many meters up from centre
+  double near_m = 0.5, far_m = 20000.0;
+  // Where the clipmap is centred, when not under the camera (tests that hold the view still
+  // while the levels move); world meters.
+  std::optional<std::array<double, 2>> lod_center;
+};
+
+// The camera from a position and a look-at point (world meters).
+Camera look_at(double x, double y, double z, double tx, double ty, double tz);
+
+// The camera's view-projection in the render frame (camera at the origin, x east, y north =
+// world -y, z up), as render() draws with.
+glm::mat4 view_projection(const Camera& camera, int32_t width, int32_t height);
+// The world point under pixel (px, py) (row 0 at the top) whose window depth is `depth`
+// (0..1, as the depth buffer holds it); nullopt for the background (depth 1).
+std::optional<std::array<double, 3>> unproject(const Camera& camera, int32_t width, int32_t height, double px,
+                                               double py, float depth);
+
+}  // namespace loam::render

@@ -1,0 +1,347 @@
+#include "client/view/viewer_app.h"
+
+#include <epoxy/gl.h>
+// After epoxy: GLFW must not pull in a second set of GL declarations.
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+#include <imgui.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+#include "client/render/headless.h"
+#include "client/render/viewer_session.h"
+#include "client/view/fly_camera.h"
+#include "client/view/stamp_tool.h"
+#include "gpu/egl_context.h"
+#include "gpu/glfw_context.h"
+#include "protocol/stamps/stamp_validate.h"
+
+namespace loam::view {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Ground height (meters) under a point of the displayed terrain: bilinear between samples.
+double ground_at(const render::HeightSource& src, double x, double y) {
+  const WorldParams& p = src.params();
+  const double sx = x / p.meters_per_sample, sy = y / p.meters_per_sample;
+  const int64_t x0 = int64_t(std::floor(sx)), y0 = int64_t(std::floor(sy));
+  uint16_t q[4];
+  src.read(0, {x0, y0, x0 + 2, y0 + 2}, q);
+  const double fx = sx - double(x0), fy = sy - double(y0);
+  const double v = (q[0] * (1 - fx) + q[1] * fx) * (1 - fy) + (q[2] * (1 - fx) + q[3] * fx) * fy;
+  return p.height_offset + v * p.meters_per_unit;
+}
+
+// Sends the tool's stamp for a click at a terrain point; false when the stamp is not valid here
+// (outside the world, say) or the connection is gone.
+bool stamp_at(render::ViewerSession& session, StampTool& tool, const std::array<double, 3>& p) {
+  auto q = validate_stamp(tool.at(p[0], p[1], p[2]), session.client().welcome().world);
+  if (!q) {
+    std::fprintf(stderr, "viewer: %s stamp not made: %s\n", to_string(tool.tool),
+                 q.error().describe().c_str());
+    return false;
+  }
+  return session.deform(*q).ok();
+}
+
+std::string numbered(const std::string& file, int index) {
+  char suffix[32];
+  std::snprintf(suffix, sizeof suffix, "_%04d", index);
+  const size_t dot = file.rfind('.');
+  return dot == std::string::npos ? file + suffix : file.substr(0, dot) + suffix + file.substr(dot);
+}
+
+void print_stats(double t, const render::ViewerSession& s, const render::FrameStats& f, double frame_ms) {
+  const render::ViewerStats v = s.stats();
+  std::printf(
+      "viewer %6.1f s: frame %.1f ms, %lld triangles, %d draws | tiles %llu/%llu | events %llu applied, %llu "
+      "on "
+      "the GPU | overlay %zu, predicted %llu, corrections %llu | divergent %llu | hashes %llu checked, %llu "
+      "mismatched\n",
+      t, frame_ms, (long long)f.triangles, f.draw_calls, (unsigned long long)v.tiles_held,
+      (unsigned long long)v.tiles_subscribed, (unsigned long long)v.events_applied,
+      (unsigned long long)v.display.events_stamped, v.overlay, (unsigned long long)v.display.predicted,
+      (unsigned long long)v.display.corrections, (unsigned long long)v.display.divergent_texels,
+      (unsigned long long)v.hash_checks, (unsigned long long)v.hash_mismatches);
+  std::fflush(stdout);
+}
+
+int exit_code(const render::ViewerSession& s) {
+  const render::ViewerStats v = s.stats();
+  return v.hash_mismatches == 0 && v.display.divergent_texels == 0 ? 0 : 3;
+}
+
+render::ViewerOptions session_options(const ViewerAppOptions& o) {
+  render::ViewerOptions vo;
+  vo.renderer = o.renderer;
+  vo.name = o.name;
+  vo.role = wire::Role::kPlayer;
+  return vo;
+}
+
+int run_headless(const ViewerAppOptions& o) {
+  auto ctx = gpu::EglContext::create();
+  if (!ctx || !ctx->make_current().ok()) {
+    std::fprintf(stderr, "loam-client view: %s\n",
+                 ctx ? "cannot make the EGL context current" : ctx.error().describe().c_str());
+    return 1;
+  }
+  auto session = render::ViewerSession::connect(o.host, o.port, session_options(o));
+  if (!session) {
+    std::fprintf(stderr, "loam-client view: %s\n", session.error().describe().c_str());
+    return 1;
+  }
+  render::ViewerSession& s = **session;
+  auto target = render::OffscreenTarget::create(o.width, o.height);
+  if (!target) {
+    std::fprintf(stderr, "loam-client view: %s\n", target.error().describe().c_str());
+    return 1;
+  }
+  std::printf("viewer (headless): %s, %dx%d, %d levels, joined as client %u\n", ctx->renderer().c_str(),
+              o.width, o.height, s.renderer().levels(), s.client().welcome().client_id);
+  const WorldParams& w = s.client().welcome().world;
+  const RectI r = w.sample_rect();
+  const double mps = w.meters_per_sample;
+  const double cx = 0.5 * double(r.x0 + r.x1) * mps, cy = 0.5 * double(r.y0 + r.y1) * mps;
+  const double radius = 0.3 * double(std::min(r.width(), r.height())) * mps;
+  auto ground = [&](double x, double y) { return ground_at(s.display(), x, y); };
+  StampTool tool;
+  const double seconds = o.seconds > 0 ? o.seconds : 30.0;
+  const auto t0 = Clock::now();
+  double next_stamp = o.stamp_every_s, next_shot = o.screenshot_every_s, next_print = 1.0;
+  int shots = 0;
+  render::FrameStats f;
+  double frame_ms = 0;
+  render::Camera cam;
+  for (double t = 0; t < seconds; t = seconds_since(t0)) {
+    cam = orbit_camera(cx, cy, radius, 0.12 * radius, 90.0, t, ground);
+    cam.far_m = 6.0 * radius;
+    if (const Status st = s.update(cam, std::chrono::milliseconds(5)); !st.ok()) {
+      std::fprintf(stderr, "loam-client view: %s\n", st.error().describe().c_str());
+      return 1;
+    }
+    const auto f0 = Clock::now();
+    target->begin(0.50f, 0.60f, 0.75f, 0.0f);
+    f = s.render(cam, o.width, o.height);
+    glFinish();
+    frame_ms = seconds_since(f0) * 1000.0;
+    if (o.stamp_every_s > 0 && t >= next_stamp) {
+      next_stamp += o.stamp_every_s;
+      tool.tool = Tool(int(t / o.stamp_every_s) % 3 == 2 ? int(Tool::kRaise) : int(Tool::kCrater));
+      const std::vector<float> depth = target->read_depth();
+      const int32_t px = o.width / 2, py = o.height / 2;
+      if (auto p = render::unproject(cam, o.width, o.height, px, py, depth[size_t(py * o.width + px)])) {
+        // Big enough to see from where the camera is: a twentieth of the distance.
+        tool.radius_m =
+            std::clamp(0.05 * std::hypot((*p)[0] - cam.x, (*p)[1] - cam.y, (*p)[2] - cam.z), 3.0, 40.0);
+        stamp_at(s, tool, *p);
+      }
+    }
+    if (o.screenshot_every_s > 0 && t >= next_shot) {
+      next_shot += o.screenshot_every_s;
+      (void)render::write_png(numbered(o.screenshot, ++shots), o.width, o.height, target->read_rgba());
+    }
+    if (t >= next_print) {
+      next_print += 1.0;
+      print_stats(t, s, f, frame_ms);
+    }
+  }
+  // Let the last stamps settle, then the final picture and numbers.
+  s.wait_settled(cam, std::chrono::seconds(5));
+  target->begin(0.50f, 0.60f, 0.75f, 0.0f);
+  f = s.render(cam, o.width, o.height);
+  const std::string last = shots > 0 ? numbered(o.screenshot, ++shots) : o.screenshot;
+  if (const Status st = render::write_png(last, o.width, o.height, target->read_rgba()); !st.ok()) {
+    std::fprintf(stderr, "loam-client view: %s\n", st.error().describe().c_str());
+  }
+  print_stats(seconds_since(t0), s, f, frame_ms);
+  std::printf("viewer: final view in %s\n", last.c_str());
+  return exit_code(s);
+}
+
+struct WindowState {
+  double scroll = 0;
+};
+
+void on_scroll(GLFWwindow* window, double, double dy) {
+  static_cast<WindowState*>(glfwGetWindowUserPointer(window))->scroll += dy;
+}
+
+void draw_hud(const render::ViewerSession& s, const FlyCamera& fly, const StampTool& tool,
+              const render::FrameStats& f, double frame_ms, const std::string& renderer) {
+  const render::ViewerStats v = s.stats();
+  ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_Once);
+  ImGui::SetNextWindowBgAlpha(0.6f);
+  ImGui::Begin("Loam", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoFocusOnAppearing);
+  ImGui::Text("%s", renderer.c_str());
+  ImGui::Text("frame %.1f ms (%.0f fps), %lld triangles, %d draw calls", frame_ms,
+              1000.0 / std::max(frame_ms, 0.01), (long long)f.triangles, f.draw_calls);
+  ImGui::Text("camera %.1f, %.1f, %.1f m, speed %.0f m/s", fly.x(), fly.y(), fly.z(), fly.speed());
+  ImGui::Separator();
+  ImGui::Text("tiles %llu held of %llu subscribed, %llu regions", (unsigned long long)v.tiles_held,
+              (unsigned long long)v.tiles_subscribed, (unsigned long long)v.regions);
+  ImGui::Text("events %llu applied, %llu stamped on the GPU, %llu copied",
+              (unsigned long long)v.events_applied, (unsigned long long)v.display.events_stamped,
+              (unsigned long long)v.display.events_copied);
+  ImGui::Text("overlay %zu pending, %llu predicted, %llu corrections", v.overlay,
+              (unsigned long long)v.display.predicted, (unsigned long long)v.display.corrections);
+  ImGui::Text("hash checks %llu, mismatches %llu, GPU/CPU divergent texels %llu",
+              (unsigned long long)v.hash_checks, (unsigned long long)v.hash_mismatches,
+              (unsigned long long)v.display.divergent_texels);
+  ImGui::Separator();
+  ImGui::Text("tool [1-6]: %s, radius %.1f m [wheel]", to_string(tool.tool), tool.radius_m);
+  ImGui::TextDisabled(
+      "WASD/QE move, shift fast, right-drag look, left-click deform, F1 HUD, F12 screenshot, Esc quit");
+  ImGui::End();
+}
+
+int run_window(const ViewerAppOptions& o) {
+  auto window = gpu::GlfwContext::create(
+      {.width = o.width, .height = o.height, .title = "Loam viewer", .vsync = o.vsync, .visible = true});
+  if (!window) {
+    std::fprintf(stderr, "loam-client view: %s (use --headless on a machine without a display)\n",
+                 window.error().describe().c_str());
+    return 1;
+  }
+  GLFWwindow* win = window->window();
+  WindowState state;
+  glfwSetWindowUserPointer(win, &state);
+  glfwSetScrollCallback(win, on_scroll);  // before ImGui, which chains to it
+  auto session = render::ViewerSession::connect(o.host, o.port, session_options(o));
+  if (!session) {
+    std::fprintf(stderr, "loam-client view: %s\n", session.error().describe().c_str());
+    return 1;
+  }
+  render::ViewerSession& s = **session;
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;
+  ImGui_ImplGlfw_InitForOpenGL(win, true);
+  ImGui_ImplOpenGL3_Init("#version 450 core");
+  const render::Camera start = render::overview_camera(s.client().welcome().world);
+  FlyCamera fly = FlyCamera::looking_at(start.x, start.y, start.z, start.x + start.fx, start.y + start.fy,
+                                        start.z + start.fz);
+  fly.set_speed(std::max(10.0, 0.05 * start.z));
+  StampTool tool;
+  auto ground = [&](double x, double y) { return ground_at(s.display(), x, y); };
+  bool hud = true, was_left = false, was_f1 = false, was_f12 = false;
+  int shots = 0;
+  double last_x = 0, last_y = 0;
+  glfwGetCursorPos(win, &last_x, &last_y);
+  auto last = Clock::now();
+  const auto t0 = last;
+  render::FrameStats f;
+  double frame_ms = 0;
+  int code = 0;
+  for (bool final = false; !final && !window->should_close();) {
+    final = o.seconds > 0 && seconds_since(t0) >= o.seconds;  // draw this frame, then stop
+    gpu::GlfwContext::poll_events();
+    const double dt = std::min(0.1, seconds_since(last));
+    last = Clock::now();
+    ImGuiIO& io = ImGui::GetIO();
+    double mx = 0, my = 0;
+    glfwGetCursorPos(win, &mx, &my);
+    FlyInput in;
+    bool shoot = false;
+    if (!io.WantCaptureKeyboard) {
+      auto key = [&](int k) { return glfwGetKey(win, k) == GLFW_PRESS ? 1.0 : 0.0; };
+      in.forward = key(GLFW_KEY_W) - key(GLFW_KEY_S);
+      in.right = key(GLFW_KEY_D) - key(GLFW_KEY_A);
+      in.up = key(GLFW_KEY_E) - key(GLFW_KEY_Q);
+      in.fast = key(GLFW_KEY_LEFT_SHIFT) > 0 || key(GLFW_KEY_RIGHT_SHIFT) > 0;
+      for (int i = 0; i < kToolCount; ++i) {
+        if (key(GLFW_KEY_1 + i) > 0) tool.tool = Tool(i);
+      }
+      const bool f1 = key(GLFW_KEY_F1) > 0;
+      if (f1 && !was_f1) hud = !hud;
+      was_f1 = f1;
+      shoot = key(GLFW_KEY_F12) > 0 && !was_f12;
+      was_f12 = key(GLFW_KEY_F12) > 0;
+      if (key(GLFW_KEY_ESCAPE) > 0) glfwSetWindowShouldClose(win, GLFW_TRUE);
+    }
+    const bool over_hud = io.WantCaptureMouse;
+    if (!over_hud && glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) {
+      in.turn_x = mx - last_x;
+      in.turn_y = my - last_y;
+    }
+    last_x = mx, last_y = my;
+    if (!over_hud && state.scroll != 0) tool.grow(std::pow(1.15, state.scroll));
+    state.scroll = 0;
+    fly.update(in, dt, ground);
+    int w = 0, h = 0;
+    glfwGetFramebufferSize(win, &w, &h);
+    if (w <= 0 || h <= 0) continue;  // minimised
+    const render::Camera cam = fly.camera(60.0, 4.0 * o.renderer.view_distance);
+    if (const Status st = s.update(cam); !st.ok()) {
+      std::fprintf(stderr, "loam-client view: %s\n", st.error().describe().c_str());
+      code = 1;
+      break;
+    }
+    const auto f0 = Clock::now();
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glViewport(0, 0, w, h);
+    glClearColor(0.50f, 0.60f, 0.75f, 1.0f);
+    glDepthMask(GL_TRUE);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    f = s.render(cam, w, h);
+    // A click deforms the terrain under the cursor (window coordinates scale to the framebuffer).
+    const bool left = !over_hud && glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
+    if (left && !was_left) {
+      int ww = 1, wh = 1;
+      glfwGetWindowSize(win, &ww, &wh);
+      const double px = mx * double(w) / double(std::max(ww, 1)),
+                   py = my * double(h) / double(std::max(wh, 1));
+      float depth = 1.0f;
+      glReadPixels(int(px), h - 1 - int(py), 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
+      if (auto p = render::unproject(cam, w, h, px, py, depth)) stamp_at(s, tool, *p);
+    }
+    was_left = left;
+    if (hud) {
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      draw_hud(s, fly, tool, f, frame_ms, window->renderer());
+      ImGui::Render();
+      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+    }
+    // F12, or the last frame of a timed run: the window's picture, HUD included.
+    if (shoot || final) {
+      std::vector<uint8_t> rgba(size_t(w) * size_t(h) * 4), flipped(rgba.size());
+      glPixelStorei(GL_PACK_ALIGNMENT, 1);
+      glReadBuffer(GL_BACK);
+      glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+      const size_t row = size_t(w) * 4;
+      for (int y = 0; y < h; ++y)
+        std::copy_n(rgba.begin() + ptrdiff_t(size_t(h - 1 - y) * row), row,
+                    flipped.begin() + ptrdiff_t(size_t(y) * row));
+      const std::string file = shoot ? numbered(o.screenshot, ++shots) : o.screenshot;
+      if (render::write_png(file, w, h, flipped).ok()) std::printf("viewer: screenshot %s\n", file.c_str());
+    }
+    window->swap_buffers();
+    frame_ms = seconds_since(f0) * 1000.0;
+  }
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  print_stats(seconds_since(t0), s, f, frame_ms);
+  return code != 0 ? code : exit_code(s);
+}
+
+}  // namespace
+
+int run_viewer(const ViewerAppOptions& options) {
+  return options.headless ? run_headless(options) : run_window(options);
+}
+
+}  // namespace loam::view

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Smoke run of the viewer against a real server, as the main job runs it: a server on the
+# embedded terrain, a bot deforming it, the headless viewer stamping at its view's centre
+# (exit 0 means no hash mismatch and no GPU/CPU divergence), and where a display exists (ctest
+# runs under xvfb-run in scripts/test.sh) the windowed viewer for a few frames with a
+# screenshot of its HUD. Usage: viewer_smoke.sh BUILD_DIR
+set -euo pipefail
+build="$1"
+dir=$(mktemp -d)
+trap 'kill $server 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$dir"' EXIT
+"$build/server/loam-server" serve --port 0 --port-file "$dir/port" --data-dir "$dir/data" --stats-interval 0 \
+  2> "$dir/server.log" &
+server=$!
+for _ in $(seq 300); do [ -s "$dir/port" ] && break; sleep 0.05; done
+port=$(cat "$dir/port")
+"$build/client/loam-client" bot --port "$port" --stamps 40 --rate 20 --seed 5 > "$dir/bot.log" &
+bot=$!
+"$build/client/loam-client" view --headless --port "$port" --seconds 4 --stamp-every 1 --size 320x180 \
+  --screenshot "$dir/headless.png"
+test -s "$dir/headless.png"
+if [ -n "${DISPLAY:-}" ]; then
+  "$build/client/loam-client" view --port "$port" --seconds 2 --size 480x270 --no-vsync --screenshot "$dir/window.png"
+  test -s "$dir/window.png"
+else
+  echo "viewer_smoke: no DISPLAY, the window viewer was not run"
+fi
+wait $bot
+cat "$dir/bot.log"
+echo "viewer_smoke: ok"

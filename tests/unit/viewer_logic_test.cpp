@@ -1,0 +1,87 @@
+// The viewer's pure logic: the fly camera moves where it looks, turns right with the mouse
+// moving right, never goes below the ground; picking inverts the projection the renderer
+// draws with; every stamp tool gives a stamp the world validates.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <glm/glm.hpp>
+
+#include "client/render/camera.h"
+#include "client/view/fly_camera.h"
+#include "client/view/stamp_tool.h"
+#include "protocol/stamps/stamp_validate.h"
+
+namespace loam::view {
+namespace {
+
+TEST(FlyCamera, MovesAlongItsViewTurnsRightWithTheMouseAndStaysAboveGround) {
+  FlyCamera c = FlyCamera::looking_at(0, 0, 100, 10, 0, 100);  // along +x, level
+  c.set_speed(10);
+  auto flat = [](double, double) { return 50.0; };
+  c.update({.forward = 1}, 1.0, flat);
+  EXPECT_NEAR(c.x(), 10.0, 1e-9);
+  EXPECT_NEAR(c.y(), 0.0, 1e-9);
+  // Right of +x, seen from above with y along +gy (south), is +y.
+  c.update({.right = 1}, 1.0, flat);
+  EXPECT_NEAR(c.y(), 10.0, 1e-9);
+  const double yaw = c.yaw();
+  c.update({.turn_x = 100}, 0.0, flat);
+  EXPECT_GT(c.yaw(), yaw);
+  c.update({.up = -1, .fast = true}, 10.0, flat);  // 800 m down: stopped 2 m above the ground
+  EXPECT_NEAR(c.z(), 52.0, 1e-9);
+  const render::Camera cam = c.camera();
+  EXPECT_NEAR(std::hypot(cam.fx, cam.fy, cam.fz), 1.0, 1e-9);
+}
+
+TEST(FlyCamera, PitchStopsShortOfStraightUpAndDown) {
+  FlyCamera c;
+  c.update({.turn_y = -1e6}, 0.0, nullptr);
+  EXPECT_LT(c.pitch(), 1.5708);
+  c.update({.turn_y = 1e6}, 0.0, nullptr);
+  EXPECT_GT(c.pitch(), -1.5708);
+}
+
+TEST(Picking, UnprojectFindsThePointThatProjectsToThePixel) {
+  render::Camera cam = render::look_at(1000.5, -2000.25, 300, 1100, -1900, 20);
+  const int32_t w = 640, h = 360;
+  const glm::mat4 vp = render::view_projection(cam, w, h);
+  for (const auto& p : {std::array<double, 3>{1100, -1900, 20}, std::array<double, 3>{1040, -1980, 55}}) {
+    // Where p lands (render frame: camera-relative, y flipped).
+    const glm::vec4 clip =
+        vp * glm::vec4(float(p[0] - cam.x), float(-(p[1] - cam.y)), float(p[2] - cam.z), 1.0f);
+    const glm::vec3 ndc = glm::vec3(clip) / clip.w;
+    const double px = (ndc.x + 1.0) * 0.5 * w - 0.5, py = (1.0 - ndc.y) * 0.5 * h - 0.5;
+    const auto back = render::unproject(cam, w, h, px, py, 0.5f * ndc.z + 0.5f);
+    ASSERT_TRUE(back.has_value());
+    EXPECT_NEAR((*back)[0], p[0], 0.05);
+    EXPECT_NEAR((*back)[1], p[1], 0.05);
+    EXPECT_NEAR((*back)[2], p[2], 0.05);
+  }
+  EXPECT_FALSE(render::unproject(cam, w, h, 10, 10, 1.0f).has_value()) << "depth 1 is the background";
+}
+
+TEST(StampTool, EveryToolGivesAStampTheWorldValidates) {
+  WorldParams w;
+  w.meters_per_sample = 2.0;
+  w.tiles_x = 4;
+  w.tiles_y = 3;
+  w.height_offset = -100;
+  w.meters_per_unit = 0.01;
+  StampTool tool;
+  for (double radius : {0.5, 8.0, 120.0}) {
+    tool.radius_m = radius;
+    for (int t = 0; t < kToolCount; ++t) {
+      tool.tool = Tool(t);
+      const StampParams p = tool.at(700, 600, 12.5);
+      auto q = validate_stamp(p, w);
+      EXPECT_TRUE(q.ok()) << to_string(tool.tool) << " radius " << radius << ": "
+                          << (q.ok() ? "" : q.error().describe());
+      EXPECT_EQ(p.layer, tool.tool == Tool::kFootprint ? Layer::kDetail : Layer::kCoarse);
+    }
+  }
+  tool.grow(1e6);
+  EXPECT_EQ(tool.radius_m, 500.0);
+}
+
+}  // namespace
+}  // namespace loam::view
