@@ -503,17 +503,30 @@ void Server::schedule_tick() {
   });
 }
 
-void Server::send_region(const SessionPtr& s, const TileCoord& c) {
+void Server::send_region(const SessionPtr& s, const TileCoord& c, std::optional<RectI> part, uint64_t base) {
   const World& w = terrain_.world();
+  const RectI rect = part.value_or(RectI{0, 0, kTileSize, kTileSize});
   Result<std::vector<uint8_t>> payload = [&]() -> Result<std::vector<uint8_t>> {
-    if (c.layer == Layer::kCoarse)
-      return encode_region(RegionEncoding::kFast, w.coarse_tile(c.mip, c.tx, c.ty), kTileSize, kTileSize);
-    const auto tile = w.detail_tile(c.tx, c.ty);
-    if (tile.empty()) {
-      const std::vector<int8_t> zeros(kTileSamples, 0);
-      return encode_region(RegionEncoding::kFast, std::span<const int8_t>(zeros), kTileSize, kTileSize);
+    const int32_t rw = int32_t(rect.width()), rh = int32_t(rect.height());
+    if (c.layer == Layer::kCoarse) {
+      const std::span<const uint16_t> tile = w.coarse_tile(c.mip, c.tx, c.ty);
+      if (!part) return encode_region(RegionEncoding::kFast, tile, kTileSize, kTileSize);
+      std::vector<uint16_t> samples;
+      for (int64_t y = rect.y0; y < rect.y1; ++y) {
+        samples.insert(samples.end(), tile.begin() + (y * kTileSize + rect.x0),
+                       tile.begin() + (y * kTileSize + rect.x1));
+      }
+      return encode_region(RegionEncoding::kFast, std::span<const uint16_t>(samples), rw, rh);
     }
-    return encode_region(RegionEncoding::kFast, tile, kTileSize, kTileSize);
+    const auto tile = w.detail_tile(c.tx, c.ty);
+    std::vector<int8_t> samples(size_t(rect.area()), 0);
+    if (!tile.empty()) {
+      size_t i = 0;
+      for (int64_t y = rect.y0; y < rect.y1; ++y) {
+        for (int64_t x = rect.x0; x < rect.x1; ++x) samples[i++] = tile[size_t(y * kTileSize + x)];
+      }
+    }
+    return encode_region(RegionEncoding::kFast, std::span<const int8_t>(samples), rw, rh);
   }();
   if (!payload) {
     log_event("encode_error", {{"tile", to_string(c)}, {"error", payload.error().describe()}});
@@ -521,8 +534,8 @@ void Server::send_region(const SessionPtr& s, const TileCoord& c) {
   }
   wire::RegionUpdate header;
   header.tile = c;
-  header.rect = {0, 0, kTileSize, kTileSize};
-  header.base_version = 0;
+  header.rect = rect;
+  header.base_version = part ? base : 0;
   header.new_version = w.tile_state(c).version;
   header.encoding = wire::RegionEncoding::kCodec;
   auto chunks = wire::chunk_region(header, *payload);
@@ -533,6 +546,7 @@ void Server::send_region(const SessionPtr& s, const TileCoord& c) {
   for (const wire::RegionUpdate& r : *chunks) send(s, r);
   s->subs[c] = header.new_version;
   ++stats_.regions_sent;
+  if (part) ++stats_.partial_regions_sent;
 }
 
 void Server::send_hashes(const SessionPtr& s) {
@@ -574,7 +588,13 @@ void Server::tick() {
       return;
     }
     // 2. Apply, acknowledge, stream events; note tiles a client cannot reproduce itself.
-    std::set<std::pair<uint32_t, TileCoord>> needs_region;
+    // Per (client, tile): the version the client held before this tick's first change it could
+    // not follow (0: unknown) and the union of the samples changed since (tile-local).
+    struct NeededRegion {
+      uint64_t base = 0;
+      RectI rect;
+    };
+    std::map<std::pair<uint32_t, TileCoord>, NeededRegion> needs_region;
     for (const PendingDeform& p : batch) {
       const uint64_t s_seq = terrain_.last_seq() + 1;
       auto applied = terrain_.apply(p.stamp, s_seq, p.client_id);
@@ -623,16 +643,23 @@ void Server::tick() {
           if (can_apply && !derived) {
             it->second = c.new_version;
           } else {
+            NeededRegion& need = needs_region[{id, c.coord}];
+            if (it->second != kNeedsRegion) need.base = it->second;
+            need.rect = need.rect.unite(c.rect);
             it->second = kNeedsRegion;
-            needs_region.insert({id, c.coord});
           }
         }
       }
     }
-    // 3. Regions for what clients could not apply, at the tick's final version.
-    for (const auto& [id, c] : needs_region) {
+    // 3. Regions for what clients could not apply, at the tick's final version: only the
+    // changed samples where the client holds a known version of the rest of the tile (a stamp
+    // changes a few hundred samples of a mip tile, not 65536), else the whole tile.
+    for (const auto& [key, need] : needs_region) {
+      const auto& [id, c] = key;
       const auto it = sessions_.find(id);
-      if (it != sessions_.end() && it->second->subs.count(c)) send_region(it->second, c);
+      if (it == sessions_.end() || !it->second->subs.count(c)) continue;
+      const bool partial = need.base != 0 && need.rect.area() * 4 <= kTileSamples;
+      send_region(it->second, c, partial ? std::optional<RectI>(need.rect) : std::nullopt, need.base);
     }
   }
   if (config_.hashes_every_ticks > 0 && tick_ % config_.hashes_every_ticks == 0) {
@@ -688,6 +715,8 @@ void Server::report_stats() {
                       {"violations", std::to_string(stats_.violations)},
                       {"bytes_in", std::to_string(stats_.bytes_in)},
                       {"bytes_out", std::to_string(stats_.bytes_out)},
+                      {"regions_sent", std::to_string(stats_.regions_sent)},
+                      {"partial_regions_sent", std::to_string(stats_.partial_regions_sent)},
                       {"max_queue_bytes", std::to_string(max_queue)},
                       {"tick_p50_ms", std::to_string(pct(0.5))},
                       {"tick_p99_ms", std::to_string(pct(0.99))}});

@@ -29,7 +29,7 @@ struct ServerStats {
   uint64_t deforms_accepted = 0, deforms_rejected = 0;
   uint64_t violations = 0;  // every Error sent for a client's fault
   uint64_t bytes_in = 0, bytes_out = 0;
-  uint64_t regions_sent = 0, events_sent = 0;
+  uint64_t regions_sent = 0, partial_regions_sent = 0, events_sent = 0;
   uint64_t tick_overruns = 0;
 };
 
@@ -83,7 +83,10 @@ class Server {
 
   void schedule_tick();
   void tick();
-  void send_region(const SessionPtr& s, const TileCoord& c);
+  // The tile c to a client: whole, or only `part` (tile-local samples) over the `base` version
+  // the client holds of the rest.
+  void send_region(const SessionPtr& s, const TileCoord& c, std::optional<RectI> part = std::nullopt,
+                   uint64_t base = 0);
   void send_hashes(const SessionPtr& s);
   bool valid_tile(const TileCoord& c) const;
   void maybe_snapshot(bool force);

@@ -36,7 +36,7 @@ Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version,
     mip_tiles_[c].assign(samples.begin(), samples.end());
   }
   versions_[c] = version;
-  record_region(c, version);
+  record_region(c, version, {0, 0, kTileSize, kTileSize});
   after_region(version);
   return {};
 }
@@ -56,20 +56,89 @@ Status ConfirmedStore::replace_detail(const TileCoord& c, uint64_t version, std:
   mirror_.write_detail(tile_rect(c.tx, c.ty), samples);
   mirror_.commit(version);
   versions_[c] = version;
-  record_region(c, version);
+  record_region(c, version, {0, 0, kTileSize, kTileSize});
   after_region(version);
   return {};
 }
 
-void ConfirmedStore::record_region(const TileCoord& c, uint64_t version) {
+void ConfirmedStore::record_region(const TileCoord& c, uint64_t version, const RectI& local) {
   if (!record_changes_) return;
   StoreChange ch;
   ch.kind = StoreChange::Kind::kRegion;
   ch.seq = version;
   ch.tile = c;
   ch.layer = c.layer;
-  ch.rect = tile_rect(c.tx, c.ty);
+  ch.rect = local.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize);
   changes_.push_back(ch);
+}
+
+Status ConfirmedStore::check_patch(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
+                                   size_t samples) const {
+  const auto held = this->version(c);
+  if (!held || *held != base) {
+    return make_error(ErrorCode::kInvalidArgument, "region.base_version",
+                      to_string(c) + " is not held at version " + std::to_string(base));
+  }
+  if (rect.empty() || !RectI{0, 0, kTileSize, kTileSize}.contains(rect)) {
+    return make_error(ErrorCode::kInvalidArgument, "region.rect", "not inside the tile");
+  }
+  if (samples != size_t(rect.area()))
+    return make_error(ErrorCode::kInvalidArgument, "region", "sample count");
+  if (version <= base)
+    return make_error(ErrorCode::kInvalidArgument, "region.new_version", "not after the base");
+  return {};
+}
+
+Status ConfirmedStore::patch_coarse(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
+                                    std::span<const uint16_t> samples) {
+  LOAM_TRY(check_patch(c, rect, base, version, samples.size()));
+  if (c.layer != Layer::kCoarse)
+    return make_error(ErrorCode::kInvalidArgument, "region.layer", "not a coarse tile");
+  if (c.mip == 0) {
+    mirror_.write_coarse(rect.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize), samples);
+    mirror_.commit(version);
+  } else {
+    std::vector<uint16_t>& tile = mip_tiles_.at(c);
+    for (int64_t y = rect.y0; y < rect.y1; ++y) {
+      std::copy_n(samples.begin() + (y - rect.y0) * rect.width(), rect.width(),
+                  tile.begin() + (y * kTileSize + rect.x0));
+    }
+  }
+  versions_[c] = version;
+  record_region(c, version, rect);
+  ++counters_.regions_partial;
+  after_region(version);
+  return {};
+}
+
+Status ConfirmedStore::patch_detail(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
+                                    std::span<const int8_t> samples) {
+  LOAM_TRY(check_patch(c, rect, base, version, samples.size()));
+  if (c.layer != Layer::kDetail)
+    return make_error(ErrorCode::kInvalidArgument, "region.layer", "not a detail tile");
+  mirror_.write_detail(rect.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize), samples);
+  mirror_.commit(version);
+  versions_[c] = version;
+  record_region(c, version, rect);
+  ++counters_.regions_partial;
+  after_region(version);
+  return {};
+}
+
+std::vector<uint16_t> ConfirmedStore::coarse_rect(const TileCoord& c, const RectI& rect) const {
+  std::vector<uint16_t> out;
+  const std::span<const uint16_t> tile = coarse_samples(c);
+  if (tile.empty() || !RectI{0, 0, kTileSize, kTileSize}.contains(rect)) return out;
+  for (int64_t y = rect.y0; y < rect.y1; ++y) {
+    out.insert(out.end(), tile.begin() + (y * kTileSize + rect.x0), tile.begin() + (y * kTileSize + rect.x1));
+  }
+  return out;
+}
+
+std::vector<int8_t> ConfirmedStore::detail_rect(const TileCoord& c, const RectI& rect) const {
+  std::vector<int8_t> out(size_t(rect.area()), 0);
+  mirror_.read_detail(rect.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize), out);
+  return out;
 }
 
 // Events at or below a region's version are already in its tile (the server covers every

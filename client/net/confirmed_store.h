@@ -44,6 +44,7 @@ struct StoreChange {
 struct StoreCounters {
   uint64_t events_applied = 0, events_buffered = 0, events_dropped = 0;
   uint64_t regions = 0;
+  uint64_t regions_partial = 0;   // of `regions`: only the changed samples of a tile
   uint64_t regions_unwanted = 0;  // arrived after the tile was unsubscribed: dropped
   uint64_t hash_checks = 0, hash_mismatches = 0;
 };
@@ -54,12 +55,24 @@ class ConfirmedStore {
 
   // The client wants this tile; it is not held until its first region arrives.
   void want(const TileCoord& c) { wanted_[c] = true; }
+  bool wanted_tile(const TileCoord& c) const { return wanted_.count(c) != 0; }
   void forget(const TileCoord& c);
 
   // Replaces a whole tile with decoded samples at `version` (coarse: 65536 uint16; detail:
   // 65536 int8 reinterpreted from the span of uint8).
   Status replace_coarse(const TileCoord& c, uint64_t version, std::span<const uint16_t> samples);
   Status replace_detail(const TileCoord& c, uint64_t version, std::span<const int8_t> samples);
+
+  // Replaces the samples `rect` (tile-local) of a tile held at exactly `base`, which then is at
+  // `version` (a region that sends only what changed). Errors: not held at `base`, a rect
+  // outside the tile, the wrong sample count.
+  Status patch_coarse(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
+                      std::span<const uint16_t> samples);
+  Status patch_detail(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
+                      std::span<const int8_t> samples);
+  // The held samples of `rect` (tile-local) of a tile (the base a delta-coded region needs).
+  std::vector<uint16_t> coarse_rect(const TileCoord& c, const RectI& rect) const;
+  std::vector<int8_t> detail_rect(const TileCoord& c, const RectI& rect) const;
 
   EventOutcome on_event(const wire::DeformEvent& e, const TextureRegistry* textures = nullptr);
 
@@ -89,7 +102,9 @@ class ConfirmedStore {
   bool try_apply(const wire::DeformEvent& e, const TextureRegistry* textures);
   void retry_buffered(const TextureRegistry* textures);
   void after_region(uint64_t version);
-  void record_region(const TileCoord& c, uint64_t version);
+  void record_region(const TileCoord& c, uint64_t version, const RectI& local);
+  Status check_patch(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
+                     size_t samples) const;
 
   World mirror_;                            // mip-0 samples of both layers; only held tiles are meaningful
   std::map<TileCoord, uint64_t> versions_;  // held tiles

@@ -282,6 +282,62 @@ TEST(Session, ReconnectingClientResumesFromHeldVersionsAndConverges) {
   EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 
+// A client that holds mip tiles (a viewer's far levels) gets a stamp's effect on them as a
+// region of only the samples that changed, over the version it holds, once it holds a
+// version at all (the initial terrain's version 0 cannot be named as a base); it converges on
+// the server's tiles, and those regions are a fraction of whole tiles on the wire.
+TEST(Session, MipTilesAfterAStampTravelAsTheChangedSamplesOnly) {
+  const std::string dir = temp_data_dir("partial");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--tick-hz", "60"})) << server.log();
+  client::TerrainClient viewer, editor;
+  ASSERT_TRUE(viewer.connect("127.0.0.1", server.port(), "viewer", wire::Role::kSpectator).ok());
+  ASSERT_TRUE(editor.connect("127.0.0.1", server.port(), "editor").ok());
+  std::vector<TileCoord> tiles = viewer.all_coarse_tiles(1);
+  const auto top = viewer.all_coarse_tiles(2);
+  tiles.insert(tiles.end(), top.begin(), top.end());
+  ASSERT_TRUE(viewer.subscribe(tiles).ok());
+  ASSERT_TRUE(viewer.wait_until([&] { return viewer.store().held().size() == tiles.size(); }, 30s));
+  const WorldParams& w = editor.welcome().world;
+  auto stamp = [&](double x, double y, double r) {
+    StampParams p;
+    p.kind = StampKind::kCrater;
+    p.center_x = x, p.center_y = y, p.radius = r, p.intensity = 3, p.shape = 0.3;
+    const uint32_t s = *editor.deform(*validate_stamp(p, w));
+    EXPECT_TRUE(editor.wait_until([&] { return editor.ack(s).has_value(); }, 10s));
+    return editor.ack(s)->global_seq;
+  };
+  // A wide stamp first gives every mip tile a version; then small ones.
+  StampParams wide;
+  wide.kind = StampKind::kGaussian;
+  wide.center_x = 1024, wide.center_y = 768, wide.radius = 1400, wide.intensity = 1;
+  const uint32_t s0 = *editor.deform(*validate_stamp(wide, w));
+  ASSERT_TRUE(editor.wait_until([&] { return editor.ack(s0).has_value(); }, 10s));
+  const uint64_t first = editor.ack(s0)->global_seq;
+  ASSERT_TRUE(viewer.wait_until(
+      [&] {
+        for (const auto& t : tiles)
+          if (viewer.store().version(t) != first) return false;
+        return true;
+      },
+      30s));
+  const uint64_t bytes_before = viewer.connection().bytes_in();
+  const uint64_t partial_before = viewer.store().counters().regions_partial;
+  uint64_t last = 0;
+  for (int i = 0; i < 6; ++i) last = stamp(300.0 + 250 * i, 400.0 + 150 * i, 12.0);
+  const World expected = replayed_world(dir, last);
+  EXPECT_TRUE(viewer.wait_until([&] { return bool(store_matches(viewer, expected)); }, 30s))
+      << store_matches(viewer, expected).message();
+  const uint64_t partial = viewer.store().counters().regions_partial - partial_before;
+  const uint64_t bytes = viewer.connection().bytes_in() - bytes_before;
+  std::printf("6 stamps: %llu partial mip regions, %llu bytes in\n", (unsigned long long)partial,
+              (unsigned long long)bytes);
+  EXPECT_GE(partial, 12u) << "each stamp changes a mip-1 and a mip-2 tile";
+  // Whole fast-coded mip tiles of this terrain are ~20-60 KB each; 12 of them would be far more.
+  EXPECT_LT(bytes, 12u * 8000u);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
 TEST(Recovery, TextureStampImagesAreStoredWithTheSnapshot) {
   const std::string dir = temp_data_dir("tex");
   // A 32x32 grayscale PNG: a region of the default terrain, written by the exporter.
