@@ -66,10 +66,11 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
   r->tex_size_ = config.n + 2 * kLevelPad;
   r->mesh_ = std::move(*mesh);
   if (config.min_height_m >= config.max_height_m) {
-    // Material range from a mip small enough to scan at once.
+    // Material range from the coarsest mip: every source holds it (a live session's viewer
+    // subscribes it first), so the same terrain gets the same colours from a DEM, a snapshot
+    // or a session.
     const RectI world = p.sample_rect();
-    int32_t mip = 0;
-    while ((world.area() >> (2 * mip)) > (1 << 20)) ++mip;
+    const int32_t mip = p.mip_count() - 1;
     const RectI r_mip = in_level_grid(world, int64_t(1) << mip);
     std::vector<uint16_t> s(size_t(r_mip.area()));
     source.read(mip, r_mip, s);

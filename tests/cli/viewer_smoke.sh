@@ -3,7 +3,8 @@
 # embedded terrain, a bot deforming it, the headless viewer stamping at its view's centre
 # (exit 0 means no hash mismatch and no GPU/CPU divergence), and where a display exists (ctest
 # runs under xvfb-run in scripts/test.sh) the windowed viewer for a few frames with a
-# screenshot of its HUD. Usage: viewer_smoke.sh BUILD_DIR
+# screenshot of its HUD; then `loam-client render` of the live session and, after the server
+# stopped (writing a snapshot), of its data folder. Usage: viewer_smoke.sh BUILD_DIR
 set -euo pipefail
 build="$1"
 dir=$(mktemp -d)
@@ -26,4 +27,14 @@ else
 fi
 wait $bot
 cat "$dir/bot.log"
+"$build/client/loam-client" render --server "127.0.0.1:$port" --camera 900,1300,420 --look 1000,700,40 \
+  --size 160x90 --out "$dir/live.png"
+test -s "$dir/live.png"
+kill -INT $server
+wait $server
+"$build/client/loam-client" render --snapshot "$dir/data" --camera 900,1300,420 --look 1000,700,40 \
+  --size 160x90 --out "$dir/snapshot.png"
+test -s "$dir/snapshot.png"
+# The live session's confirmed tiles and the snapshot hold the same terrain: same picture.
+cmp "$dir/live.png" "$dir/snapshot.png"
 echo "viewer_smoke: ok"
