@@ -37,10 +37,10 @@ struct GoldenView {
 };
 
 const GoldenView kViews[] = {
-    {"overview", -250, 1850, 600, 1000, 700, 0, false},      // the whole world, its edge skirt
-    {"valley_low", 560, 1180, 12, 1100, 900, 10, false},     // grazing, along the plains
-    {"plateau_cliffs", 1500, 300, 120, 700, 700, 0, false},  // 80-degree cliffs, snow
-    {"deformed_close", 650, 498, 16, 620, 474, 0, true},     // craters and a trail of prints
+    {"overview", -250, 1850, 600, 1000, 700, 0, false},          // the whole world, its edge skirt
+    {"sea_floor_grazing", 560, 1180, 12, 1100, 900, 10, false},  // grazing, over the sea floor
+    {"plateau_cliffs", 1500, 300, 120, 700, 700, 0, false},      // 80-degree cliffs, snow
+    {"deformed_close", 650, 498, 16, 620, 474, 0, true},         // craters and a trail of prints
 };
 
 // The embedded terrain (the Tarim basin, near the deformed view) with three craters and a
