@@ -154,6 +154,12 @@ std::vector<int32_t> DisplayTerrain::expected_after(const Pending& p,
   return read_layer(crop, p.stamp.layer, p.reach);
 }
 
+void DisplayTerrain::abandon_unacknowledged() {
+  for (Pending& p : pending_) {
+    if (!p.acked) p.acked = true, p.accepted = false, p.abandoned = true;
+  }
+}
+
 bool DisplayTerrain::predict(uint32_t client_seq, const QuantizedStamp& q) {
   auto reach = stamp_reach(q, display_.params(), textures_);
   if (!reach || reach->empty() || !holds_mip0(q.layer, *reach)) {
@@ -302,7 +308,11 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
   for (size_t i = 0; i < pending_.size(); ++i) {
     if (retire[i]) {
       ++counters_.retired;
-      if (!pending_[i].accepted) ++counters_.rejected;
+      if (pending_[i].abandoned) {
+        ++counters_.abandoned;
+      } else if (!pending_[i].accepted) {
+        ++counters_.rejected;
+      }
       continue;
     }
     pending_[kept++] = pending_[i];

@@ -53,6 +53,7 @@ struct DisplayCounters {
   uint64_t not_predicted = 0;     // own stamps over tiles not held (shown when confirmed)
   uint64_t retired = 0;           // overlay stamps settled (applied, rejected or timed out)
   uint64_t rejected = 0;          // ... of which the server rejected
+  uint64_t abandoned = 0;         // ... of which the connection was lost before their ack
   uint64_t corrections = 0;       // texels of the overlay that differed from the confirmed result
   uint64_t divergent_texels = 0;  // display != store after stamping the same event (repaired)
   uint64_t texels_copied = 0;     // samples copied from the store into the display
@@ -85,6 +86,11 @@ class DisplayTerrain final : public HeightSource {
   // Brings the display up to the client's store and acks; returns what changed on display.
   std::vector<DisplayDirty> sync(client::TerrainClient& client);
 
+  // The connection was lost: the own stamps not acknowledged yet may or may not have reached
+  // the server, and their acks will not come. They retire at the next sync (the confirmed state
+  // after the reconnect shows whichever happened).
+  void abandon_unacknowledged();
+
   size_t overlay_size() const { return pending_.size(); }
   const DisplayCounters& counters() const { return counters_; }
   const World& world() const { return display_; }
@@ -97,7 +103,7 @@ class DisplayTerrain final : public HeightSource {
     uint32_t client_seq = 0;
     QuantizedStamp stamp;
     RectI reach;  // the stamp layer's global samples it may change
-    bool acked = false, accepted = false;
+    bool acked = false, accepted = false, abandoned = false;
     uint64_t global_seq = 0;
     std::chrono::steady_clock::time_point ack_time{};
   };

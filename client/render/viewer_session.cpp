@@ -81,6 +81,11 @@ Status ViewerSession::update(const Camera& camera, std::chrono::milliseconds wai
   return pumped;
 }
 
+Status ViewerSession::reconnect(const std::string& host, uint16_t port) {
+  display_->abandon_unacknowledged();
+  return client_.reconnect(host, port);
+}
+
 FrameStats ViewerSession::render(const Camera& camera, int32_t width, int32_t height) {
   return renderer_->render(camera, width, height);
 }

@@ -50,6 +50,10 @@ class ViewerSession {
   // refreshes the clipmap levels it changed. An error means the connection is gone.
   Status update(const Camera& camera, std::chrono::milliseconds wait = std::chrono::milliseconds(0));
   FrameStats render(const Camera& camera, int32_t width, int32_t height);
+  // After a lost connection: joins again (the same world), subscribes what is held at the
+  // versions held, so only what changed meanwhile travels; the display keeps showing the last
+  // confirmed state, and own stamps never acknowledged are dropped from the overlay.
+  Status reconnect(const std::string& host, uint16_t port);
 
   // Sends the user's stamp and shows it at once (where the tiles under it are held).
   Result<uint32_t> deform(const QuantizedStamp& stamp);

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <thread>
 
 #include "client/render/headless.h"
 #include "client/render/viewer_session.h"
@@ -82,6 +83,25 @@ int exit_code(const render::ViewerSession& s) {
   return v.hash_mismatches == 0 && v.display.divergent_texels == 0 ? 0 : 3;
 }
 
+// The connection is gone: join again, once a second for up to 30 s (a server restarting).
+bool reconnect(render::ViewerSession& s, const ViewerAppOptions& o, const Status& why) {
+  std::fprintf(stderr, "viewer: connection lost (%s); reconnecting to %s:%u\n", why.error().describe().c_str(),
+               o.host.c_str(), unsigned(o.port));
+  for (int attempt = 0; attempt < 30; ++attempt) {
+    const Status st = s.reconnect(o.host, o.port);
+    if (st.ok()) {
+      std::fprintf(stderr, "viewer: reconnected as client %u\n", s.client().welcome().client_id);
+      return true;
+    }
+    if (st.error().code == ErrorCode::kUnsupported) {  // another world, or a protocol we do not speak
+      std::fprintf(stderr, "viewer: %s\n", st.error().describe().c_str());
+      return false;
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(1));
+  }
+  return false;
+}
+
 render::ViewerOptions session_options(const ViewerAppOptions& o) {
   render::ViewerOptions vo;
   vo.renderer = o.renderer;
@@ -127,10 +147,7 @@ int run_headless(const ViewerAppOptions& o) {
   for (double t = 0; t < seconds; t = seconds_since(t0)) {
     cam = orbit_camera(cx, cy, radius, 0.12 * radius, 90.0, t, ground);
     cam.far_m = 6.0 * radius;
-    if (const Status st = s.update(cam, std::chrono::milliseconds(5)); !st.ok()) {
-      std::fprintf(stderr, "loam-client view: %s\n", st.error().describe().c_str());
-      return 1;
-    }
+    if (const Status st = s.update(cam, std::chrono::milliseconds(5)); !st.ok() && !reconnect(s, o, st)) return 1;
     const auto f0 = Clock::now();
     target->begin(0.50f, 0.60f, 0.75f, 0.0f);
     f = s.render(cam, o.width, o.height);
@@ -283,8 +300,7 @@ int run_window(const ViewerAppOptions& o) {
     glfwGetFramebufferSize(win, &w, &h);
     if (w <= 0 || h <= 0) continue;  // minimised
     const render::Camera cam = fly.camera(60.0, 4.0 * o.renderer.view_distance);
-    if (const Status st = s.update(cam); !st.ok()) {
-      std::fprintf(stderr, "loam-client view: %s\n", st.error().describe().c_str());
+    if (const Status st = s.update(cam); !st.ok() && !reconnect(s, o, st)) {
       code = 1;
       break;
     }
