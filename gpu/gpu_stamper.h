@@ -76,11 +76,14 @@ struct GpuStamperOptions {
 
 class GpuStamper {
  public:
-  // kAuto's limit (a 256x256 rect). Up to it, on the 2-core machine of
-  // bench/results/gpu-stamps.md, llvmpipe's vertex stage on the calling thread is as fast as
-  // a compute dispatch on its worker threads plus the hand-off, or faster (at 10^4 samples
-  // 0.09 against 0.12-0.19 ms); beyond it compute gains from every core llvmpipe has.
-  static constexpr int64_t kVertexPathMaxSamples = 64 * 1024;
+  // kAuto's limit (a 362x362 rect). On llvmpipe the vertex stage runs single-threaded at about
+  // the CPU reference's speed whatever the other cores are doing; a compute dispatch pays a
+  // hand-off to the worker threads and gains only where they find idle cores. Measured on the
+  // 2-core machine of bench/results/gpu-stamps.md: at 10^4 samples 0.09 ms vertex against
+  // 0.12-0.19 ms compute; at 6.5-9x10^4 samples, with other builds running, compute took
+  // 1.1-1.5x the CPU time and the vertex stage 1.04x; at 1.6x10^5 compute took 0.77 ms at
+  // best against 1.2-1.3 ms for the vertex stage.
+  static constexpr int64_t kVertexPathMaxSamples = 128 * 1024;
 
   // Uploads both layers of `world`. `textures` (may be null) must outlive the stamper.
   // Errors: a layer larger than GL_MAX_TEXTURE_SIZE, a shader that does not build,
