@@ -14,11 +14,6 @@ Error egl_error(const std::string& what) {
   return make_error(ErrorCode::kUnsupported, "egl", what + " (EGL error " + code + ")");
 }
 
-bool software_renderer(const std::string& r) {
-  return r.find("llvmpipe") != std::string::npos || r.find("softpipe") != std::string::npos ||
-         r.find("swrast") != std::string::npos || r.find("SwiftShader") != std::string::npos;
-}
-
 struct Candidate {
   EGLDisplay display;
   const char* platform;
@@ -40,7 +35,8 @@ std::vector<Candidate> candidate_displays() {
     }
   }
   if (epoxy_has_egl_extension(EGL_NO_DISPLAY, "EGL_MESA_platform_surfaceless")) {
-    const EGLDisplay d = eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+    const EGLDisplay d =
+        eglGetPlatformDisplayEXT(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
     if (d != EGL_NO_DISPLAY) out.push_back({d, "surfaceless"});
   }
   return out;
@@ -50,7 +46,8 @@ std::vector<Candidate> candidate_displays() {
 
 Result<EglContext> EglContext::create(EglPreference preference) {
   const std::vector<Candidate> displays = candidate_displays();
-  if (displays.empty()) return egl_error("no EGL display: neither the device nor the surfaceless platform is available");
+  if (displays.empty())
+    return egl_error("no EGL display: neither the device nor the surfaceless platform is available");
   std::string tried;
   // Two passes: hardware renderers first, then (for kAny) software ones.
   for (int pass = 0; pass < 2; ++pass) {
@@ -62,12 +59,15 @@ Result<EglContext> EglContext::create(EglPreference preference) {
         continue;
       }
       if (!eglBindAPI(EGL_OPENGL_API)) continue;
+      // Attribute, value pairs.
+      // clang-format off
       const EGLint attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5,
                                 EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
 #ifndef NDEBUG
                                 EGL_CONTEXT_OPENGL_DEBUG, EGL_TRUE,
 #endif
                                 EGL_NONE};
+      // clang-format on
       const EGLContext ctx = eglCreateContext(c.display, EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, attribs);
       if (ctx == EGL_NO_CONTEXT) continue;
       if (!eglMakeCurrent(c.display, EGL_NO_SURFACE, EGL_NO_SURFACE, ctx)) {
@@ -77,7 +77,7 @@ Result<EglContext> EglContext::create(EglPreference preference) {
       const auto* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
       const auto* version = reinterpret_cast<const char*>(glGetString(GL_VERSION));
       const std::string r = renderer ? renderer : "unknown";
-      const bool software = software_renderer(r);
+      const bool software = is_software_renderer(r);
       if ((pass == 0 && software) || (pass == 1 && !software)) {
         eglMakeCurrent(c.display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
         eglDestroyContext(c.display, ctx);
@@ -95,8 +95,9 @@ Result<EglContext> EglContext::create(EglPreference preference) {
     if (preference == EglPreference::kHardware) break;
   }
   if (preference == EglPreference::kHardware) {
-    return make_error(ErrorCode::kUnsupported, "egl",
-                      "no hardware OpenGL 4.5 renderer" + (tried.empty() ? std::string() : " (found only: " + tried + ")"));
+    return make_error(
+        ErrorCode::kUnsupported, "egl",
+        "no hardware OpenGL 4.5 renderer" + (tried.empty() ? std::string() : " (found only: " + tried + ")"));
   }
   return egl_error("no EGL display gives an OpenGL 4.5 core context");
 }
@@ -128,10 +129,16 @@ void EglContext::release() {
 }
 
 Status EglContext::make_current() const {
-  if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_)) return egl_error("eglMakeCurrent failed");
+  if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_))
+    return egl_error("eglMakeCurrent failed");
   return {};
 }
 
-bool EglContext::is_software() const { return software_renderer(renderer_); }
+bool is_software_renderer(const std::string& r) {
+  return r.find("llvmpipe") != std::string::npos || r.find("softpipe") != std::string::npos ||
+         r.find("swrast") != std::string::npos || r.find("SwiftShader") != std::string::npos;
+}
+
+bool EglContext::is_software() const { return is_software_renderer(renderer_); }
 
 }  // namespace loam::gpu

@@ -13,6 +13,9 @@
 
 namespace loam::gpu {
 
+// llvmpipe, softpipe, swrast, SwiftShader: a GL_RENDERER string of a CPU rasterizer.
+bool is_software_renderer(const std::string& renderer);
+
 enum class EglPreference {
   kAny,       // first device that gives a 4.5 core context (hardware first, then software)
   kHardware,  // only a hardware renderer; an error if there is none

@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <climits>
 #include <cstring>
+#include <tuple>
+#include <utility>
 
+#include "gpu/egl_context.h"
 #include "gpu/gl_debug.h"
 #include "gpu/shader_library.h"
 #include "protocol/stamps/stamp_kernel.h"
@@ -13,74 +16,140 @@ namespace loam::gpu {
 
 namespace {
 
-// Mirrors StampParams in shaders/stamp_common.glsl (std430: int32 fields packed in order).
+// Mirrors the StampParams uniform block in shaders/stamp_common.glsl: std140 of five ivec4
+// and ivec4 table4[257] is exactly these consecutive int32 (the table padded to 1028).
 struct StampUniforms {
   int32_t rect_x0, rect_y0, rect_w, rect_h;
   int32_t d0x, d0y, shift, radius_r;
   int32_t cos_q15, sin_q15, intensity, target;
   int32_t blend, tex_w, tex_h, aux0;
   int32_t aux1, aux2, pad0, pad1;
-  int32_t table[kProfileEntries + 1];
+  int32_t table[kProfileEntries + 4];
 };
-static_assert(sizeof(StampUniforms) == (20 + kProfileEntries + 1) * 4);
+static_assert(sizeof(StampUniforms) == (20 + kProfileEntries + 4) * 4);
 
-// Mirrors StampResult: the footprint contact.
-struct StampResultData {
-  int32_t contact_q8, has_contact;
-};
-constexpr StampResultData kResultInit{INT_MIN, 0};
+// Mirrors StampResult: the footprint's first point of contact; INT_MIN (kNoContact in the
+// shaders) when no sample lies under the foot.
+constexpr int32_t kNoContact = INT_MIN;
 
-constexpr GLuint kGroup = 8;  // local_size_x/y of every stamp shader
+constexpr GLuint kGroup = 8;     // local_size_x/y of every compute stamp shader
+constexpr int kComputeRows = 4;  // samples per compute invocation (STAMP_ROWS), along y
+constexpr int kVertexRun = 4;    // samples per vertex-pass point (STAMP_RUN), along x
 
-GLuint groups(int64_t n) { return GLuint((n + kGroup - 1) / kGroup); }
+GLuint groups(int64_t n, int64_t per_group = kGroup) { return GLuint((n + per_group - 1) / per_group); }
 
 GLenum pixel_type(Layer l) { return l == Layer::kCoarse ? GL_UNSIGNED_SHORT : GL_BYTE; }
 size_t pixel_size(Layer l) { return l == Layer::kCoarse ? 2 : 1; }
 
-// Bounding rect (rect-local) of the samples where `next` differs from `old`, both row-major
-// over a w x h rect; empty when none.
+// First and last index in [0, n) where a and b differ ({-1, -1}: none). b == nullptr: an
+// implicit zero tile.
 template <typename T>
-RectI changed_bounds(const T* next, const T* old, int64_t w, int64_t h) {
-  RectI r;
-  for (int64_t y = 0; y < h; ++y) {
-    const T* a = next + y * w;
-    const T* b = old + y * w;
-    if (std::memcmp(a, b, size_t(w) * sizeof(T)) == 0) continue;
-    int64_t x0 = 0, x1 = w;
-    while (a[x0] == b[x0]) ++x0;
-    while (a[x1 - 1] == b[x1 - 1]) --x1;
-    r = r.unite(RectI{x0, y, x1, y + 1});
+std::pair<int64_t, int64_t> differing_span(const T* a, const T* b, int64_t n) {
+  int64_t first = 0, last = n - 1;
+  if (b != nullptr) {
+    if (std::memcmp(a, b, size_t(n) * sizeof(T)) == 0) return {-1, -1};
+    while (a[first] == b[first]) ++first;
+    while (a[last] == b[last]) --last;
+  } else {
+    while (first < n && a[first] == 0) ++first;
+    if (first == n) return {-1, -1};
+    while (a[last] == 0) --last;
   }
-  return r;
+  return {first, last};
 }
 
-// Writes the part `changed` (rect-local) of a readback of `rect` into the world.
+// Writes a readback of `rect` (row-major, layer samples) into the world where it differs
+// from it, tile by tile: each row's differing span is copied, each tile's changed rect
+// marked dirty (as write_coarse / write_detail and the reference's tile walk mark it).
+// Returns the bounding rect of the changed samples (global; empty: none). An absent detail
+// tile is all zero and is only stored when something in it changes.
 template <typename T>
-void write_changed(World& world, const RectI& rect, const T* data, const RectI& changed,
-                   std::vector<T>& scratch) {
-  scratch.resize(size_t(changed.area()));
-  for (int64_t y = changed.y0; y < changed.y1; ++y) {
-    std::memcpy(scratch.data() + size_t((y - changed.y0) * changed.width()),
-                data + y * rect.width() + changed.x0, size_t(changed.width()) * sizeof(T));
+RectI write_readback(World& world, Layer layer, const RectI& rect, const T* data) {
+  RectI changed;
+  const RectI tiles = tiles_overlapping(rect);
+  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+      const RectI part = rect.intersect(tile_rect(int32_t(tx), int32_t(ty)));
+      if (part.empty()) continue;
+      T* tile = nullptr;
+      const T* current = nullptr;
+      if constexpr (sizeof(T) == 2) {
+        tile = world.coarse_tile_mut(int32_t(tx), int32_t(ty)).data();
+        current = tile;
+      } else {
+        const std::span<const int8_t> stored = world.detail_tile(int32_t(tx), int32_t(ty));
+        if (!stored.empty()) tile = world.detail_tile_mut(int32_t(tx), int32_t(ty)).data();
+        current = tile;
+      }
+      RectI dirty;
+      for (int64_t y = part.y0; y < part.y1; ++y) {
+        const T* src = data + (y - rect.y0) * rect.width() + (part.x0 - rect.x0);
+        const int64_t at = (y - ty * kTileSize) * kTileSize + (part.x0 - tx * kTileSize);
+        const auto [first, last] = differing_span(src, current ? current + at : nullptr, part.width());
+        if (first < 0) continue;
+        if (tile == nullptr) {
+          if constexpr (sizeof(T) == 1) tile = world.detail_tile_mut(int32_t(tx), int32_t(ty)).data();
+          current = tile;
+        }
+        std::memcpy(tile + at + first, src + first, size_t(last - first + 1) * sizeof(T));
+        dirty = dirty.unite(RectI{part.x0 + first, y, part.x0 + last + 1, y + 1});
+      }
+      if (!dirty.empty()) {
+        world.mark_dirty(layer, dirty);
+        changed = changed.unite(dirty);
+      }
+    }
   }
-  const RectI global = changed.translated(rect.x0, rect.y0);
-  if constexpr (sizeof(T) == 2) {
-    world.write_coarse(global, scratch);
-  } else {
-    world.write_detail(global, scratch);
-  }
+  return changed;
 }
+
+// Saves and restores what a vertex-path draw changes of the caller's GL state.
+class DrawStateGuard {
+ public:
+  DrawStateGuard() {
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &framebuffer_);
+    glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &vertex_array_);
+    discard_ = glIsEnabled(GL_RASTERIZER_DISCARD);
+    if (discard_) glDisable(GL_RASTERIZER_DISCARD);  // it would skip the vertex stage too
+  }
+  ~DrawStateGuard() {
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, GLuint(framebuffer_));
+    glBindVertexArray(GLuint(vertex_array_));
+    if (discard_) glEnable(GL_RASTERIZER_DISCARD);
+  }
+  DrawStateGuard(const DrawStateGuard&) = delete;
+  DrawStateGuard& operator=(const DrawStateGuard&) = delete;
+
+ private:
+  GLint framebuffer_ = 0, vertex_array_ = 0;
+  GLboolean discard_ = GL_FALSE;
+};
 
 }  // namespace
 
 GpuStamper::~GpuStamper() = default;
 
 Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const TextureRegistry* textures,
-                                                       const StampLimits& limits) {
+                                                       const StampLimits& limits,
+                                                       const GpuStamperOptions& options) {
   install_gl_debug_output();
   std::unique_ptr<GpuStamper> s(new GpuStamper());
   s->textures_ = textures;
   s->limits_ = limits;
+  s->options_ = options;
+  const auto* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  s->software_ = renderer != nullptr && is_software_renderer(renderer);
+  // The vertex pass needs two images (the layer and the copy it reads), the texture sampler
+  // and the footprint's storage buffer in the vertex stage.
+  GLint images = 0, buffers = 0;
+  glGetIntegerv(GL_MAX_VERTEX_IMAGE_UNIFORMS, &images);
+  glGetIntegerv(GL_MAX_VERTEX_SHADER_STORAGE_BLOCKS, &buffers);
+  s->vertex_path_ = images >= 2 && buffers >= 1;
+  if (options.path == StampPath::kVertex && !s->vertex_path_) {
+    return make_error(ErrorCode::kUnsupported, "gpu.stamp_path",
+                      "the vertex stage offers " + std::to_string(images) + " image units and " +
+                          std::to_string(buffers) + " storage buffers; the vertex pass needs 2 and 1");
+  }
   s->params_ = world.params();
   s->coarse_rect_ = world.params().sample_rect();
   s->detail_rect_ = world.params().detail_sample_rect();
@@ -93,13 +162,7 @@ Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const
                             " samples exceeds GL_MAX_TEXTURE_SIZE " + std::to_string(max_size));
     }
   }
-  // Build every program up front: a shader error shows at start-up, not at the first stamp.
-  for (Layer l : {Layer::kCoarse, Layer::kDetail}) {
-    for (int kind = 0; kind <= 4; ++kind) {
-      auto p = s->program("stamp", "stamp.comp.glsl", kind, l);
-      if (!p) return p.error();
-    }
-  }
+  if (Status st = s->build_programs(); !st.ok()) return st.error();
 
   s->coarse_ = make_texture(GL_TEXTURE_2D);
   glTextureStorage2D(s->coarse_.get(), 1, GL_R16UI, GLsizei(s->coarse_rect_.width()),
@@ -118,7 +181,18 @@ Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const
   s->params_buf_ = make_buffer();
   glNamedBufferStorage(s->params_buf_.get(), sizeof(StampUniforms), nullptr, GL_DYNAMIC_STORAGE_BIT);
   s->result_buf_ = make_buffer();
-  glNamedBufferStorage(s->result_buf_.get(), sizeof(StampResultData), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  glNamedBufferStorage(s->result_buf_.get(), sizeof kNoContact, &kNoContact, GL_DYNAMIC_STORAGE_BIT);
+  if (s->vertex_path_ && options.path != StampPath::kCompute) {
+    GLuint fbo = 0, vao = 0;
+    glCreateFramebuffers(1, &fbo);
+    s->empty_fbo_ = GlFramebuffer(fbo);
+    // No attachments: every point is clipped anyway, but a draw needs a complete framebuffer
+    // (a surfaceless context has no default one).
+    glNamedFramebufferParameteri(fbo, GL_FRAMEBUFFER_DEFAULT_WIDTH, 1);
+    glNamedFramebufferParameteri(fbo, GL_FRAMEBUFFER_DEFAULT_HEIGHT, 1);
+    glCreateVertexArrays(1, &vao);
+    s->empty_vao_ = GlVertexArray(vao);
+  }
 
   // Upload once: the coarse layer whole, the detail layer tile by tile where stored.
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
@@ -137,31 +211,66 @@ Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const
   return s;
 }
 
+StampPath GpuStamper::path_for(int64_t samples) const {
+  switch (options_.path) {
+    case StampPath::kCompute: return StampPath::kCompute;
+    case StampPath::kVertex: return StampPath::kVertex;
+    case StampPath::kAuto: break;
+  }
+  return software_ && vertex_path_ && samples <= kVertexPathMaxSamples ? StampPath::kVertex
+                                                                       : StampPath::kCompute;
+}
+
+// key: stamp / contact (compute), vstamp / vcontact (vertex stage), wave_init, wave_step,
+// wave_apply (shockwave, compute).
 Result<GLuint> GpuStamper::program(const std::string& key, const std::string& file, int kind, Layer layer) {
   const std::string full = key + "/" + std::to_string(kind) + "/" + to_string(layer);
   const auto found = programs_.find(full);
   if (found != programs_.end()) return found->second.get();
   std::vector<ShaderDefine> defines = {{"KIND", std::to_string(kind)}};
   if (layer == Layer::kDetail) defines.push_back({"LAYER_DETAIL", "1"});
-  if (key == "stamp") defines.push_back({"PASS_STAMP", "1"});
-  if (key == "contact") defines.push_back({"PASS_CONTACT", "1"});
+  if (key == "stamp" || key == "vstamp") defines.push_back({"PASS_STAMP", "1"});
+  if (key == "contact" || key == "vcontact") defines.push_back({"PASS_CONTACT", "1"});
   if (key == "wave_init") defines.push_back({"PASS_WAVE_INIT", "1"});
   if (key == "wave_step") defines.push_back({"PASS_STEP", "1"});
   if (key == "wave_apply") defines.push_back({"PASS_APPLY", "1"});
-  Result<GlProgram> built = file == "stamp.comp.glsl"
-                                ? [&] {
-                                    const std::string_view files[] = {"stamp_common.glsl", "stamp.comp.glsl"};
-                                    return build_compute_program_from(files, defines);
-                                  }()
-                                : build_compute_program(file, defines);
+  defines.push_back({"STAMP_ROWS", std::to_string(kComputeRows)});
+  defines.push_back({"STAMP_RUN", std::to_string(kVertexRun)});
+  Result<GlProgram> built = [&] {
+    const std::string_view files[] = {"stamp_common.glsl", file};
+    if (file == "stamp.comp.glsl") return build_compute_program_from(files, defines);
+    if (file == "stamp.vert.glsl") return build_vertex_program_from(files, defines);
+    return build_compute_program(file, defines);
+  }();
   if (!built) return built.error();
   const GLuint name = built->get();
   programs_.emplace(full, std::move(*built));
   return name;
 }
 
-void GpuStamper::reset_result() {
-  glNamedBufferSubData(result_buf_.get(), 0, sizeof kResultInit, &kResultInit);
+// Every program a per-sample stamp may use, up front: a shader error shows at start-up, not
+// at the first stamp.
+Status GpuStamper::build_programs() {
+  const bool compute = options_.path != StampPath::kVertex;
+  const bool vertex = vertex_path_ && options_.path != StampPath::kCompute && (software_ || !compute);
+  for (Layer l : {Layer::kCoarse, Layer::kDetail}) {
+    for (int kind = 0; kind <= 4; ++kind) {
+      const bool footprint = kind == int(StampKind::kFootprint);
+      for (const auto& [use, key, file] : {std::tuple{compute, "stamp", "stamp.comp.glsl"},
+                                           std::tuple{compute && footprint, "contact", "stamp.comp.glsl"},
+                                           std::tuple{vertex, "vstamp", "stamp.vert.glsl"},
+                                           std::tuple{vertex && footprint, "vcontact", "stamp.vert.glsl"}}) {
+        if (!use) continue;
+        auto p = program(key, file, kind, l);
+        if (!p) return p.error();
+      }
+    }
+  }
+  return {};
+}
+
+void GpuStamper::reset_contact() {
+  glNamedBufferSubData(result_buf_.get(), 0, sizeof kNoContact, &kNoContact);
 }
 
 Status GpuStamper::texture_for(uint64_t id, GLuint& out) {
@@ -192,6 +301,8 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, RectI& readback) {
   readback = b.rect;
   if (b.rect.empty()) return {};
   const RectI layer_rect = q.layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
+  const bool vertex = path_for(b.rect.area()) == StampPath::kVertex;
+  const int64_t runs = (b.rect.width() + kVertexRun - 1) / kVertexRun;
   StampUniforms u{};
   u.rect_x0 = int32_t(b.rect.x0 - layer_rect.x0);
   u.rect_y0 = int32_t(b.rect.y0 - layer_rect.y0);
@@ -207,6 +318,7 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, RectI& readback) {
   u.intensity = q.intensity;
   u.target = q.target;
   u.blend = int32_t(q.blend);
+  u.aux0 = int32_t(runs);  // the vertex pass's points per row
   if (b.texture) {
     u.tex_w = b.texture->width;
     u.tex_h = b.texture->height;
@@ -216,26 +328,78 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, RectI& readback) {
   }
   std::copy(b.table.begin(), b.table.end(), u.table);
   glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
-  reset_result();
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, params_buf_.get());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, result_buf_.get());
-  const GLuint tex = texture(q.layer);
-  glBindImageTexture(0, tex, 0, GL_FALSE, 0, GL_READ_WRITE, q.layer == Layer::kCoarse ? GL_R16UI : GL_R8I);
-  const int kind = int(q.kind);
-  if (q.kind == StampKind::kFootprint) {
-    // First contact: max over the foot of old - sole, gathered with atomics, then read by
+  glBindBufferBase(GL_UNIFORM_BUFFER, 0, params_buf_.get());
+  const bool footprint = q.kind == StampKind::kFootprint;
+  if (footprint) {
+    // First contact: max over the foot of old - sole, gathered by a pre-pass, then read by
     // the stamp pass from the same buffer (no round trip to the CPU).
+    reset_contact();
+    glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, result_buf_.get());
+  }
+  const int kind = int(q.kind);
+  if (vertex) {
+    const auto points = GLsizei(runs * b.rect.height());
+    auto prog = program("vstamp", "stamp.vert.glsl", kind, q.layer);
+    if (!prog) return prog.error();
+    bind_vertex_pass(q.layer, b.rect);
+    if (footprint) {
+      auto contact = program("vcontact", "stamp.vert.glsl", kind, q.layer);
+      if (!contact) return contact.error();
+      draw_points(*contact, points);
+      glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
+    }
+    draw_points(*prog, points);
+    return {};
+  }
+  glBindImageTexture(0, texture(q.layer), 0, GL_FALSE, 0, GL_READ_WRITE,
+                     q.layer == Layer::kCoarse ? GL_R16UI : GL_R8I);
+  const GLuint gx = groups(b.rect.width()), gy = groups(b.rect.height(), kGroup * kComputeRows);
+  if (footprint) {
     auto contact = program("contact", "stamp.comp.glsl", kind, q.layer);
     if (!contact) return contact.error();
     glUseProgram(*contact);
-    glDispatchCompute(groups(b.rect.width()), groups(b.rect.height()), 1);
+    glDispatchCompute(gx, gy, 1);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   }
   auto prog = program("stamp", "stamp.comp.glsl", kind, q.layer);
   if (!prog) return prog.error();
   glUseProgram(*prog);
-  glDispatchCompute(groups(b.rect.width()), groups(b.rect.height()), 1);
+  glDispatchCompute(gx, gy, 1);
   return {};
+}
+
+// Before the vertex passes over `rect` (global layer samples): copies the rect into the
+// texture they read the old samples from (rect-local texels) and binds both images.
+void GpuStamper::bind_vertex_pass(Layer layer, const RectI& rect) {
+  const bool coarse = layer == Layer::kCoarse;
+  GlTexture& old = coarse ? old_coarse_ : old_detail_;
+  int64_t& old_w = coarse ? old_coarse_w_ : old_detail_w_;
+  int64_t& old_h = coarse ? old_coarse_h_ : old_detail_h_;
+  if (rect.width() > old_w || rect.height() > old_h) {
+    old_w = std::max(old_w, rect.width());
+    old_h = std::max(old_h, rect.height());
+    old = make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(old.get(), 1, coarse ? GL_R16UI : GL_R8I, GLsizei(old_w), GLsizei(old_h));
+  }
+  const RectI lr = coarse ? coarse_rect_ : detail_rect_;
+  // Image stores of earlier stamps must land before the copy reads the layer, and the copy
+  // before this pass reads it.
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+  glCopyImageSubData(texture(layer), GL_TEXTURE_2D, 0, GLint(rect.x0 - lr.x0), GLint(rect.y0 - lr.y0), 0,
+                     old.get(), GL_TEXTURE_2D, 0, 0, 0, 0, GLsizei(rect.width()), GLsizei(rect.height()), 1);
+  const GLenum format = coarse ? GL_R16UI : GL_R8I;
+  glBindImageTexture(0, texture(layer), 0, GL_FALSE, 0, GL_WRITE_ONLY, format);
+  glBindImageTexture(1, old.get(), 0, GL_FALSE, 0, GL_READ_ONLY, format);
+}
+
+// One vertex-stage pass: `points` points, every one clipped away, with the caller's
+// framebuffer, vertex array and rasterizer-discard state restored after.
+void GpuStamper::draw_points(GLuint program, GLsizei points) {
+  glUseProgram(program);
+  const DrawStateGuard guard;
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, empty_fbo_.get());
+  glBindVertexArray(empty_vao_.get());
+  glDrawArrays(GL_POINTS, 0, points);
 }
 
 Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, RectI& readback) {
@@ -285,14 +449,12 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, RectI& readback) {
   u.aux2 = int32_t(init.y0 - box.y0);
   std::copy(b.table.begin(), b.table.end(), u.table);
   glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
-  reset_result();
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, params_buf_.get());
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, result_buf_.get());
+  glBindBufferBase(GL_UNIFORM_BUFFER, 0, params_buf_.get());
   GLuint cur = wave_a_.get(), prev = wave_b_.get();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cur);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, prev);
   glUseProgram(*program("wave_init", "stamp.comp.glsl", int(q.kind), q.layer));
-  if (!init.empty()) glDispatchCompute(groups(init.width()), groups(init.height()), 1);
+  if (!init.empty()) glDispatchCompute(groups(init.width()), groups(init.height(), kGroup * kComputeRows), 1);
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
 
   const GLuint step = *program("wave_step", "shockwave.comp.glsl", int(q.kind), q.layer);
@@ -376,8 +538,6 @@ Result<uint64_t> GpuStamper::submit(const QuantizedStamp& q) {
 
 std::vector<StampReadback> GpuStamper::collect(World& world) {
   std::vector<StampReadback> out;
-  std::vector<uint16_t> old_coarse, coarse;
-  std::vector<int8_t> old_detail, detail;
   while (!pending_.empty()) {
     Pending& p = pending_.front();
     StampReadback done;
@@ -390,25 +550,12 @@ std::vector<StampReadback> GpuStamper::collect(World& world) {
       }
       const void* base = glMapNamedBufferRange(p.pbo.get(), 0, GLsizeiptr(p.pixel_bytes), GL_MAP_READ_BIT);
       // The mirror holds the state before this stamp (earlier tickets are already written),
-      // so comparing with it finds exactly the samples the stamp changed.
-      const int64_t w = p.rect.width(), h = p.rect.height();
-      RectI changed;
-      if (p.layer == Layer::kCoarse) {
-        old_coarse.resize(size_t(p.rect.area()));
-        world.read_coarse(p.rect, old_coarse);
-        const auto* next = static_cast<const uint16_t*>(base);
-        changed = changed_bounds(next, old_coarse.data(), w, h);
-        if (!changed.empty()) write_changed(world, p.rect, next, changed, coarse);
-      } else {
-        old_detail.resize(size_t(p.rect.area()));
-        world.read_detail(p.rect, old_detail);
-        const auto* next = static_cast<const int8_t*>(base);
-        changed = changed_bounds(next, old_detail.data(), w, h);
-        if (!changed.empty()) write_changed(world, p.rect, next, changed, detail);
-      }
+      // so the samples that differ from it are exactly those the stamp changed. An empty
+      // result is RectI{} exactly, as the reference returns it.
+      done.changed = p.layer == Layer::kCoarse
+                         ? write_readback(world, p.layer, p.rect, static_cast<const uint16_t*>(base))
+                         : write_readback(world, p.layer, p.rect, static_cast<const int8_t*>(base));
       glUnmapNamedBuffer(p.pbo.get());
-      // An empty result is RectI{} exactly, as the reference returns it.
-      if (!changed.empty()) done.changed = changed.translated(p.rect.x0, p.rect.y0);
     }
     out.push_back(done);
     p.fence.reset();

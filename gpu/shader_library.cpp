@@ -169,6 +169,14 @@ Result<GlProgram> build_compute_program_from(std::span<const std::string_view> f
   return link(names, join_names(files));
 }
 
+Result<GlProgram> build_vertex_program_from(std::span<const std::string_view> files,
+                                            std::span<const ShaderDefine> defines) {
+  auto vs = compile_files(GL_VERTEX_SHADER, files, defines);
+  if (!vs) return vs.error();
+  const GLuint names[] = {vs->get()};
+  return link(names, join_names(files));
+}
+
 Result<GlProgram> build_graphics_program(std::string_view vertex_shader, std::string_view fragment_shader,
                                          std::span<const ShaderDefine> defines) {
   auto vs = compile(GL_VERTEX_SHADER, vertex_shader, defines);

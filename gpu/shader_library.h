@@ -37,6 +37,12 @@ Result<GlProgram> build_compute_program(std::string_view shader, std::span<const
 Result<GlProgram> build_compute_program_from(std::span<const std::string_view> files,
                                              std::span<const ShaderDefine> defines = {});
 
+// Compiles and links a program with only a vertex stage from several embedded files, as
+// build_compute_program_from (for vertex shaders that work through image stores and draw
+// nothing).
+Result<GlProgram> build_vertex_program_from(std::span<const std::string_view> files,
+                                            std::span<const ShaderDefine> defines = {});
+
 // Compiles and links a vertex + fragment program from embedded shaders.
 Result<GlProgram> build_graphics_program(std::string_view vertex_shader, std::string_view fragment_shader,
                                          std::span<const ShaderDefine> defines = {});

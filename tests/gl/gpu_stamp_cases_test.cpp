@@ -1,17 +1,22 @@
 // Hard cases of GPU stamping, each against the CPU reference: the shockwave at the Courant
 // cap for a thousand steps, stamps centred on a four-tile corner, the asynchronous readback
-// pipeline, the normal pass, and the backend factory. Mismatch counts are printed.
+// pipeline, the shaders' float-estimate helpers on the inputs where their correction
+// matters, the vertex-stage path's care for the caller's GL state, the normal pass, and the
+// backend factory. Mismatch counts are printed.
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "gl_test_context.h"
 #include "gpu/gpu_stamper.h"
 #include "gpu/normal_pass.h"
+#include "gpu/shader_library.h"
 #include "gpu/stamp_backend.h"
 #include "protocol/normal_map.h"
 #include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_profile.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
 
@@ -200,6 +205,134 @@ TEST(GpuStamp, MirrorIsUntouchedUntilCollectThenMatchesCpu) {
   cpu.commit(1);
   gpu_world.commit(1);
   EXPECT_EQ(cpu.world_hash(), gpu_world.world_hash());
+}
+
+// Runs shaders/stamp_helpers_test.comp.glsl (MODE `mode`) over `inputs`; one int each.
+std::vector<int32_t> run_helper_shader(int mode, const std::vector<int32_t>& inputs) {
+  const std::string_view files[] = {"stamp_common.glsl", "stamp_helpers_test.comp.glsl"};
+  const ShaderDefine defines[] = {{"KIND", "1"}, {"MODE", std::to_string(mode)}};
+  auto program = build_compute_program_from(files, defines);
+  EXPECT_TRUE(program.ok()) << (program.ok() ? "" : program.error().describe());
+  if (!program.ok()) return {};
+  const size_t n = inputs.size() / 2;
+  GlBuffer in = make_buffer(), out = make_buffer();
+  glNamedBufferStorage(in.get(), GLsizeiptr(inputs.size() * 4), inputs.data(), 0);
+  glNamedBufferStorage(out.get(), GLsizeiptr(n * 4), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  glUseProgram(program->get());
+  glProgramUniform1i(program->get(), glGetUniformLocation(program->get(), "count"), GLint(n));
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 0, in.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, out.get());
+  glDispatchCompute(GLuint((n + 63) / 64), 1, 1);
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
+  std::vector<int32_t> got(n);
+  glGetNamedBufferSubData(out.get(), 0, GLsizeiptr(n * 4), got.data());
+  return got;
+}
+
+// The stamp shaders take square roots and the Q16 quotient u = (dist << 16) / r from a float
+// estimate plus one exact integer step each way (llvmpipe has no vector integer divide).
+// Random stamps rarely land where a step could be needed; these inputs are those: every
+// perfect square below 2^29 and its neighbours, and every dist < r for small r and for the
+// largest reduced radii.
+TEST(GpuStamp, ShaderSquareRootAndQuotientEstimatesAreCorrectedToTheExactInteger) {
+  LOAM_REQUIRE_GL();
+  std::vector<int32_t> roots;
+  for (int64_t k = 0; k * k < (int64_t(1) << 29); ++k) {
+    for (int64_t v : {k * k - 1, k * k, k * k + 1}) {
+      if (v >= 0 && v < (int64_t(1) << 29)) roots.insert(roots.end(), {int32_t(v), 0});
+    }
+  }
+  roots.insert(roots.end(), {(1 << 29) - 1, 0});
+  const std::vector<int32_t> got_roots = run_helper_shader(0, roots);
+  ASSERT_EQ(got_roots.size(), roots.size() / 2);
+  int64_t root_mismatches = 0;
+  for (size_t i = 0; i < got_roots.size(); ++i) {
+    root_mismatches += got_roots[i] != int32_t(isqrt32(uint32_t(roots[2 * i])));
+  }
+  std::vector<int32_t> quotients;
+  std::vector<int32_t> radii;
+  for (int32_t r = 1; r <= 600; ++r) radii.push_back(r);
+  for (int32_t r : {1000, 4095, 4096, 8191, 8192, 12800, 16381, 16383}) radii.push_back(r);
+  for (int32_t r : radii) {
+    for (int32_t dist = 0; dist < r; ++dist) quotients.insert(quotients.end(), {dist, r});
+  }
+  const std::vector<int32_t> got_quotients = run_helper_shader(1, quotients);
+  ASSERT_EQ(got_quotients.size(), quotients.size() / 2);
+  int64_t quotient_mismatches = 0;
+  for (size_t i = 0; i < got_quotients.size(); ++i) {
+    const uint32_t want = (uint32_t(quotients[2 * i]) << 16) / uint32_t(quotients[2 * i + 1]);
+    quotient_mismatches += got_quotients[i] != int32_t(want);
+  }
+  std::printf("shader helpers: %zu square roots, %lld mismatches; %zu Q16 quotients, %lld mismatches\n",
+              got_roots.size(), static_cast<long long>(root_mismatches), got_quotients.size(),
+              static_cast<long long>(quotient_mismatches));
+  EXPECT_EQ(root_mismatches, 0);
+  EXPECT_EQ(quotient_mismatches, 0);
+}
+
+// The vertex-stage path draws, so it binds a framebuffer and a vertex array of its own and
+// needs rasterizer discard off (it would skip the vertex stage too); a renderer sharing the
+// context must find its own bindings afterwards, and the stamp must still be exact.
+TEST(GpuStamp, VertexPathRestoresTheCallersFramebufferVertexArrayAndRasterizerDiscard) {
+  LOAM_REQUIRE_GL();
+  World cpu = sloped_world(1, 0);
+  World gpu_world = cpu;
+  auto g = GpuStamper::create(gpu_world, nullptr, {}, GpuStamperOptions{StampPath::kVertex});
+  ASSERT_TRUE(g.ok()) << g.error().describe();
+  GLuint fbo = 0, vao = 0;
+  glCreateFramebuffers(1, &fbo);
+  const GlFramebuffer own_fbo(fbo);
+  glNamedFramebufferParameteri(fbo, GL_FRAMEBUFFER_DEFAULT_WIDTH, 4);
+  glNamedFramebufferParameteri(fbo, GL_FRAMEBUFFER_DEFAULT_HEIGHT, 4);
+  glCreateVertexArrays(1, &vao);
+  const GlVertexArray own_vao(vao);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, fbo);
+  glBindVertexArray(vao);
+  glEnable(GL_RASTERIZER_DISCARD);
+  QuantizedStamp q;
+  q.kind = StampKind::kCrater;
+  q.center_x = 100 * 256 + 31;
+  q.center_y = 120 * 256 + 200;
+  q.radius = 12 * 256;
+  q.intensity = 4000 * 256;
+  q.shape = 20000;
+  auto want = apply_stamp(cpu, q);
+  auto got = (*g)->apply(gpu_world, q);
+  GLint bound_fbo = 0, bound_vao = 0;
+  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &bound_fbo);
+  glGetIntegerv(GL_VERTEX_ARRAY_BINDING, &bound_vao);
+  const bool discard = glIsEnabled(GL_RASTERIZER_DISCARD);
+  glDisable(GL_RASTERIZER_DISCARD);
+  glBindVertexArray(0);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+  ASSERT_TRUE(want.ok() && got.ok());
+  EXPECT_FALSE(want->empty());
+  EXPECT_EQ(*want, *got);
+  EXPECT_EQ(GLuint(bound_fbo), fbo);
+  EXPECT_EQ(GLuint(bound_vao), vao);
+  EXPECT_TRUE(discard);
+  EXPECT_EQ(layer_mismatches(cpu, gpu_world, Layer::kCoarse), 0);
+}
+
+// kAuto sends a stamp to the vertex stage only on a software renderer and only up to
+// kVertexPathMaxSamples; the forced paths ignore the size.
+TEST(GpuStamp, AutoPathUsesTheVertexStageOnlyForSmallStampsOnSoftwareRenderers) {
+  LOAM_REQUIRE_GL();
+  World w = sloped_world(1, 0);
+  const auto* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  const bool software = renderer != nullptr && is_software_renderer(renderer);
+  auto automatic = GpuStamper::create(w);
+  auto compute = GpuStamper::create(w, nullptr, {}, GpuStamperOptions{StampPath::kCompute});
+  auto vertex = GpuStamper::create(w, nullptr, {}, GpuStamperOptions{StampPath::kVertex});
+  ASSERT_TRUE(automatic.ok() && compute.ok() && vertex.ok());
+  const int64_t limit = GpuStamper::kVertexPathMaxSamples;
+  EXPECT_EQ((*automatic)->path_for(1), software ? StampPath::kVertex : StampPath::kCompute);
+  EXPECT_EQ((*automatic)->path_for(limit), software ? StampPath::kVertex : StampPath::kCompute);
+  EXPECT_EQ((*automatic)->path_for(limit + 1), StampPath::kCompute);
+  for (int64_t n : {int64_t(1), limit, limit + 1, int64_t(1) << 26}) {
+    EXPECT_EQ((*compute)->path_for(n), StampPath::kCompute);
+    EXPECT_EQ((*vertex)->path_for(n), StampPath::kVertex);
+  }
 }
 
 // The normal pass against protocol/normal_map.h over rects that touch every world edge.

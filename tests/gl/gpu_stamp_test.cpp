@@ -10,6 +10,7 @@
 #include "gl_test_context.h"
 #include "gpu/gpu_stamper.h"
 #include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_kernel.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
 
@@ -220,29 +221,36 @@ RunStats run_against_cpu(const std::vector<QuantizedStamp>& stamps, World& cpu, 
   return s;
 }
 
-TEST(GpuStamp, ThousandSeededRandomStampsMatchCpuTexelForTexel) {
-  LOAM_REQUIRE_GL();
+// 1,200 seeded random stamps (the same ones for every path) through a stamper whose kernel
+// runs on `path`, texel for texel against the reference.
+void expect_random_stamps_match_cpu(StampPath path, const char* what) {
   Fixture fx;
   World cpu = rough_world(1);
   World gpu_world = cpu;
-  auto g = GpuStamper::create(gpu_world, &fx.textures);
+  auto g = GpuStamper::create(gpu_world, &fx.textures, {}, GpuStamperOptions{path});
   ASSERT_TRUE(g.ok()) << g.error().describe();
   std::mt19937_64 rng(20240611);
   std::vector<QuantizedStamp> stamps;
   // LOAM_GPU_CONFORMANCE_STAMPS shortens the run while debugging; CI runs the full count.
   const char* env = std::getenv("LOAM_GPU_CONFORMANCE_STAMPS");
   const size_t count = env ? size_t(std::strtoul(env, nullptr, 10)) : 1200;
+  int vertex_stamps = 0;
   while (stamps.size() < count) {
     QuantizedStamp q = random_stamp(rng, cpu.params(), fx, true);
-    if (check_quantized(q, cpu.params(), {}, &fx.textures).ok()) stamps.push_back(q);
+    if (!check_quantized(q, cpu.params(), {}, &fx.textures).ok()) continue;
+    stamps.push_back(q);
+    const auto baked = bake_stamp(q, cpu.params(), &fx.textures);
+    vertex_stamps += q.kind != StampKind::kShockwave && baked.ok() &&
+                     (*g)->path_for(baked->rect.area()) == StampPath::kVertex;
   }
   const RunStats s = run_against_cpu(stamps, cpu, gpu_world, **g, fx);
   const int64_t gpu_copy = count_gpu_mismatches(**g, cpu);
   std::printf(
-      "GPU vs CPU conformance: %d stamps (all kinds, both layers), %lld texel mismatches, %d changed-rect "
-      "mismatches, %d commit mismatches, %lld GPU-copy mismatches\n",
-      s.stamps, static_cast<long long>(s.texel_mismatches), s.rect_mismatches, s.commit_mismatches,
-      static_cast<long long>(gpu_copy));
+      "GPU vs CPU conformance, %s: %d stamps (all kinds, both layers; %d per-sample ones on the vertex "
+      "stage), %lld texel mismatches, %d changed-rect mismatches, %d commit mismatches, %lld GPU-copy "
+      "mismatches\n",
+      what, s.stamps, vertex_stamps, static_cast<long long>(s.texel_mismatches), s.rect_mismatches,
+      s.commit_mismatches, static_cast<long long>(gpu_copy));
   if (!env) {
     EXPECT_GE(s.stamps, 1000);
   }
@@ -250,6 +258,26 @@ TEST(GpuStamp, ThousandSeededRandomStampsMatchCpuTexelForTexel) {
   EXPECT_EQ(s.commit_mismatches, 0);
   EXPECT_EQ(gpu_copy, 0);
   EXPECT_EQ(cpu.world_hash(), gpu_world.world_hash());
+}
+
+// The default choice of stage per stamp (on llvmpipe: small stamps on the vertex stage,
+// large ones and shockwaves in compute).
+TEST(GpuStamp, ThousandSeededRandomStampsMatchCpuTexelForTexel) {
+  LOAM_REQUIRE_GL();
+  expect_random_stamps_match_cpu(StampPath::kAuto, "auto path");
+}
+
+// Every per-sample stamp in the compute shader, whatever its size.
+TEST(GpuStamp, ThousandSeededRandomStampsMatchCpuOnTheComputePath) {
+  LOAM_REQUIRE_GL();
+  expect_random_stamps_match_cpu(StampPath::kCompute, "compute path");
+}
+
+// Every per-sample stamp in the vertex shader, whatever its size (maximal radii included:
+// rects far beyond what the automatic choice sends there).
+TEST(GpuStamp, ThousandSeededRandomStampsMatchCpuOnTheVertexPath) {
+  LOAM_REQUIRE_GL();
+  expect_random_stamps_match_cpu(StampPath::kVertex, "vertex path");
 }
 
 }  // namespace
