@@ -85,8 +85,8 @@ int exit_code(const render::ViewerSession& s) {
 
 // The connection is gone: join again, once a second for up to 30 s (a server restarting).
 bool reconnect(render::ViewerSession& s, const ViewerAppOptions& o, const Status& why) {
-  std::fprintf(stderr, "viewer: connection lost (%s); reconnecting to %s:%u\n", why.error().describe().c_str(),
-               o.host.c_str(), unsigned(o.port));
+  std::fprintf(stderr, "viewer: connection lost (%s); reconnecting to %s:%u\n",
+               why.error().describe().c_str(), o.host.c_str(), unsigned(o.port));
   for (int attempt = 0; attempt < 30; ++attempt) {
     const Status st = s.reconnect(o.host, o.port);
     if (st.ok()) {
@@ -147,7 +147,8 @@ int run_headless(const ViewerAppOptions& o) {
   for (double t = 0; t < seconds; t = seconds_since(t0)) {
     cam = orbit_camera(cx, cy, radius, 0.12 * radius, 90.0, t, ground);
     cam.far_m = 6.0 * radius;
-    if (const Status st = s.update(cam, std::chrono::milliseconds(5)); !st.ok() && !reconnect(s, o, st)) return 1;
+    if (const Status st = s.update(cam, std::chrono::milliseconds(5)); !st.ok() && !reconnect(s, o, st))
+      return 1;
     const auto f0 = Clock::now();
     target->begin(0.50f, 0.60f, 0.75f, 0.0f);
     f = s.render(cam, o.width, o.height);

@@ -151,6 +151,51 @@ TEST(ViewerEndToEnd, PredictionOverAnotherStampSequencedFirstCountsCorrectionsOn
   EXPECT_EQ(view.display().counters().retired, 2u);
 }
 
+// The server dies (kill -9) right after the viewer sent a stamp and comes back from its data
+// folder: the viewer reconnects, its unacknowledged stamp leaves the overlay (the server may
+// or may not have made it durable: the confirmed state says which), and it converges on the
+// recovered server's tiles with no divergence.
+TEST(ViewerEndToEnd, ViewerReconnectsAfterTheServerRestartsAndConverges) {
+  LOAM_REQUIRE_GL();
+  const std::string dir = temp_data_dir("restart");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--hashes-every", "5"})) << server.log();
+  const render::Camera cam = overview();
+  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
+  ASSERT_TRUE(v.ok()) << v.error().describe();
+  render::ViewerSession& view = **v;
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  const WorldParams& w = view.client().welcome().world;
+  ASSERT_TRUE(view.deform(crater_at(w, 980, 740, 20, 4)).ok());
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  ASSERT_TRUE(view.deform(crater_at(w, 1040, 780, 15, 3)).ok());
+  server.kill9();
+  // The loss shows as an error from update (the inbox drains first).
+  Status st;
+  for (int i = 0; i < 200 && st.ok(); ++i) st = view.update(cam, 10ms);
+  ASSERT_FALSE(st.ok());
+  ASSERT_TRUE(server.start(dir, {"--hashes-every", "5"})) << server.log();
+  ASSERT_TRUE(view.reconnect("127.0.0.1", server.port()).ok());
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  EXPECT_EQ(view.display().overlay_size(), 0u);
+  // Both stamps settled: the first by its event, the second abandoned (unless its ack beat the
+  // kill, which the 30 Hz tick makes unlikely but possible).
+  EXPECT_EQ(view.display().counters().retired, 2u);
+  EXPECT_LE(view.display().counters().abandoned, 1u);
+  // Let a TileHashes round compare everything held.
+  const size_t hashes = view.client().tile_hash_messages();
+  ASSERT_TRUE(view.client().wait_until([&] { return view.client().tile_hash_messages() > hashes + 1; }, 30s));
+  EXPECT_EQ(view.client().hash_mismatches(), 0u);
+  const World expected = replayed_world(dir, view.client().welcome().global_sequence);
+  EXPECT_TRUE(store_matches(view.client(), expected));
+  const RectI r{440, 320, 560, 440};
+  std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
+  view.display().world().read_coarse(r, shown);
+  view.client().store().mirror().read_coarse(r, confirmed);
+  EXPECT_EQ(shown, confirmed);
+  EXPECT_EQ(view.display().counters().divergent_texels, 0u);
+}
+
 TEST(ViewerEndToEnd, TwoViewersAndABotConvergeOnTheServersHashesAndRenderTheSameView) {
   LOAM_REQUIRE_GL();
   const std::string dir = temp_data_dir("two");
