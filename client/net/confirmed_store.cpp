@@ -170,6 +170,11 @@ bool ConfirmedStore::try_apply(const wire::DeformEvent& e, const TextureRegistry
     holds_any = true;
   }
   if (!holds_any) return true;  // nothing of ours changes: consumed
+  if (e.stamp.kind == StampKind::kTexture && !(textures && textures->contains(e.stamp.texture_id))) {
+    // The server applied it with an image we do not have yet: wait for it (textures_arrived).
+    missing_textures_.insert(e.stamp.texture_id);
+    return false;
+  }
   auto applied = apply_stamp(mirror_, e.stamp, textures);
   const auto changes = mirror_.commit(e.global_seq);
   if (!applied) return true;  // the server's stamp failed the same way: a no-op everywhere
@@ -216,6 +221,22 @@ EventOutcome ConfirmedStore::on_event(const wire::DeformEvent& e, const TextureR
   buffer_[e.global_seq] = e;
   ++counters_.events_buffered;
   return EventOutcome::kBuffered;
+}
+
+void ConfirmedStore::textures_arrived(const TextureRegistry* textures) {
+  last_textures_ = textures;
+  retry_buffered(textures);
+}
+
+std::vector<TileCoord> ConfirmedStore::tiles_waiting_for(uint64_t texture_id) const {
+  std::vector<TileCoord> out;
+  for (const auto& [seq, e] : buffer_) {
+    if (e.stamp.kind != StampKind::kTexture || e.stamp.texture_id != texture_id) continue;
+    for (const wire::TileVersion& bv : e.base_versions) {
+      if (versions_.count(bv.tile)) out.push_back(bv.tile);
+    }
+  }
+  return out;
 }
 
 std::vector<TileCoord> ConfirmedStore::check_hashes(const wire::TileHashes& h) {

@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <map>
 #include <optional>
+#include <set>
 #include <span>
 #include <utility>
 #include <vector>
@@ -74,7 +75,19 @@ class ConfirmedStore {
   std::vector<uint16_t> coarse_rect(const TileCoord& c, const RectI& rect) const;
   std::vector<int8_t> detail_rect(const TileCoord& c, const RectI& rect) const;
 
+  // A texture stamp whose image is not in `textures` is buffered until it is (the server
+  // applied it, so nothing else would bring its effect); the ids waited for are listed here.
   EventOutcome on_event(const wire::DeformEvent& e, const TextureRegistry* textures = nullptr);
+  std::vector<uint64_t> take_missing_textures() {
+    std::vector<uint64_t> out(missing_textures_.begin(), missing_textures_.end());
+    missing_textures_.clear();
+    return out;
+  }
+  // Images were registered: buffered events try again.
+  void textures_arrived(const TextureRegistry* textures);
+  // Held tiles that buffered texture stamps with this image wait on (to re-request them
+  // whole when the image cannot be had).
+  std::vector<TileCoord> tiles_waiting_for(uint64_t texture_id) const;
 
   // Compares held tiles at the same version with the server's hashes; returns mismatches.
   std::vector<TileCoord> check_hashes(const wire::TileHashes& h);
@@ -113,6 +126,7 @@ class ConfirmedStore {
   std::map<uint64_t, wire::DeformEvent> buffer_;  // by global sequence
   const TextureRegistry* last_textures_ = nullptr;
   StoreCounters counters_;
+  std::set<uint64_t> missing_textures_;
   bool record_changes_ = false;
   std::vector<StoreChange> changes_;
 };

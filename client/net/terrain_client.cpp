@@ -139,6 +139,44 @@ Status TerrainClient::on_region_chunk(const wire::RegionUpdate& r) {
   return st;
 }
 
+Status TerrainClient::request_missing_textures() {
+  for (uint64_t id : store_->take_missing_textures()) {
+    if (textures_requested_.insert(id).second) LOAM_TRY(connection_->send(wire::StampImageRequest{id}));
+  }
+  return {};
+}
+
+Status TerrainClient::on_stamp_image(const wire::StampImageResponse& r) {
+  auto give_up = [&](Error why) -> Status {
+    // Without the image its stamps cannot be reproduced here: take the tiles they changed whole.
+    wire::Subscribe sub;
+    for (const TileCoord& c : store_->tiles_waiting_for(r.image_id)) sub.entries.push_back({c, 0});
+    if (!sub.entries.empty()) LOAM_TRY(connection_->send(sub));
+    return why;
+  };
+  if (!textures_requested_.count(r.image_id)) return {};  // not asked for
+  if (!r.found)
+    return give_up(make_error(ErrorCode::kNotFound, "stamp_image", "the server has no such image"));
+  const size_t n = size_t(r.width) * size_t(r.height);
+  std::vector<uint16_t> samples(n);
+  if (r.format == wire::StampImageFormat::kGray16) {
+    if (r.pixels.size() != n * 2)
+      return give_up(make_error(ErrorCode::kCorrupt, "stamp_image.pixels", "size"));
+    for (size_t i = 0; i < n; ++i) samples[i] = uint16_t(r.pixels[2 * i] | (r.pixels[2 * i + 1] << 8));
+  } else {
+    if (r.pixels.size() != n) return give_up(make_error(ErrorCode::kCorrupt, "stamp_image.pixels", "size"));
+    for (size_t i = 0; i < n; ++i) samples[i] = uint16_t(r.pixels[i] * 257);
+  }
+  auto id = textures_.add(int32_t(r.width), int32_t(r.height), samples);
+  if (!id) return give_up(id.error());
+  if (*id != r.image_id) {
+    return give_up(
+        make_error(ErrorCode::kCorrupt, "stamp_image.image_id", "the pixels do not have this content id"));
+  }
+  store_->textures_arrived(&textures_);
+  return request_missing_textures();
+}
+
 Status TerrainClient::handle(wire::Message& m) {
   switch (wire::message_type(m)) {
     case wire::MessageType::kRegionUpdate: return on_region_chunk(std::get<wire::RegionUpdate>(m));
@@ -146,8 +184,8 @@ Status TerrainClient::handle(wire::Message& m) {
       const auto& e = std::get<wire::DeformEvent>(m);
       last_seen_seq_ = std::max(last_seen_seq_, e.global_seq);
       last_event_seq_ = std::max(last_event_seq_, e.global_seq);
-      store_->on_event(e);
-      return {};
+      store_->on_event(e, &textures_);
+      return request_missing_textures();
     }
     case wire::MessageType::kDeformAck: {
       const auto& a = std::get<wire::DeformAck>(m);
@@ -166,6 +204,7 @@ Status TerrainClient::handle(wire::Message& m) {
       }
       return {};
     }
+    case wire::MessageType::kStampImageResponse: return on_stamp_image(std::get<wire::StampImageResponse>(m));
     case wire::MessageType::kError: errors_.push_back(std::get<wire::ErrorMsg>(m)); return {};
     case wire::MessageType::kBye: bye_ = std::get<wire::Bye>(m); return {};
     case wire::MessageType::kPing:

@@ -10,6 +10,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,8 @@ class TerrainClient {
   bool wait_until(const std::function<bool()>& pred, std::chrono::milliseconds timeout);
   std::optional<AckResult> ack(uint32_t client_seq) const;
 
+  // Stamp images fetched from the server (StampImageRequest) as texture-stamp events need them.
+  const TextureRegistry& textures() const { return textures_; }
   ConfirmedStore& store() { return *store_; }
   const ConfirmedStore& store() const { return *store_; }
   uint64_t last_seen_seq() const { return last_seen_seq_; }
@@ -69,6 +72,8 @@ class TerrainClient {
  private:
   Status handle(wire::Message& m);
   Status on_region_chunk(const wire::RegionUpdate& r);
+  Status on_stamp_image(const wire::StampImageResponse& r);
+  Status request_missing_textures();
 
   Status handshake(const std::string& host, uint16_t port);
 
@@ -79,6 +84,8 @@ class TerrainClient {
   wire::Welcome welcome_;
   std::unique_ptr<ConfirmedStore> store_;
   std::map<TileCoord, wire::RegionAssembler> assemblers_;
+  TextureRegistry textures_;
+  std::set<uint64_t> textures_requested_;
   std::map<uint32_t, AckResult> acks_;
   std::vector<wire::ErrorMsg> errors_;
   std::vector<Error> local_errors_;

@@ -44,7 +44,7 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
         ErrorCode::kIo, "viewer.connect",
         "the coarsest mip did not arrive within " + std::to_string(options.connect_timeout.count()) + " ms");
   }
-  auto display = DisplayTerrain::create(v->client_.store(), options.stamping);
+  auto display = DisplayTerrain::create(v->client_.store(), options.stamping, &v->client_.textures());
   if (!display) return display.error();
   v->display_ = std::move(*display);
   (void)v->display_->sync(v->client_);  // takes in the coarsest tiles

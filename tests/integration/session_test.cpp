@@ -338,6 +338,52 @@ TEST(Session, MipTilesAfterAStampTravelAsTheChangedSamplesOnly) {
   EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 
+// A client that receives another client's texture stamp fetches the image (StampImageRequest)
+// and then applies the stamp itself, bit-exactly: its tiles match the server's, with no region
+// sent for them.
+TEST(Session, TextureStampEventsAreAppliedOnceTheirImageIsFetched) {
+  const std::string dir = temp_data_dir("texfetch");
+  const std::string png = dir + "/stamp.png";
+  {
+    auto w = load_default_terrain();
+    ASSERT_TRUE(w.ok());
+    ASSERT_TRUE(export_png16(w->world, {300, 200, 348, 240}, png).ok());
+  }
+  auto decoded = read_stamp_texture_file(png);
+  ASSERT_TRUE(decoded.ok()) << decoded.error().describe();
+  TextureRegistry reg;
+  const uint64_t id = *reg.add(decoded->width, decoded->height, decoded->samples);
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir + "/data", {"--stamp-image", png, "--tick-hz", "60"})) << server.log();
+  client::TerrainClient watcher, painter;
+  ASSERT_TRUE(watcher.connect("127.0.0.1", server.port(), "watcher", wire::Role::kSpectator).ok());
+  ASSERT_TRUE(painter.connect("127.0.0.1", server.port(), "painter").ok());
+  const auto tiles = watcher.all_coarse_tiles(0);
+  ASSERT_TRUE(watcher.subscribe(tiles).ok());
+  ASSERT_TRUE(watcher.wait_until([&] { return watcher.store().held().size() == tiles.size(); }, 30s));
+  const uint64_t regions_before = watcher.store().counters().regions;
+  uint64_t last = 0;
+  for (int i = 0; i < 3; ++i) {
+    StampParams p;
+    p.kind = StampKind::kTexture;
+    p.center_x = 400 + 300 * i, p.center_y = 600, p.radius = 25, p.intensity = 2, p.rotation = 0.7 * i;
+    p.texture_id = id;
+    const uint32_t s = *painter.deform(*validate_stamp(p, painter.welcome().world, {}, &reg));
+    ASSERT_TRUE(painter.wait_until([&] { return painter.ack(s).has_value(); }, 10s));
+    ASSERT_TRUE(painter.ack(s)->accepted);
+    last = painter.ack(s)->global_seq;
+  }
+  auto replayed = server::replay_log(server::list_segments(dir + "/data"), dir + "/data", last,
+                                     gpu::BackendKind::kCpu, {png});
+  ASSERT_TRUE(replayed.ok()) << replayed.error().describe();
+  EXPECT_TRUE(watcher.wait_until([&] { return bool(store_matches(watcher, replayed->world)); }, 30s))
+      << store_matches(watcher, replayed->world).message();
+  EXPECT_EQ(watcher.textures().size(), 1u);
+  EXPECT_EQ(watcher.store().counters().regions, regions_before) << "no tile had to be sent again";
+  EXPECT_EQ(watcher.store().counters().events_applied, 3u);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
 TEST(Recovery, TextureStampImagesAreStoredWithTheSnapshot) {
   const std::string dir = temp_data_dir("tex");
   // A 32x32 grayscale PNG: a region of the default terrain, written by the exporter.
