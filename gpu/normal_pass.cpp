@@ -82,7 +82,7 @@ void LevelNormalPass::update(GLuint heights, GLuint normals, int32_t tex_size, c
   glProgramUniform1d(p, glGetUniformLocation(p, "meters_per_unit"), params.meters_per_unit);
   glProgramUniform1d(p, glGetUniformLocation(p, "spacing"), spacing_m);
   glBindTextureUnit(0, heights);
-  glBindImageTexture(1, normals, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32UI);
+  glBindImageTexture(1, normals, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG16_SNORM);
   glDispatchCompute(GLuint((rect.width() + 7) / 8), GLuint((rect.height() + 7) / 8), 1);
 }
 

@@ -48,8 +48,9 @@ class NormalPass {
 
 // The same FD4 normals for one clipmap level (client/render): the level's heights live in a
 // toroidal R16UI texture (level sample p at texel p mod tex_size) and its normals in a
-// toroidal R32UI texture with the same packing. Level samples are the world's samples at
-// the level's spacing, so the finest level's normals equal NormalPass's bit for bit.
+// toroidal RG16_SNORM texture (filterable) holding exactly the packed snorm16 values. Level
+// samples are the world's samples at the level's spacing, so the finest level's normals equal
+// NormalPass's bit for bit.
 class LevelNormalPass {
  public:
   static Result<LevelNormalPass> create();

@@ -1,4 +1,4 @@
-// Terrain shading: normals from the level's FD4 normal map (bilinear, blended toward the
+// Terrain shading: normals from the level's FD4 normal map (filtered, blended toward the
 // coarser level's in the geomorph band), perturbed by the detail layer's gradient near the
 // camera; height/slope materials (sand, grass, dry grass, rock, snow, sea floor); a sun with
 // a sky hemisphere ambient; distance fog into the sky colour; flat-shaded earth on the skirt.
@@ -9,8 +9,8 @@ in float v_height;
 in float v_alpha;
 in float v_skirt;
 
-layout(binding = 1) uniform usampler2D u_normals;         // this level, packed snorm16 x2
-layout(binding = 2) uniform usampler2D u_normals_coarse;  // the next coarser level
+layout(binding = 1) uniform sampler2D u_normals;         // this level, RG16_SNORM (nx, ny), filtered
+layout(binding = 2) uniform sampler2D u_normals_coarse;  // the next coarser level
 layout(binding = 4) uniform sampler2D u_detail_gradient;  // RG16F, meters per meter
 
 uniform int u_tex_size;
@@ -32,20 +32,9 @@ uniform int u_debug_morph;    // tint by geomorph blend
 
 out vec4 o_color;
 
-vec2 packed_normal(usampler2D t, ivec2 base, ivec2 p) {
-  ivec2 i = (base + p + ivec2(u_tex_size)) % u_tex_size;
-  return unpackSnorm2x16(texelFetch(t, i, 0).r);
-}
-
-// (nx, ny) of a level's normal map at level-local coordinates c, bilinear between samples.
-vec2 normal_xy(usampler2D t, ivec2 base, vec2 c) {
-  vec2 f0 = floor(c);
-  ivec2 i = ivec2(f0);
-  vec2 f = c - f0;
-  vec2 a = mix(packed_normal(t, base, i), packed_normal(t, base, i + ivec2(1, 0)), f.x);
-  vec2 b = mix(packed_normal(t, base, i + ivec2(0, 1)), packed_normal(t, base, i + ivec2(1, 1)), f.x);
-  return mix(a, b, f.y);
-}
+// (nx, ny) of a level's normal map at level-local coordinates c: hardware bilinear, toroidal
+// (GL_REPEAT) from the texel of local (0, 0).
+vec2 normal_xy(sampler2D t, ivec2 base, vec2 c) { return texture(t, (vec2(base) + c + 0.5) / float(u_tex_size)).rg; }
 
 void main() {
   // Derivatives in uniform control flow only: the skirt's flat normal, the detail footprint.

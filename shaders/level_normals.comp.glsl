@@ -1,11 +1,14 @@
 // Normal map of a rect of one clipmap level (gpu/normal_pass.h, LevelNormalPass):
 // fd4_normal.glsl on the level's toroidal height texture (level sample p at texel
-// p mod tex_size), written to its toroidal normal texture. Level samples are the world's at the
-// level's spacing, so the finest level's normals are exactly the world normal map's.
+// p mod tex_size), written to its toroidal RG16_SNORM normal texture (so the renderer samples
+// it with hardware filtering). The stored snorm16 values are exactly the packed reference's:
+// q / 32767 converts back to q under any rounding (it is never a tie). Level samples are the
+// world's at the level's spacing, so the finest level's normals are exactly the world normal
+// map's.
 layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(binding = 0) uniform usampler2D heights;  // R16UI, tex_size^2
-layout(r32ui, binding = 1) uniform writeonly uimage2D normals;
+layout(rg16_snorm, binding = 1) uniform writeonly image2D normals;
 
 uniform int tex_size;
 uniform ivec2 region_lo;    // the level region's first sample (every p read or written is in the region)
@@ -30,5 +33,7 @@ void main() {
   // Outside the world (the edge skirt) the nearest edge sample's stencil stands in.
   ivec2 index = clamp(p - world_lo, ivec2(0), world_size - 1);
   ivec2 at = world_lo + index;
-  imageStore(normals, texel(p), uvec4(fd4_normal_packed(at, index, world_size), 0u, 0u, 0u));
+  uint pn = fd4_normal_packed(at, index, world_size);
+  ivec2 q = ivec2(int(pn << 16) >> 16, int(pn) >> 16);
+  imageStore(normals, texel(p), vec4(vec2(q) / 32767.0, 0.0, 0.0));
 }

@@ -89,7 +89,13 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
   for (int32_t l = 0; l < r->levels_; ++l) {
     Level level;
     level.texture = integer_texture(GL_R16UI, r->tex_size_);
-    level.normals = integer_texture(GL_R32UI, r->tex_size_);
+    level.normals = gpu::make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(level.normals.get(), 1, GL_RG16_SNORM, r->tex_size_, r->tex_size_);
+    // Filtered, and wrapping: the level is toroidal, so GL_REPEAT joins its seams.
+    glTextureParameteri(level.normals.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(level.normals.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(level.normals.get(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(level.normals.get(), GL_TEXTURE_WRAP_T, GL_REPEAT);
     level.mirror.assign(size_t(r->tex_size_) * size_t(r->tex_size_), 0);
     level.world = in_level_grid(p.sample_rect(), int64_t(1) << l);
     r->level_.push_back(std::move(level));
@@ -253,12 +259,15 @@ RectI ClipmapRenderer::level_region(int32_t l) const {
 
 std::vector<uint32_t> ClipmapRenderer::read_level_normals(int32_t l, const RectI& rect) const {
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
-  std::vector<uint32_t> all(size_t(tex_size_) * size_t(tex_size_)), out;
-  glGetTextureImage(level_[size_t(l)].normals.get(), 0, GL_RED_INTEGER, GL_UNSIGNED_INT,
-                    GLsizei(all.size() * 4), all.data());
+  // Signed normalized 16-bit reads back as GL_SHORT exactly; packed like protocol/normal_map.h.
+  std::vector<int16_t> all(size_t(tex_size_) * size_t(tex_size_) * 2);
+  std::vector<uint32_t> out;
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glGetTextureImage(level_[size_t(l)].normals.get(), 0, GL_RG, GL_SHORT, GLsizei(all.size() * 2), all.data());
   for (int64_t y = rect.y0; y < rect.y1; ++y) {
     for (int64_t x = rect.x0; x < rect.x1; ++x) {
-      out.push_back(all[size_t(floor_mod(y, tex_size_) * tex_size_ + floor_mod(x, tex_size_))]);
+      const size_t i = size_t(floor_mod(y, tex_size_) * tex_size_ + floor_mod(x, tex_size_)) * 2;
+      out.push_back(uint32_t(uint16_t(all[i])) | (uint32_t(uint16_t(all[i + 1])) << 16));
     }
   }
   return out;
