@@ -86,6 +86,7 @@ template <typename U>
 }
 
 // Contexts of one row from the tokens of the row above.
+template <bool kAvx2>
 [[gnu::always_inline]] inline void context_row(const uint8_t* __restrict up, uint32_t width, bool first_row,
                                                uint8_t* __restrict ctx) {
   if (first_row) {
@@ -97,7 +98,9 @@ template <typename U>
     return;
   }
   ctx[0] = context_of(uint8_t(3 * up[0] + up[1]));
-  for (uint32_t x = 1; x + 1 < width; ++x) ctx[x] = context_of(uint8_t(2 * up[x] + up[x - 1] + up[x + 1]));
+  uint32_t x = 1;
+  if constexpr (kAvx2) x = context_row_avx2(up, width, ctx);
+  for (; x + 1 < width; ++x) ctx[x] = context_of(uint8_t(2 * up[x] + up[x - 1] + up[x + 1]));
   ctx[width - 1] = context_of(uint8_t(3 * up[width - 1] + up[width - 2]));
 }
 
@@ -212,10 +215,14 @@ template <bool kAvx2, typename U>
   uint8_t* ctx = sc.contexts.data();
   for (uint32_t y = 0; y < height; ++y) {
     const U* cur = s + size_t(y) * width;
-    plane_residual_row(cur, y == 0 ? zeros : cur - width, width, shift, z);
+    if constexpr (kAvx2 && sizeof(U) == 2) {
+      plane_residual_row_avx2(cur, y == 0 ? zeros : cur - width, width, shift, z);
+    } else {
+      plane_residual_row(cur, y == 0 ? zeros : cur - width, width, shift, z);
+    }
     uint8_t* t = tok[y & 1];
     token_row<kAvx2>(z, width, t, extras);
-    context_row(tok[(y + 1) & 1], width, y == 0, ctx);
+    context_row<kAvx2>(tok[(y + 1) & 1], width, y == 0, ctx);
     uint16_t* row_sym = sym + size_t(y) * width;
     for (uint32_t x = 0; x < width; ++x) row_sym[x] = uint16_t(ctx[x] * kSymbolsPerContext + t[x]);
     const size_t i0 = size_t(y) * width;
@@ -419,7 +426,7 @@ template <typename U>
 void residual_row(const uint8_t* __restrict t, uint32_t width, uint32_t any, EscapeBitReader& extras,
                   const U* __restrict up, U* __restrict row, Isa isa) {
   if constexpr (sizeof(U) == 2) {
-    if (width % 8 == 0 && isa == Isa::kAvx2 && fast_coder_avx2_built()) {
+    if (width % 16 == 0 && isa == Isa::kAvx2 && fast_coder_avx2_built()) {
       residual_row_avx2(t, width, extras.data(), extras.position(), up, row);
       return;
     }
@@ -463,7 +470,11 @@ Status decode_body(const FastBody& fb, uint32_t width, uint32_t height, U* out, 
     if (!rw.prepare_row() || !extras.prepare_row()) break;
     const size_t i0 = size_t(y) * width;
     uint8_t* t = tok[y & 1];
-    context_row(tok[(y + 1) & 1], width, y == 0, ctx);
+    if (isa == Isa::kAvx2 && fast_coder_avx2_built()) {
+      context_row<true>(tok[(y + 1) & 1], width, y == 0, ctx);
+    } else {
+      context_row<false>(tok[(y + 1) & 1], width, y == 0, ctx);
+    }
     const uint32_t any = decode_token_row(rw, sc.tables.data(), ctx, i0, width, t, isa);
     U* row = out + i0;
     residual_row(t, width, any, extras, y == 0 ? zeros : row - width, row, isa);
@@ -480,6 +491,12 @@ Status decode_body(const FastBody& fb, uint32_t width, uint32_t height, U* out, 
   if (!extras.exhausted()) return err(ErrorCode::kCorrupt, "region.fast.extras", "escape bits left over");
   if (fb.shift > 0) {
     const size_t n = size_t(width) * height;
+    if constexpr (sizeof(U) == 2) {
+      if (isa == Isa::kAvx2 && fast_coder_avx2_built()) {
+        unshift_samples_avx2(out, n, fb.shift, fb.low);
+        return {};
+      }
+    }
     for (size_t i = 0; i < n; ++i) out[i] = U((uint32_t(out[i]) << fb.shift) | fb.low);
   }
   return {};

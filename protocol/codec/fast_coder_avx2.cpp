@@ -134,9 +134,91 @@ __attribute__((target("avx2"))) inline __m256i prefix_sum8(__m256i v) {
   return _mm256_add_epi32(v, _mm256_blend_epi32(_mm256_setzero_si256(), low_total, 0xF0));
 }
 
+__attribute__((target("avx2"))) inline __m256i load_shifted16(const uint16_t* p, __m128i count) {
+  return _mm256_srl_epi16(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)), count);
+}
+
+// z[x, x + 16) of plane_residual_row_avx2 (x >= 1).
+__attribute__((target("avx2"))) inline void residual_block16(const uint16_t* cur, const uint16_t* up,
+                                                             uint32_t x, __m128i count, uint16_t* z) {
+  const __m256i d = _mm256_sub_epi16(load_shifted16(cur + x, count), load_shifted16(up + x, count));
+  const __m256i dw = _mm256_sub_epi16(load_shifted16(cur + x - 1, count), load_shifted16(up + x - 1, count));
+  const __m256i r = _mm256_sub_epi16(d, dw);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(z + x),
+                      _mm256_xor_si256(_mm256_slli_epi16(r, 1), _mm256_srai_epi16(r, 15)));
+}
+
+// ctx[x, x + 32) of context_row_avx2 (1 <= x, x + 33 <= width).
+__attribute__((target("avx2"))) inline void context_block32(const uint8_t* up, uint32_t x, uint8_t* ctx) {
+  const __m256i u = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(up + x));
+  const __m256i l = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(up + x - 1));
+  const __m256i r = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(up + x + 1));
+  const __m256i a = _mm256_add_epi8(_mm256_add_epi8(u, u), _mm256_add_epi8(l, r));  // <= 212: no wrap
+  __m256i c = _mm256_setzero_si256();
+  for (uint8_t t : kContextThresholds) {
+    const __m256i at_least = _mm256_cmpeq_epi8(_mm256_max_epu8(a, _mm256_set1_epi8(char(t))), a);
+    c = _mm256_sub_epi8(c, at_least);
+  }
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(ctx + x), c);
+}
+
+// The residuals z of eight tokens (the low 8 bytes of t8) in 32-bit lanes: the token itself,
+// or for an escape its base and raw bits read at bit `pos` of `escapes` (advanced).
+__attribute__((target("avx2"))) inline __m256i residuals8(__m128i t8, const uint8_t* escapes, uint64_t& pos) {
+  const __m256i one = _mm256_set1_epi32(1);
+  const __m256i t = _mm256_cvtepu8_epi32(t8);
+  const __m256i esc = _mm256_cmpgt_epi32(t, _mm256_set1_epi32(int(kDirectTokens) - 1));
+  if (_mm256_testz_si256(esc, esc)) return t;
+  // bits = 4 + (t - 32) / 2, base = (2 | (t & 1)) << bits for escapes (residual_tokens.h).
+  const __m256i bits =
+      _mm256_and_si256(esc, _mm256_add_epi32(_mm256_srli_epi32(_mm256_sub_epi32(t, _mm256_set1_epi32(32)), 1),
+                                             _mm256_set1_epi32(4)));
+  const __m256i base =
+      _mm256_sllv_epi32(_mm256_or_si256(_mm256_and_si256(t, one), _mm256_set1_epi32(2)), bits);
+  const __m256i ends = prefix_sum8(bits);
+  const __m256i offs = _mm256_add_epi32(_mm256_sub_epi32(ends, bits), _mm256_set1_epi32(int(pos & 7)));
+  const __m256i raw = _mm256_i32gather_epi32(reinterpret_cast<const int*>(escapes + (pos >> 3)),
+                                             _mm256_srli_epi32(offs, 3), 1);
+  const __m256i mask = _mm256_sub_epi32(_mm256_sllv_epi32(one, bits), one);
+  const __m256i v =
+      _mm256_and_si256(_mm256_srlv_epi32(raw, _mm256_and_si256(offs, _mm256_set1_epi32(7))), mask);
+  pos += uint32_t(_mm256_extract_epi32(ends, 7));
+  return _mm256_blendv_epi8(t, _mm256_or_si256(base, v), esc);
+}
+
 }  // namespace
 
 bool fast_coder_avx2_built() { return true; }
+
+__attribute__((target("avx2"))) void plane_residual_row_avx2(const uint16_t* cur, const uint16_t* up,
+                                                             uint32_t width, uint32_t shift, uint16_t* z) {
+  const __m128i count = _mm_cvtsi32_si128(int(shift));
+  auto zig = [](uint32_t r) { return uint16_t(uint16_t(r << 1) ^ uint16_t(int16_t(uint16_t(r)) >> 15)); };
+  z[0] = zig(uint32_t(uint16_t(cur[0] >> shift) - uint16_t(up[0] >> shift)));
+  // Blocks of 16 from x = 1; the last block ends at the row's end, overlapping the one
+  // before it (same values written twice).
+  uint32_t x = 1;
+  for (; x + 16 <= width; x += 16) residual_block16(cur, up, x, count, z);
+  if (x < width && width >= 17) {
+    residual_block16(cur, up, width - 16, count, z);
+    x = width;
+  }
+  for (; x < width; ++x) {
+    const uint32_t d = uint16_t(uint16_t(cur[x] >> shift) - uint16_t(up[x] >> shift));
+    const uint32_t dw = uint16_t(uint16_t(cur[x - 1] >> shift) - uint16_t(up[x - 1] >> shift));
+    z[x] = zig(d - dw);
+  }
+}
+
+__attribute__((target("avx2"))) uint32_t context_row_avx2(const uint8_t* up, uint32_t width, uint8_t* ctx) {
+  uint32_t x = 1;
+  for (; x + 33 <= width; x += 32) context_block32(up, x, ctx);
+  if (x + 1 < width && width >= 34) {  // the last block ends at width - 1, overlapping
+    context_block32(up, width - 33, ctx);
+    x = width - 1;
+  }
+  return x;
+}
 
 __attribute__((target("avx2"))) void token_row_dense_avx2(const uint16_t* z, uint32_t width, uint8_t* t,
                                                           EscapeBitWriter& extras) {
@@ -236,45 +318,52 @@ __attribute__((target("avx2"))) uint32_t decode_token_row_avx2(uint32_t* states,
   return r;
 }
 
+__attribute__((target("avx2"))) void unshift_samples_avx2(uint16_t* s, size_t n, uint32_t shift,
+                                                          uint32_t low) {
+  const __m128i count = _mm_cvtsi32_si128(int(shift));
+  const __m256i bits = _mm256_set1_epi16(short(low));
+  size_t i = 0;
+  for (; i + 16 <= n; i += 16) {
+    __m256i* p = reinterpret_cast<__m256i*>(s + i);
+    _mm256_storeu_si256(p, _mm256_or_si256(_mm256_sll_epi16(_mm256_loadu_si256(p), count), bits));
+  }
+  for (; i < n; ++i) s[i] = uint16_t((uint32_t(s[i]) << shift) | low);
+}
+
 __attribute__((target("avx2"))) void residual_row_avx2(const uint8_t* tokens, uint32_t width,
                                                        const uint8_t* escapes, uint64_t& bit_pos,
                                                        const uint16_t* up, uint16_t* row) {
-  const __m256i direct_max = _mm256_set1_epi32(int(kDirectTokens) - 1);
-  const __m256i one = _mm256_set1_epi32(1);
-  const __m256i last = _mm256_set1_epi32(7);
-  // Low 16 bits of each 32-bit lane, packed into the low 8 bytes of each half.
-  const __m256i low_halves = _mm256_setr_epi8(0, 1, 4, 5, 8, 9, 12, 13, -1, -1, -1, -1, -1, -1, -1, -1, 0, 1,
-                                              4, 5, 8, 9, 12, 13, -1, -1, -1, -1, -1, -1, -1, -1);
+  // Sixteen samples per step in 16-bit lanes (the arithmetic is modulo 2^16 anyway); blocks
+  // with escapes rebuild their residuals eight at a time in 32-bit lanes first.
+  const __m256i one = _mm256_set1_epi16(1);
+  // Broadcast of 16-bit lane 7 within each 128-bit half.
+  const __m256i lane7 = _mm256_setr_epi8(14, 15, 14, 15, 14, 15, 14, 15, 14, 15, 14, 15, 14, 15, 14, 15, 14,
+                                         15, 14, 15, 14, 15, 14, 15, 14, 15, 14, 15, 14, 15, 14, 15);
   __m256i acc = _mm256_setzero_si256();
   uint64_t pos = bit_pos;
-  for (uint32_t x = 0; x < width; x += 8) {
-    const __m256i t = _mm256_cvtepu8_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(tokens + x)));
-    const __m256i esc = _mm256_cmpgt_epi32(t, direct_max);
-    __m256i z = t;
-    if (!_mm256_testz_si256(esc, esc)) {
-      // bits = 4 + (t - 32) / 2, base = (2 | (t & 1)) << bits for escapes (residual_tokens.h).
-      const __m256i bits = _mm256_and_si256(
-          esc, _mm256_add_epi32(_mm256_srli_epi32(_mm256_sub_epi32(t, _mm256_set1_epi32(32)), 1),
-                                _mm256_set1_epi32(4)));
-      const __m256i base =
-          _mm256_sllv_epi32(_mm256_or_si256(_mm256_and_si256(t, one), _mm256_set1_epi32(2)), bits);
-      const __m256i ends = prefix_sum8(bits);
-      const __m256i offs = _mm256_add_epi32(_mm256_sub_epi32(ends, bits), _mm256_set1_epi32(int(pos & 7)));
-      const __m256i raw = _mm256_i32gather_epi32(reinterpret_cast<const int*>(escapes + (pos >> 3)),
-                                                 _mm256_srli_epi32(offs, 3), 1);
-      const __m256i mask = _mm256_sub_epi32(_mm256_sllv_epi32(one, bits), one);
-      const __m256i v = _mm256_and_si256(_mm256_srlv_epi32(raw, _mm256_and_si256(offs, last)), mask);
-      z = _mm256_blendv_epi8(t, _mm256_or_si256(base, v), esc);
-      pos += uint32_t(_mm256_extract_epi32(ends, 7));
+  for (uint32_t x = 0; x < width; x += 16) {
+    const __m128i t8 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(tokens + x));
+    // Bit 5 of a token (an escape, tokens being below 64) moved to bit 7 of its byte.
+    const uint32_t escapes_here = uint32_t(_mm_movemask_epi8(_mm_slli_epi16(t8, 2)));
+    __m256i z;
+    if (escapes_here == 0) {
+      z = _mm256_cvtepu8_epi16(t8);
+    } else {
+      const __m256i lo = residuals8(t8, escapes, pos);
+      const __m256i hi = residuals8(_mm_srli_si128(t8, 8), escapes, pos);
+      z = _mm256_permute4x64_epi64(_mm256_packus_epi32(lo, hi), 0xD8);  // z < 2^16: no saturation
     }
-    const __m256i r = _mm256_xor_si256(_mm256_srli_epi32(z, 1),
-                                       _mm256_sub_epi32(_mm256_setzero_si256(), _mm256_and_si256(z, one)));
-    const __m256i sums = _mm256_add_epi32(prefix_sum8(r), acc);
-    acc = _mm256_permutevar8x32_epi32(sums, last);
-    const __m256i above = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(up + x)));
-    const __m256i packed = _mm256_permute4x64_epi64(
-        _mm256_shuffle_epi8(_mm256_add_epi32(above, sums), low_halves), 0x08);  // qwords 0 and 2
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(row + x), _mm256_castsi256_si128(packed));
+    __m256i r = _mm256_xor_si256(_mm256_srli_epi16(z, 1),
+                                 _mm256_sub_epi16(_mm256_setzero_si256(), _mm256_and_si256(z, one)));
+    r = _mm256_add_epi16(r, _mm256_slli_si256(r, 2));
+    r = _mm256_add_epi16(r, _mm256_slli_si256(r, 4));
+    r = _mm256_add_epi16(r, _mm256_slli_si256(r, 8));
+    const __m256i low_total = _mm256_shuffle_epi8(r, lane7);
+    r = _mm256_add_epi16(r, _mm256_permute2x128_si256(low_total, low_total, 0x08));  // into the high half
+    const __m256i sums = _mm256_add_epi16(r, acc);
+    acc = _mm256_permute4x64_epi64(_mm256_shuffle_epi8(sums, lane7), 0xFF);  // lane 15 everywhere
+    const __m256i above = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(up + x));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(row + x), _mm256_add_epi16(above, sums));
   }
   bit_pos = pos;
 }
@@ -284,6 +373,9 @@ __attribute__((target("avx2"))) void residual_row_avx2(const uint8_t* tokens, ui
 bool fast_coder_avx2_built() { return false; }
 void encode_symbols_avx2(const uint16_t*, size_t, const PackedEncSymbol*, uint32_t*, uint16_t*&) {}
 void token_row_dense_avx2(const uint16_t*, uint32_t, uint8_t*, EscapeBitWriter&) {}
+void plane_residual_row_avx2(const uint16_t*, const uint16_t*, uint32_t, uint32_t, uint16_t*) {}
+void unshift_samples_avx2(uint16_t*, size_t, uint32_t, uint32_t) {}
+uint32_t context_row_avx2(const uint8_t*, uint32_t, uint8_t*) { return 1; }
 void residual_row_avx2(const uint8_t*, uint32_t, const uint8_t*, uint64_t&, const uint16_t*, uint16_t*) {}
 uint32_t decode_token_row_avx2(uint32_t*, const uint8_t*&, const uint32_t*, const uint8_t*, uint32_t,
                                uint8_t*) {

@@ -31,10 +31,23 @@ PackedEncSymbol pack_enc_symbol(uint32_t start, uint32_t freq);
 void encode_symbols_avx2(const uint16_t* sym, size_t n, const PackedEncSymbol* table, uint32_t* states,
                          uint16_t*& words);
 
+// Zigzag plane residuals of one row of 16-bit samples, each shifted right by `shift`; `up`
+// is the row above (zeros for the first row). Writes z[0, width).
+void plane_residual_row_avx2(const uint16_t* cur, const uint16_t* up, uint32_t width, uint32_t shift,
+                             uint16_t* z);
+
+// Contexts of one row from the tokens of the row above (residual_tokens.h), for x in
+// [1, width - 1) in blocks of 32; returns the first x it did not write (the caller does
+// the rest and the edges).
+uint32_t context_row_avx2(const uint8_t* up, uint32_t width, uint8_t* ctx);
+
 // Tokens of a row of 16-bit zigzag residuals z where escapes are many: every sample's
 // token into t and its raw bits (none for direct tokens) to `extras`, in order. `width` is
 // a multiple of 8.
 void token_row_dense_avx2(const uint16_t* z, uint32_t width, uint8_t* t, EscapeBitWriter& extras);
+
+// s[i] = (s[i] << shift) | low for i < n (restores the low bits the fast mode shifted out).
+void unshift_samples_avx2(uint16_t* s, size_t n, uint32_t shift, uint32_t low);
 
 // Decodes `width` tokens (a multiple of rans::kLanes; the row's first symbol uses state 0)
 // into `tokens`, with context table `tables + (ctx[x] << kProbBits)` for symbol x. Reads
@@ -45,7 +58,7 @@ uint32_t decode_token_row_avx2(uint32_t* states, const uint8_t*& words, const ui
 
 // row[x] = up[x] + sum over x' <= x of unzigzag(z(x')) modulo 2^16, where z is the token
 // itself or, for an escape, its base and raw bits read from `escapes` at bit `bit_pos`
-// (advanced). `width` is a multiple of 8; 14 * width bits plus 8 bytes must be readable
+// (advanced). `width` is a multiple of 16; 14 * width bits plus 8 bytes must be readable
 // from bit_pos on (fast_coder.cpp pads the end of the section).
 void residual_row_avx2(const uint8_t* tokens, uint32_t width, const uint8_t* escapes, uint64_t& bit_pos,
                        const uint16_t* up, uint16_t* row);

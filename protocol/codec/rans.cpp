@@ -50,8 +50,12 @@ bool build_decode_table(std::span<const uint16_t> freqs, std::span<uint32_t> tab
   for (uint16_t f : freqs) sum += f;
   if (sum != kProbScale || table.size() != kProbScale) return false;
   uint32_t slot = 0;
-  for (size_t s = 0; s < freqs.size(); ++s)
-    for (uint32_t k = 0; k < freqs[s]; ++k, ++slot) table[slot] = pack_slot(uint32_t(s), freqs[s], k);
+  for (size_t s = 0; s < freqs.size(); ++s) {
+    const uint32_t first = pack_slot(uint32_t(s), freqs[s], 0);
+    uint32_t* run = table.data() + slot;
+    for (uint32_t k = 0; k < freqs[s]; ++k) run[k] = first + (k << 8);  // the bias field counts up
+    slot += freqs[s];
+  }
   return true;
 }
 
