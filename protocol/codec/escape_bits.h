@@ -63,10 +63,15 @@ class EscapeBitWriter {
   uint32_t fill_ = 0;
 };
 
+// `tail` is storage for the padded copy of the section's end (reused across calls).
 class EscapeBitReader {
  public:
-  EscapeBitReader(std::span<const uint8_t> in, uint32_t width)
-      : data_(in.data()), size_(in.size()), readable_(in.size()), row_bytes_(14 * uint64_t(width) / 8 + 9) {}
+  EscapeBitReader(std::span<const uint8_t> in, uint32_t width, std::vector<uint8_t>& tail)
+      : data_(in.data()),
+        size_(in.size()),
+        readable_(in.size()),
+        row_bytes_(14 * uint64_t(width) / 8 + 9),
+        tail_(tail) {}
   // Makes the next row's reads safe; false once the section has overrun.
   bool prepare_row() {
     if (pos_ > 8 * size_) return false;
@@ -103,7 +108,7 @@ class EscapeBitReader {
   uint64_t readable_;  // bytes readable at data_ (a padded tail is longer than the section)
   uint64_t row_bytes_;
   uint64_t pos_ = 0;
-  std::vector<uint8_t> tail_;
+  std::vector<uint8_t>& tail_;
 };
 
 }  // namespace loam::codec

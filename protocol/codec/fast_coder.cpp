@@ -1,9 +1,11 @@
 #include "protocol/codec/fast_coder.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstring>
 #include <string>
+#include <type_traits>
 
 #include "protocol/codec/escape_bits.h"
 #include "protocol/codec/fast_coder_avx2.h"
@@ -63,6 +65,7 @@ struct Scratch {
   std::vector<uint16_t> words;                                  // encoder: the rANS words, written backwards
   std::vector<uint8_t> extras;                                  // encoder: the escape bits
   std::vector<uint16_t> zero_row;                               // the row above the first row (never written)
+  std::vector<uint8_t> word_tail, escape_tail;                  // decoder: padded ends of the sections
   std::array<uint32_t, kContexts * rans::kProbScale> tables{};  // decoder
 };
 Scratch& scratch() {
@@ -371,7 +374,8 @@ constexpr TokenLayout kTokenLayout = make_token_layout();
 // that ends early shows as p past `end`.
 class RansWords {
  public:
-  RansWords(const FastBody& fb, uint32_t width) : width_(width) {
+  // `tail` is storage for the padded copy of the stream's end (reused across calls).
+  RansWords(const FastBody& fb, uint32_t width, std::vector<uint8_t>& tail) : width_(width), tail_(tail) {
     std::memcpy(states, fb.states.data(), sizeof states);
     p = fb.words.data();
     end_ = fb.words.data() + fb.words.size();
@@ -400,7 +404,7 @@ class RansWords {
   uint32_t width_;
   const uint8_t* end_;
   const uint8_t* readable_;
-  std::vector<uint8_t> tail_;
+  std::vector<uint8_t>& tail_;
 };
 
 // Decodes one row of tokens; returns the OR of them (bit 5 set when any is an escape).
@@ -464,8 +468,8 @@ Status decode_body(const FastBody& fb, uint32_t width, uint32_t height, U* out, 
   uint8_t* ctx = grown(sc.contexts, width);
   const U* zeros = reinterpret_cast<const U*>(grown(sc.zero_row, width));
 
-  RansWords rw(fb, width);
-  EscapeBitReader extras(fb.extras, width);
+  RansWords rw(fb, width, sc.word_tail);
+  EscapeBitReader extras(fb.extras, width, sc.escape_tail);
   for (uint32_t y = 0; y < height; ++y) {
     if (!rw.prepare_row() || !extras.prepare_row()) break;
     const size_t i0 = size_t(y) * width;

@@ -8,7 +8,7 @@
 #include "protocol/codec/residual_tokens.h"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-#define LOAM_RANS_AVX2 1
+#define LOAM_FAST_CODER_AVX2 1
 #include <immintrin.h>
 #endif
 
@@ -19,7 +19,7 @@ PackedEncSymbol pack_enc_symbol(uint32_t start, uint32_t freq) {
   return {freq | uint32_t((reciprocal & ((1u << 21) - 1)) << 11), start | uint32_t((reciprocal >> 21) << 10)};
 }
 
-#ifdef LOAM_RANS_AVX2
+#ifdef LOAM_FAST_CODER_AVX2
 
 namespace {
 
