@@ -3,11 +3,13 @@
 // gives the byte layout.
 //
 // Prediction is the plane W + N - NW (first row: W; first column: N; first sample: 0),
-// modulo 2^bits. Its inverse is a running sum along each row added to the row above, with
-// no per-sample branch or data-dependent chain longer than one add, which is what lets the
-// decoder run at memory-like speeds; MED, the textbook choice, needs a serial min/max chain
-// through W and was measured to compress only 0-4% better on the DEMs here once the
-// contexts are in (and 12% worse on the msh_crater DEMs).
+// modulo 2^bits, or, chosen per payload, the plane minus the plane residual one row up
+// (for DEMs upsampled from a coarser grid, whose plane residuals repeat down each cell).
+// The inverse is a running sum along each row added to the row above, with no per-sample
+// branch or data-dependent chain longer than one add, which is what lets the decoder run
+// at memory-like speeds. MED, the textbook choice, needs a serial min/max chain through W;
+// with these contexts it is 2-5% smaller on four of the DEMs here and 4-14% larger on four
+// others (docs/codec.md, "why this design").
 //
 // Safety on untrusted input: parse_fast_body validates every field of the body (preamble,
 // frequency tables, section sizes, initial states) before the caller allocates anything;
@@ -38,6 +40,7 @@ void encode_fast_body(std::span<const int8_t> samples, uint32_t width, uint32_t 
 // A validated fast body: its preamble and tables, and views of its two coded sections.
 struct FastBody {
   uint32_t shift = 0, low = 0;
+  uint32_t predictor = 0;  // 0 plane, 1 plane minus the plane residual above
   std::array<std::array<uint16_t, kMaxTokens>, kContexts> freqs{};  // all zero: context unused
   std::array<uint32_t, rans::kLanes> states{};
   std::span<const uint8_t> words;   // the rANS word stream after the states

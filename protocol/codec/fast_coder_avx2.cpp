@@ -318,6 +318,24 @@ __attribute__((target("avx2"))) uint32_t decode_token_row_avx2(uint32_t* states,
   return r;
 }
 
+__attribute__((target("avx2"))) uint64_t bit_width_sum_avx2(const uint16_t* z, uint32_t width) {
+  // bit_width(v) = exponent of v as a float - 126 for v >= 1, 0 for v = 0.
+  const __m256i bias = _mm256_set1_epi32(126);
+  __m256i sum = _mm256_setzero_si256();
+  uint32_t x = 0;
+  for (; x + 8 <= width; x += 8) {
+    const __m256i v = _mm256_cvtepu16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(z + x)));
+    const __m256i e = _mm256_srli_epi32(_mm256_castps_si256(_mm256_cvtepi32_ps(v)), 23);
+    sum = _mm256_add_epi32(sum, _mm256_max_epi32(_mm256_sub_epi32(e, bias), _mm256_setzero_si256()));
+  }
+  alignas(32) uint32_t lanes[8];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(lanes), sum);
+  uint64_t total = 0;
+  for (uint32_t v : lanes) total += v;
+  for (; x < width; ++x) total += uint64_t(std::bit_width(uint32_t(z[x])));
+  return total;
+}
+
 __attribute__((target("avx2"))) void unshift_samples_avx2(uint16_t* s, size_t n, uint32_t shift,
                                                           uint32_t low) {
   const __m128i count = _mm_cvtsi32_si128(int(shift));
@@ -332,7 +350,7 @@ __attribute__((target("avx2"))) void unshift_samples_avx2(uint16_t* s, size_t n,
 
 __attribute__((target("avx2"))) void residual_row_avx2(const uint8_t* tokens, uint32_t width,
                                                        const uint8_t* escapes, uint64_t& bit_pos,
-                                                       const uint16_t* up, uint16_t* row) {
+                                                       uint16_t* above, const uint16_t* up, uint16_t* row) {
   // Sixteen samples per step in 16-bit lanes (the arithmetic is modulo 2^16 anyway); blocks
   // with escapes rebuild their residuals eight at a time in 32-bit lanes first.
   const __m256i one = _mm256_set1_epi16(1);
@@ -355,6 +373,11 @@ __attribute__((target("avx2"))) void residual_row_avx2(const uint8_t* tokens, ui
     }
     __m256i r = _mm256_xor_si256(_mm256_srli_epi16(z, 1),
                                  _mm256_sub_epi16(_mm256_setzero_si256(), _mm256_and_si256(z, one)));
+    if (above) {
+      __m256i* a = reinterpret_cast<__m256i*>(above + x);
+      r = _mm256_add_epi16(r, _mm256_loadu_si256(a));
+      _mm256_storeu_si256(a, r);
+    }
     r = _mm256_add_epi16(r, _mm256_slli_si256(r, 2));
     r = _mm256_add_epi16(r, _mm256_slli_si256(r, 4));
     r = _mm256_add_epi16(r, _mm256_slli_si256(r, 8));
@@ -362,8 +385,8 @@ __attribute__((target("avx2"))) void residual_row_avx2(const uint8_t* tokens, ui
     r = _mm256_add_epi16(r, _mm256_permute2x128_si256(low_total, low_total, 0x08));  // into the high half
     const __m256i sums = _mm256_add_epi16(r, acc);
     acc = _mm256_permute4x64_epi64(_mm256_shuffle_epi8(sums, lane7), 0xFF);  // lane 15 everywhere
-    const __m256i above = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(up + x));
-    _mm256_storeu_si256(reinterpret_cast<__m256i*>(row + x), _mm256_add_epi16(above, sums));
+    const __m256i row_above = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(up + x));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(row + x), _mm256_add_epi16(row_above, sums));
   }
   bit_pos = pos;
 }
@@ -375,8 +398,10 @@ void encode_symbols_avx2(const uint16_t*, size_t, const PackedEncSymbol*, uint32
 void token_row_dense_avx2(const uint16_t*, uint32_t, uint8_t*, EscapeBitWriter&) {}
 void plane_residual_row_avx2(const uint16_t*, const uint16_t*, uint32_t, uint32_t, uint16_t*) {}
 void unshift_samples_avx2(uint16_t*, size_t, uint32_t, uint32_t) {}
+uint64_t bit_width_sum_avx2(const uint16_t*, uint32_t) { return 0; }
 uint32_t context_row_avx2(const uint8_t*, uint32_t, uint8_t*) { return 1; }
-void residual_row_avx2(const uint8_t*, uint32_t, const uint8_t*, uint64_t&, const uint16_t*, uint16_t*) {}
+void residual_row_avx2(const uint8_t*, uint32_t, const uint8_t*, uint64_t&, uint16_t*, const uint16_t*,
+                       uint16_t*) {}
 uint32_t decode_token_row_avx2(uint32_t*, const uint8_t*&, const uint32_t*, const uint8_t*, uint32_t,
                                uint8_t*) {
   return 0;

@@ -56,11 +56,15 @@ void unshift_samples_avx2(uint16_t* s, size_t n, uint32_t shift, uint32_t low);
 uint32_t decode_token_row_avx2(uint32_t* states, const uint8_t*& words, const uint32_t* tables,
                                const uint8_t* ctx, uint32_t width, uint8_t* tokens);
 
-// row[x] = up[x] + sum over x' <= x of unzigzag(z(x')) modulo 2^16, where z is the token
-// itself or, for an escape, its base and raw bits read from `escapes` at bit `bit_pos`
-// (advanced). `width` is a multiple of 16; 14 * width bits plus 8 bytes must be readable
-// from bit_pos on (fast_coder.cpp pads the end of the section).
+// row[x] = up[x] + sum over x' <= x of r(x') modulo 2^16, where r = unzigzag(z) (plus
+// above[x'], then stored there, when `above` is not null) and z is the token itself or, for
+// an escape, its base and raw bits read from `escapes` at bit `bit_pos` (advanced). `width` is a multiple of
+// 16; 14 * width bits plus 8 bytes must be readable from bit_pos on (fast_coder.cpp pads the end of the
+// section).
 void residual_row_avx2(const uint8_t* tokens, uint32_t width, const uint8_t* escapes, uint64_t& bit_pos,
-                       const uint16_t* up, uint16_t* row);
+                       uint16_t* above, const uint16_t* up, uint16_t* row);
+
+// Sum of the bit widths of z[0, width).
+uint64_t bit_width_sum_avx2(const uint16_t* z, uint32_t width);
 
 }  // namespace loam::codec

@@ -95,9 +95,28 @@ TEST(CodecTokens, EveryResidualIsItsTokenPlusItsRawBits) {
 
 // --- AVX2 against portable -------------------------------------------------------------
 
+// A rough coarse grid bilinearly upsampled by 8 and rounded, like a DEM imported at a finer
+// spacing than its source: the plane residuals repeat down each cell.
+std::vector<uint16_t> upsampled(uint32_t w, uint32_t h, std::mt19937& rng) {
+  const uint32_t cw = w / 8 + 2, ch = h / 8 + 2;
+  std::vector<double> coarse(size_t(cw) * ch);
+  for (double& c : coarse) c = 20000 + double(rng() % 3000);
+  std::vector<uint16_t> s(size_t(w) * h);
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x) {
+      const uint32_t cx = x / 8, cy = y / 8;
+      const double fx = (x % 8) / 8.0, fy = (y % 8) / 8.0;
+      const double a = coarse[cy * cw + cx], b = coarse[cy * cw + cx + 1], c = coarse[(cy + 1) * cw + cx],
+                   d = coarse[(cy + 1) * cw + cx + 1];
+      s[size_t(y) * w + x] =
+          uint16_t(std::lround((a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy));
+    }
+  return s;
+}
+
 std::vector<std::vector<uint16_t>> varied_inputs(uint32_t w, uint32_t h, std::mt19937& rng) {
   const size_t n = size_t(w) * h;
-  std::vector<std::vector<uint16_t>> in(6, std::vector<uint16_t>(n));
+  std::vector<std::vector<uint16_t>> in(7, std::vector<uint16_t>(n));
   for (size_t i = 0; i < n; ++i) {
     const double x = double(i % w), y = double(i / w);
     in[0][i] = uint16_t(rng());                                        // noise: escapes everywhere
@@ -190,7 +209,7 @@ TEST(CodecFast, FastBodyBytesAreTheDocumentedLayout) {
   const std::vector<uint16_t> s = {40, 40, 40, 40};
   std::vector<uint8_t> body;
   codec::encode_fast_body(s, 4, 1, body, Isa::kPortable);
-  std::vector<uint8_t> want = {0};                // shift 0, so no low bits
+  std::vector<uint8_t> want = {0, 0};             // shift 0 (so no low bits), predictor 0 (plane)
   for (int c = 0; c < 7; ++c) want.push_back(0);  // contexts 0-6 unused
   // Context 7: tokens 0..34; z = 80 has bit width 7, so token 32 + 2 (7 - 6) + bit 5 of 80
   // (0) = 34. Counts 3 and 1 scale to 768 and 256, two-byte varints.
@@ -225,9 +244,9 @@ std::vector<uint8_t> smooth_body(uint32_t w, uint32_t h, std::vector<uint16_t>* 
   return body;
 }
 
-// Offset of the rANS length field in a body without shift (1 byte preamble).
+// Offset of the rANS length field in a body without shift (preamble: shift, predictor).
 size_t rans_length_offset(const std::vector<uint8_t>& body) {
-  size_t at = 1;
+  size_t at = 2;
   for (int c = 0; c < codec::kContexts; ++c) {
     const uint32_t count = body[at++];
     for (uint32_t t = 0; t < count; ++t) at += (body[at] & 0x80) ? 2 : 1;
@@ -252,7 +271,7 @@ TEST(CodecFastReject, TablesWhoseFrequenciesDoNotSumTo1024AreCorrupt) {
   ASSERT_EQ(parse_error_field(body), "");
   // The first frequency of the first used context, one off (its lowest bit flipped, in the
   // first byte of either form).
-  size_t at = 1;
+  size_t at = 2;
   while (body[at] == 0) ++at;
   ++at;
   body[at] ^= 1;
@@ -261,10 +280,10 @@ TEST(CodecFastReject, TablesWhoseFrequenciesDoNotSumTo1024AreCorrupt) {
 
 TEST(CodecFastReject, TokenCountsAboveTheSampleTypesAlphabetAreCorrupt) {
   std::vector<uint8_t> body = smooth_body(16, 4);
-  body[1] = uint8_t(codec::token_count(16) + 1);
+  body[2] = uint8_t(codec::token_count(16) + 1);
   EXPECT_EQ(parse_error_field(body), "region.fast.tables");
   std::vector<uint8_t> detail = smooth_body(16, 4);
-  detail[1] = uint8_t(codec::token_count(8) + 1);
+  detail[2] = uint8_t(codec::token_count(8) + 1);
   auto r = codec::parse_fast_body(detail, 8);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().field, "region.fast.tables");
@@ -274,7 +293,7 @@ TEST(CodecFastReject, AFrequencyNotInItsShortestFormIsCorrupt) {
   // A body by hand: context 0 holds tokens 0 and 1 with frequencies 5 and 1019, the rest
   // are unused, 32 states of 2^16 and no words or escape bits.
   auto body_with = [](std::vector<uint8_t> five) {
-    std::vector<uint8_t> b = {0, 2};
+    std::vector<uint8_t> b = {0, 0, 2};
     b.insert(b.end(), five.begin(), five.end());
     b.push_back(0x80 | (1019 & 0x7F));
     b.push_back(1019 >> 7);
@@ -347,7 +366,7 @@ TEST(CodecFastReject, EscapeBitsLeftOverOrMissingAreRejected) {
   EXPECT_EQ(decode_error_field(fewer, 64, 16), "region.fast.extras");
 }
 
-TEST(CodecFastReject, ShiftAboveTheSampleWidthAndLowBitsAboveTheShiftAreCorrupt) {
+TEST(CodecFastReject, ShiftAboveTheSampleWidthLowBitsAboveTheShiftAndUnknownPredictorsAreCorrupt) {
   std::vector<uint8_t> body = {16};
   EXPECT_EQ(parse_error_field(body), "region.fast");
   body = {3, 8, 0};  // low 8 does not fit 3 bits
@@ -355,6 +374,24 @@ TEST(CodecFastReject, ShiftAboveTheSampleWidthAndLowBitsAboveTheShiftAreCorrupt)
   auto r = codec::parse_fast_body(std::vector<uint8_t>{1, 0, 0}, 8);  // detail has no shift
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().field, "region.fast");
+  std::vector<uint8_t> good = smooth_body(16, 4);
+  ASSERT_EQ(parse_error_field(good), "");
+  good[1] = 2;  // predictors are 0 and 1
+  EXPECT_EQ(parse_error_field(good), "region.fast");
+}
+
+// DEMs imported at a finer spacing than their source (etopo5, data/default_terrain) are
+// bilinear patches whose plane residuals repeat down each cell: the encoder must notice
+// and subtract the residual above (docs/codec.md: 6% smaller on default_terrain).
+TEST(CodecFast, UpsampledTerrainIsCodedWithTheResidualAboveSubtracted) {
+  std::mt19937 rng(8);
+  const std::vector<uint16_t> s = upsampled(256, 64, rng);
+  std::vector<uint8_t> chosen, smooth;
+  codec::encode_fast_body(s, 256, 64, chosen);
+  EXPECT_EQ(chosen[1], 1) << "predictor";
+  expect_both_decoders<uint16_t>(chosen, 16, 256, 64, &s);
+  const std::vector<uint8_t> plain = smooth_body(256, 64);
+  EXPECT_EQ(plain[1], 0) << "a smooth noisy field keeps the plane";
 }
 
 }  // namespace
