@@ -194,7 +194,19 @@ RectI apply_stamp(std::vector<uint16_t>& s, int64_t w, int64_t h, double cx, dou
   return box;
 }
 
+// The 1-minute load average (Linux), or a negative number where it cannot be read: timings
+// on a shared machine are only comparable within one run.
+double load_average() {
+  double v = -1;
+  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
+    if (std::fscanf(f, "%lf", &v) != 1) v = -1;
+    std::fclose(f);
+  }
+  return v;
+}
+
 int run_codec(const Context& ctx, Report& report) {
+  const double load_at_start = load_average();
   std::vector<std::string> files = dem_files(ctx.source_dir + "/data");
   const std::vector<std::string> shared = dem_files(ctx.shared_data_dir);
   if (shared.empty()) {
@@ -365,8 +377,9 @@ int run_codec(const Context& ctx, Report& report) {
     report.paragraph(
         "Speed in MB/s of raw 16-bit samples, one core, medians of repeated runs over every tile "
         "(memcpy on this machine: " +
-        fmt("%.1f", ctx.memcpy_gbps) +
-        " GB/s). PNG and LERC+zstd "
+        fmt("%.1f", ctx.memcpy_gbps) + " GB/s" +
+        (load_at_start >= 0 ? fmt("; 1-minute load average when the run started: %.2f", load_at_start) : "") +
+        "). The peers run in the same run, so other work on the machine slows them alike. PNG and LERC+zstd "
         "decode is not timed where no decoder is wired up (-).");
     report.table(std::move(t));
   }
