@@ -7,13 +7,15 @@
 //   control bit 2: pass the header's dimensions as the expected rect (else a fixed 16x16,
 //                  exercising the dimension check).
 // Beyond "no crash, no sanitizer report" it checks that whatever decodes re-encodes (in the
-// same mode) to a payload that decodes to the same samples.
+// same mode) to a payload that decodes to the same samples, and that the fast mode's
+// portable and AVX2 decoders agree on every body (same samples, or the same error field).
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <span>
 #include <vector>
 
+#include "protocol/codec/fast_coder.h"
 #include "protocol/codec/region_codec.h"
 
 namespace {
@@ -28,8 +30,24 @@ constexpr uint64_t kFuzzMaxSamples = 64 * 64;
   std::abort();
 }
 
+// The two fast decoders on the body as it is (checksum or not).
+template <typename T>
+void check_fast_isas(std::span<const uint8_t> payload, uint32_t w, uint32_t h) {
+  auto header = read_region_header(payload);
+  if (!header.ok() || header->encoding != RegionEncoding::kFast || header->version != 3) return;
+  auto body = codec::parse_fast_body(payload.subspan(kRegionHeaderSize), sizeof(T) * 8);
+  if (!body.ok()) return;
+  std::vector<T> a(size_t(w) * h), b(size_t(w) * h);
+  const Status sa = codec::decode_fast_body(*body, w, h, std::span<T>(a), codec::Isa::kPortable);
+  const Status sb = codec::decode_fast_body(*body, w, h, std::span<T>(b), codec::Isa::kAvx2);
+  if (sa.ok() != sb.ok()) fail("fast decoders disagree on success");
+  if (!sa.ok() && sa.error().field != sb.error().field) fail("fast decoders fail on different fields");
+  if (sa.ok() && a != b) fail("fast decoders decode different samples");
+}
+
 template <typename T>
 void check(std::span<const uint8_t> payload, uint32_t w, uint32_t h) {
+  check_fast_isas<T>(payload, w, h);
   const size_t n = size_t(w) * h;
   std::vector<T> base(n), coarser(size_t((w + 1) / 2) * ((h + 1) / 2));
   for (size_t i = 0; i < base.size(); ++i) base[i] = T(i * 37 + 11);

@@ -21,6 +21,7 @@
 #include "bench/harness.h"
 #include "dem/dem_import.h"
 #include "dem/dem_raster.h"
+#include "protocol/codec/fast_coder.h"
 #include "protocol/codec/predictor.h"
 #include "protocol/codec/region_codec.h"
 #include "protocol/world.h"
@@ -193,7 +194,19 @@ RectI apply_stamp(std::vector<uint16_t>& s, int64_t w, int64_t h, double cx, dou
   return box;
 }
 
+// The 1-minute load average (Linux), or a negative number where it cannot be read: timings
+// on a shared machine are only comparable within one run.
+double load_average() {
+  double v = -1;
+  if (FILE* f = std::fopen("/proc/loadavg", "r")) {
+    if (std::fscanf(f, "%lf", &v) != 1) v = -1;
+    std::fclose(f);
+  }
+  return v;
+}
+
 int run_codec(const Context& ctx, Report& report) {
+  const double load_at_start = load_average();
   std::vector<std::string> files = dem_files(ctx.source_dir + "/data");
   const std::vector<std::string> shared = dem_files(ctx.shared_data_dir);
   if (shared.empty()) {
@@ -364,9 +377,71 @@ int run_codec(const Context& ctx, Report& report) {
     report.paragraph(
         "Speed in MB/s of raw 16-bit samples, one core, medians of repeated runs over every tile "
         "(memcpy on this machine: " +
-        fmt("%.1f", ctx.memcpy_gbps) +
-        " GB/s). PNG and LERC+zstd "
+        fmt("%.1f", ctx.memcpy_gbps) + " GB/s" +
+        (load_at_start >= 0 ? fmt("; 1-minute load average when the run started: %.2f", load_at_start) : "") +
+        "). The peers run in the same run, so other work on the machine slows them alike. PNG and LERC+zstd "
         "decode is not timed where no decoder is wired up (-).");
+    report.table(std::move(t));
+  }
+
+  // The fast mode's body alone (no header, checksum or result vector) per instruction set,
+  // so that a machine without AVX2 knows what it gets (both write the same bytes).
+  {
+    std::vector<Tile> all;
+    for (const World& w : worlds) {
+      std::vector<Tile> t = world_tiles(w, 0);
+      if (ctx.quick && t.size() > 4) t.resize(4);
+      all.insert(all.end(), t.begin(), t.end());
+    }
+    const double raw_bytes = double(all.size()) * kSide * kSide * 2;
+    Table t("codec_fast_isa", {"fast mode kernels", "encode MB/s", "decode MB/s"});
+    for (codec::Isa isa : {codec::Isa::kPortable, codec::Isa::kAvx2}) {
+      const char* name =
+          isa == codec::Isa::kAvx2 ? "AVX2 (chosen at run time)" : "portable (baseline x86-64)";
+      if (isa == codec::Isa::kAvx2 && codec::detected_isa() != codec::Isa::kAvx2) {
+        t.add_row({name, "- (no AVX2 here)", "-"});
+        continue;
+      }
+      std::vector<std::vector<uint8_t>> bodies(all.size());
+      Tile back(size_t(kSide) * kSide);
+      for (size_t i = 0; i < all.size(); ++i) {
+        codec::encode_fast_body(std::span<const uint16_t>(all[i]), kSide, kSide, bodies[i], isa);
+        auto parsed = codec::parse_fast_body(bodies[i], 16);
+        if (!parsed || !codec::decode_fast_body(*parsed, kSide, kSide, std::span<uint16_t>(back), isa).ok() ||
+            back != all[i]) {
+          std::fprintf(stderr, "codec: fast body (%s) round trip failed\n", name);
+          ++failures;
+        }
+      }
+      std::vector<uint8_t> body;
+      const double es =
+          measure(
+              ctx,
+              [&] {
+                for (const Tile& tile : all) {
+                  body.clear();
+                  codec::encode_fast_body(std::span<const uint16_t>(tile), kSide, kSide, body, isa);
+                }
+              },
+              mo)
+              .median_s;
+      const double ds =
+          measure(
+              ctx,
+              [&] {
+                for (const auto& b : bodies) {
+                  auto parsed = codec::parse_fast_body(b, 16);
+                  (void)codec::decode_fast_body(*parsed, kSide, kSide, std::span<uint16_t>(back), isa);
+                }
+              },
+              mo)
+              .median_s;
+      t.add_row({name, fmt("%.0f", raw_bytes / es / 1e6), fmt("%.0f", raw_bytes / ds / 1e6)});
+    }
+    report.paragraph(
+        "The fast mode's body alone (no header, checksum or result vector) with each set of kernels, "
+        "over the same tiles; both write the same bytes. The targets are measured above, on whole payloads "
+        "with the kernels this machine picks.");
     report.table(std::move(t));
   }
 

@@ -13,6 +13,7 @@ namespace {
 // Candidate predictors blended per sample. Terrain is smooth at most scales, so besides the
 // neighbours themselves the planes and linear extrapolations carry most of the weight.
 constexpr int kCandidates = 8;
+constexpr int kStride = kCandidates + kMaxExtraCandidates;  // candidate slots per sample
 constexpr int kActivityBuckets = 24;
 constexpr int kBiasBuckets = 8;
 constexpr int kFracBits = 3;  // fixed-point bits of the blended prediction
@@ -68,34 +69,36 @@ inline int32_t code_residual(Coder& c, Model& m, int ctx, int sctx, int bits, in
 }
 
 template <typename Coder>
-void code_field(Coder& c, std::span<int32_t> v, const FieldShape& s, std::span<const int32_t> side) {
+void code_field(Coder& c, std::span<int32_t> v, const FieldShape& s, const ExtraCandidates& extra) {
   const int64_t w = s.width, h = s.height;
   if (w == 0 || h == 0) return;
   const int32_t span = int32_t(1) << s.bits;
   const int32_t half = span >> 1;
   const int32_t lo = s.lo, hi = s.lo + span - 1;
   const bool signed_field = lo < 0;
-  const int ncand = signed_field ? kCandidates : kCandidates - 1;
+  const int nbase = signed_field ? kCandidates : kCandidates - 1;
+  const int nextra = int(extra.count);
+  const int ncand = nbase + nextra;
 
   auto model = std::make_unique<Model>();
   Model& m = *model;
   // Per-row errors (two rows, one column of padding each side): candidate errors for the
   // blend weights, final signed residuals for contexts.
   const int64_t stride = w + 2;
-  std::vector<uint32_t> cerr(size_t(2 * stride * kCandidates), 0);
+  std::vector<uint32_t> cerr(size_t(2 * stride * kStride), 0);
   std::vector<int32_t> ferr(size_t(2 * stride), 0);
 
   for (int64_t y = 0; y < h; ++y) {
     int32_t* row = v.data() + y * w;
     const int32_t* up = y > 0 ? row - w : nullptr;
     const int32_t* up2 = y > 1 ? row - 2 * w : nullptr;
-    uint32_t* ce_cur = cerr.data() + ((y & 1) * stride + 1) * kCandidates;
-    const uint32_t* ce_up = cerr.data() + (((y + 1) & 1) * stride + 1) * kCandidates;
+    uint32_t* ce_cur = cerr.data() + ((y & 1) * stride + 1) * kStride;
+    const uint32_t* ce_up = cerr.data() + (((y + 1) & 1) * stride + 1) * kStride;
     int32_t* fe_cur = ferr.data() + (y & 1) * stride + 1;
     const int32_t* fe_up = ferr.data() + ((y + 1) & 1) * stride + 1;
     if (y == 0) {
       // No row above: make the "row above" errors neutral.
-      std::fill(cerr.begin() + ((1 * stride) * kCandidates), cerr.begin() + (2 * stride * kCandidates), 0u);
+      std::fill(cerr.begin() + ((1 * stride) * kStride), cerr.begin() + (2 * stride * kStride), 0u);
       std::fill(ferr.begin() + stride, ferr.end(), 0);
     }
     for (int64_t x = 0; x < w; ++x) {
@@ -113,7 +116,7 @@ void code_field(Coder& c, std::span<int32_t> v, const FieldShape& s, std::span<c
         WW = x > 1 ? row[x - 2] : W;
         NN = up2 ? up2[x] : N;
       }
-      std::array<int32_t, kCandidates> p{};
+      std::array<int32_t, kStride> p{};
       p[0] = W;
       p[1] = N;
       p[2] = W + N - NW;
@@ -122,15 +125,18 @@ void code_field(Coder& c, std::span<int32_t> v, const FieldShape& s, std::span<c
       p[5] = 2 * N - NN;
       p[6] = (W + NE + 1) >> 1;
       p[7] = 0;
+      for (int k = 0; k < nextra; ++k)
+        p[size_t(nbase + k)] =
+            extra.values[size_t((y * w + x) * nextra + k)] + ((extra.w_relative >> k) & 1u ? W : 0);
 
       // Blend: weight each candidate by the inverse square of its error around here.
-      const uint32_t* cu = ce_up + x * kCandidates;
-      const uint32_t* cc = ce_cur + x * kCandidates;
+      const uint32_t* cu = ce_up + x * kStride;
+      const uint32_t* cc = ce_cur + x * kStride;
       int64_t num = 0, den = 0;
       uint32_t smin = 0xFFFFFFFFu;
       for (int k = 0; k < ncand; ++k) {
-        const uint32_t sc = cu[k] + cu[-kCandidates + k] + cu[kCandidates + k] +
-                            cc[-kCandidates + k] * 2;  // N, NW, NE, W (twice)
+        const uint32_t sc =
+            cu[k] + cu[-kStride + k] + cu[kStride + k] + cc[-kStride + k] * 2;  // N, NW, NE, W (twice)
         smin = std::min(smin, sc);
         const uint64_t s1 = uint64_t(sc) + 1;
         int64_t wk = int64_t((uint64_t(1) << 32) / (s1 * s1));
@@ -145,7 +151,6 @@ void code_field(Coder& c, std::span<int32_t> v, const FieldShape& s, std::span<c
       const int32_t eW = fe_cur[x - 1], eN = fe_up[x], eNW = fe_up[x - 1], eNE = fe_up[x + 1];
       uint32_t act = uint32_t(2 * std::abs(eW) + 2 * std::abs(eN) + std::abs(eNW) + std::abs(eNE)) +
                      std::min<uint32_t>(smin, 1u << 20) / 2;
-      if (!side.empty()) act += uint32_t(std::min(std::abs(side[size_t(y * w + x)]), 1 << 20));
       const int ctx = activity_bucket(act);
 
       // Bias correction per (energy, texture) context: the sign pattern of the neighbours
@@ -175,7 +180,7 @@ void code_field(Coder& c, std::span<int32_t> v, const FieldShape& s, std::span<c
       fe_cur[x] = ((val - pred + half) & (span - 1)) - half;
       for (int k = 0; k < ncand; ++k) {
         const int64_t d = int64_t(val) - p[k];
-        ce_cur[x * kCandidates + k] = uint32_t(std::min<int64_t>(d < 0 ? -d : d, 1 << 18));
+        ce_cur[x * kStride + k] = uint32_t(std::min<int64_t>(d < 0 ? -d : d, 1 << 18));
       }
       const int32_t berr =
           std::clamp<int32_t>(int32_t((int64_t(val) << kFracBits) - pred_fp), -(1 << 20), 1 << 20);
@@ -187,22 +192,22 @@ void code_field(Coder& c, std::span<int32_t> v, const FieldShape& s, std::span<c
     }
     // Right padding mirrors the last column so NE at the edge sees a plausible error.
     fe_cur[w] = fe_cur[w - 1];
-    for (int k = 0; k < kCandidates; ++k) ce_cur[w * kCandidates + k] = ce_cur[(w - 1) * kCandidates + k];
+    for (int k = 0; k < kStride; ++k) ce_cur[w * kStride + k] = ce_cur[(w - 1) * kStride + k];
     fe_cur[-1] = 0;
-    for (int k = 0; k < kCandidates; ++k) ce_cur[-kCandidates + k] = 0;
+    for (int k = 0; k < kStride; ++k) ce_cur[-kStride + k] = 0;
   }
 }
 
 }  // namespace
 
 void encode_field(std::span<int32_t> values, const FieldShape& shape, RangeEncoder& enc,
-                  std::span<const int32_t> side) {
-  code_field(enc, values, shape, side);
+                  const ExtraCandidates& extra) {
+  code_field(enc, values, shape, extra);
 }
 
 void decode_field(std::span<int32_t> out, const FieldShape& shape, RangeDecoder& dec,
-                  std::span<const int32_t> side) {
-  code_field(dec, out, shape, side);
+                  const ExtraCandidates& extra) {
+  code_field(dec, out, shape, extra);
 }
 
 }  // namespace loam::codec

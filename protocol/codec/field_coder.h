@@ -28,14 +28,24 @@ struct FieldShape {
   int32_t lo = 0;  // values lie in [lo, lo + 2^bits)
 };
 
+// Predictions both ends can compute besides the causal ones, blended with them by the same
+// error weighting: `count` per sample, sample i's at values[i * count + k]. Values should
+// lie near the field's domain (they are only predictions; the result is clamped).
+inline constexpr int kMaxExtraCandidates = 4;
+// Candidate k whose bit is set in `w_relative` is W (the causal left neighbour in the field,
+// as for the built-in candidates) plus values[i * count + k].
+struct ExtraCandidates {
+  std::span<const int32_t> values;
+  uint32_t count = 0;  // <= kMaxExtraCandidates
+  uint32_t w_relative = 0;
+};
+
 // `values` (width*height, row-major, each in range) is used as scratch and left unchanged.
-// `side` is optional extra activity per sample (same size) that both ends can compute, e.g.
-// the local slope of an interpolation; it only steers contexts.
 void encode_field(std::span<int32_t> values, const FieldShape& shape, RangeEncoder& enc,
-                  std::span<const int32_t> side = {});
+                  const ExtraCandidates& extra = {});
 // Fills `out` (width*height). Always succeeds as far as memory is concerned; check
 // dec.overran() afterwards.
 void decode_field(std::span<int32_t> out, const FieldShape& shape, RangeDecoder& dec,
-                  std::span<const int32_t> side = {});
+                  const ExtraCandidates& extra = {});
 
 }  // namespace loam::codec

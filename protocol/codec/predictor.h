@@ -1,5 +1,7 @@
 // Predictors shared by the region codec's modes: the MED (LOCO-I median edge detector)
-// residual transform of the fast mode, and the cubic interpolation of the refinement mode.
+// residual transform of format version 2's fast mode (decoded for old snapshots; the
+// benchmark's MED + byte planes + zstd-1 baseline), and the cubic interpolation of the
+// refinement mode. Also the run-time ISA choice of the codec's vectorized kernels.
 // Pure arithmetic on caller-sized spans: safe on any input values; callers guarantee sizes.
 #pragma once
 
@@ -28,10 +30,10 @@ inline int16_t unzigzag16(uint16_t z) { return int16_t((z >> 1) ^ uint16_t(-(int
 inline uint8_t zigzag8(int8_t r) { return uint8_t((uint8_t(r) << 1) ^ uint8_t(r >> 7)); }
 inline int8_t unzigzag8(uint8_t z) { return int8_t((z >> 1) ^ uint8_t(-(int32_t)(z & 1u))); }
 
-// Which instruction set the fast mode's MED transforms run on. Every choice computes the
-// same integers, so the bytes never depend on the machine; kAvx2 is taken only where the CPU
-// reports it at run time (the build targets baseline x86-64, where the compiler's SSE2
-// vectorization is the portable path).
+// Which instruction set the codec's kernels (these MED transforms, the fast mode's coder)
+// run on. Every choice computes the same integers, so the bytes never depend on the machine;
+// kAvx2 is taken only where the CPU reports it at run time (the build targets baseline
+// x86-64, where the compiler's SSE2 vectorization is the portable path).
 enum class Isa : uint8_t { kPortable = 0, kAvx2 = 1 };
 Isa detected_isa();
 

@@ -1,7 +1,6 @@
 #include "protocol/codec/region_codec.h"
 
 #include <xxhash.h>
-#include <zstd.h>
 
 #include <algorithm>
 #include <bit>
@@ -11,9 +10,12 @@
 #include <string>
 #include <type_traits>
 
+#include "protocol/codec/fast_coder.h"
+#include "protocol/codec/fast_coder_v2.h"
 #include "protocol/codec/field_coder.h"
 #include "protocol/codec/predictor.h"
 #include "protocol/codec/range_coder.h"
+#include "protocol/codec/refine_coder.h"
 #include "protocol/tile_hash.h"
 
 namespace loam {
@@ -32,9 +34,12 @@ const char* to_string(RegionEncoding encoding) {
 namespace {
 
 constexpr uint8_t kMagic0 = 'L', kMagic1 = 'R';
-// 2: fast mode codes its byte planes as separate frames and sends `low` only when shift > 0.
-// Version 1 payloads are rejected.
-constexpr uint8_t kFormatVersion = 2;
+// 3: fast mode is plane prediction + contextual rANS (fast_coder.h), and refinement predicts
+// differently. Version 2 payloads (snapshots written before) still decode where their
+// layout is known: raw, fast (fast_coder_v2.h), best and delta; version 2 refinement and
+// version 1 are rejected as unsupported.
+constexpr uint8_t kFormatVersion = 3;
+constexpr uint8_t kOldestFormatVersion = 2;
 
 void put_u16(uint8_t* p, uint32_t v) {
   p[0] = uint8_t(v);
@@ -50,48 +55,6 @@ uint32_t get_u32(const uint8_t* p) {
 
 Error err(ErrorCode code, const char* field, std::string message) {
   return make_error(code, field, std::move(message));
-}
-
-// zstd contexts are reused per thread: creating one costs more than compressing a tile.
-struct ZstdDeleter {
-  void operator()(ZSTD_CCtx* c) const { ZSTD_freeCCtx(c); }
-  void operator()(ZSTD_DCtx* d) const { ZSTD_freeDCtx(d); }
-};
-// Fast mode's zstd settings, set once (they stick to the context across ZSTD_compress2).
-// Level 1's fast strategy with minimum match 7 and a 4K-entry hash table: residual planes
-// have few long repeats, so the shorter matches level 1 would try cost time and, coded as
-// sequences, usually more bytes than the Huffman-coded literals they replace (measured:
-// 8% fewer instructions and 0.2% smaller on the DEMs in data/ and ../shared/data/).
-ZSTD_CCtx* fast_cctx() {
-  thread_local const std::unique_ptr<ZSTD_CCtx, ZstdDeleter> c = [] {
-    std::unique_ptr<ZSTD_CCtx, ZstdDeleter> p(ZSTD_createCCtx());
-    if (p) {
-      // A parameter the library refused leaves its default: still a valid frame.
-      (void)ZSTD_CCtx_setParameter(p.get(), ZSTD_c_compressionLevel, 1);
-      (void)ZSTD_CCtx_setParameter(p.get(), ZSTD_c_minMatch, 7);
-      (void)ZSTD_CCtx_setParameter(p.get(), ZSTD_c_hashLog, 12);
-      (void)ZSTD_CCtx_setParameter(p.get(), ZSTD_c_contentSizeFlag, 1);
-    }
-    return p;
-  }();
-  return c.get();
-}
-ZSTD_DCtx* dctx() {
-  thread_local const std::unique_ptr<ZSTD_DCtx, ZstdDeleter> d(ZSTD_createDCtx());
-  return d.get();
-}
-// Per-thread scratch for the fast mode (residual planes, compressed body): after the first
-// region of a size, encoding and decoding allocate nothing but the vector they return.
-struct FastScratch {
-  std::vector<uint8_t> planes, body;
-};
-FastScratch& fast_scratch() {
-  thread_local FastScratch s;
-  return s;
-}
-uint8_t* grown(std::vector<uint8_t>& v, size_t n) {
-  if (v.size() < n) v.resize(n);
-  return v.data();
 }
 
 // Per sample type: the field domain of the samples themselves and of signed differences.
@@ -165,108 +128,15 @@ std::vector<uint8_t> encode_raw(std::span<const T> s, uint32_t width, uint32_t h
   return with_header(RegionEncoding::kRaw, Traits<T>::kType, width, height, std::move(out));
 }
 
-// Fast mode's reduction: when every sample shares its low `shift` bits (a DEM imported with
-// a power-of-two step ratio), MED runs on the samples shifted right, so zstd sees residuals
-// 2^shift times smaller. Only powers of two, so finding it is one OR pass and undoing it one
-// shift, both vectorizable. Body: shift (u8), low bits (u16, only when shift > 0), then one
-// zstd frame per residual byte plane (uint16: low bytes, then high bytes; int8: one).
-// Separate frames give each plane its own Huffman table: the low bytes spread over many
-// values, the high bytes are nearly all zero, and one table for both costs 1-11% more.
+// Fast mode: the body is fast_coder.h's. The thread's scratch holds the payload being built,
+// so a call allocates only the vector it returns.
 template <typename T>
 std::vector<uint8_t> encode_fast(std::span<const T> s, uint32_t width, uint32_t height) {
-  ZSTD_CCtx* cc = fast_cctx();
-  if (cc == nullptr) return {};
-  const size_t n = s.size();
-  FastScratch& scratch = fast_scratch();
-  constexpr size_t kPlanes = sizeof(T);
-  uint8_t* planes = grown(scratch.planes, kPlanes * n);
-  const size_t cap = kRegionHeaderSize + 3 + kPlanes * ZSTD_compressBound(n);
-  uint8_t* out = grown(scratch.body, cap);
-  size_t at = kRegionHeaderSize;
-  if constexpr (sizeof(T) == 2) {
-    uint32_t diff = 0;
-    const uint16_t first = s[0];
-    for (uint16_t v : s) diff |= uint32_t(v ^ first);
-    const uint32_t shift = diff == 0 ? 0 : uint32_t(std::countr_zero(diff));
-    out[at++] = uint8_t(shift);
-    if (shift > 0) {
-      put_u16(out + at, first & ((1u << shift) - 1));
-      at += 2;
-    }
-    codec::med_forward_u16(s, width, height, shift, {planes, n}, {planes + n, n});
-  } else {
-    out[at++] = 0;
-    codec::med_forward_i8(s, width, height, {planes, n});
-  }
-  for (size_t p = 0; p < kPlanes; ++p) {
-    const size_t z = ZSTD_compress2(cc, out + at, cap - at, planes + p * n, n);
-    if (ZSTD_isError(z)) return {};
-    at += z;
-  }
+  thread_local std::vector<uint8_t> buffer;
+  buffer.assign(kRegionHeaderSize, 0);
+  codec::encode_fast_body(s, width, height, buffer);
   return with_header(RegionEncoding::kFast, Traits<T>::kType, width, height,
-                     std::vector<uint8_t>(out, out + at));
-}
-
-// Splits and checks a fast body before anything is allocated: the preamble must fit the
-// sample type and each frame must declare exactly one plane (n bytes) of content.
-struct FastBody {
-  uint32_t shift = 0, low = 0;
-  std::span<const uint8_t> frames[2];
-};
-template <typename T>
-Result<FastBody> parse_fast(std::span<const uint8_t> body, size_t n) {
-  if (body.empty()) return err(ErrorCode::kTruncated, "region.fast", "body too short");
-  FastBody fb;
-  fb.shift = body[0];
-  if (fb.shift > (sizeof(T) == 2 ? 15u : 0u))
-    return err(ErrorCode::kCorrupt, "region.fast", "shift out of range");
-  size_t at = 1;
-  if (fb.shift > 0) {
-    if (body.size() < 3) return err(ErrorCode::kTruncated, "region.fast", "body too short for the low bits");
-    fb.low = get_u16(body.data() + 1);
-    if (fb.low >= (1u << fb.shift)) return err(ErrorCode::kCorrupt, "region.fast", "low bits out of range");
-    at = 3;
-  }
-  std::span<const uint8_t> rest = body.subspan(at);
-  for (size_t p = 0; p < sizeof(T); ++p) {
-    const char* field = p == 0 ? "region.fast.frame0" : "region.fast.frame1";
-    size_t len = rest.size();
-    if (p + 1 < sizeof(T)) {
-      len = ZSTD_findFrameCompressedSize(rest.data(), rest.size());
-      if (ZSTD_isError(len) || len > rest.size()) {
-        return err(ErrorCode::kCorrupt, field, "no complete zstd frame");
-      }
-    }
-    fb.frames[p] = rest.first(len);
-    if (ZSTD_getFrameContentSize(fb.frames[p].data(), fb.frames[p].size()) != n) {
-      return err(ErrorCode::kCorrupt, field, "zstd frame size does not match the rect");
-    }
-    rest = rest.subspan(len);
-  }
-  return fb;
-}
-
-template <typename T>
-Status decode_fast(const FastBody& fb, uint32_t width, uint32_t height, std::span<T> out) {
-  const size_t n = out.size();
-  ZSTD_DCtx* dc = dctx();
-  if (dc == nullptr) return err(ErrorCode::kCorrupt, "region.fast", "no zstd context");
-  uint8_t* planes = grown(fast_scratch().planes, sizeof(T) * n);
-  for (size_t p = 0; p < sizeof(T); ++p) {
-    const size_t got = ZSTD_decompressDCtx(dc, planes + p * n, n, fb.frames[p].data(), fb.frames[p].size());
-    if (ZSTD_isError(got) || got != n) {
-      return err(ErrorCode::kCorrupt, p == 0 ? "region.fast.frame0" : "region.fast.frame1",
-                 ZSTD_isError(got) ? ZSTD_getErrorName(got) : "zstd frame shorter than the plane");
-    }
-  }
-  if constexpr (sizeof(T) == 2) {
-    codec::med_inverse_u16({planes, n}, {planes + n, n}, width, height, out);
-    if (fb.shift > 0)
-      for (uint16_t& v : out) v = uint16_t((uint32_t(v) << fb.shift) | fb.low);
-  } else {
-    codec::med_inverse_i8({planes, n}, width, height, out);
-  }
-  return {};
+                     std::vector<uint8_t>(buffer.begin(), buffer.end()));
 }
 
 std::vector<uint8_t> start_body() { return std::vector<uint8_t>(kRegionHeaderSize, 0); }
@@ -360,90 +230,6 @@ std::vector<uint8_t> encode_delta(std::span<const T> s, std::span<const T> base,
   return with_header(RegionEncoding::kDelta, Traits<T>::kType, width, height, std::move(out));
 }
 
-// Refinement. The rect's samples at even (x, y) are known (mip m). Pass A codes the odd
-// columns of even rows against a horizontal cubic interpolation of their even neighbours;
-// pass B codes every odd row against a vertical cubic interpolation of the (now complete)
-// even rows. Each pass codes the field of interpolation residuals with the field coder,
-// whose causal predictor then catches what interpolation misses (residuals are correlated
-// along a ridge), with the interpolation's local slope and curvature steering contexts.
-// `v` holds the reduced rect (values in [0, 2^bits)); on decode its even samples are
-// filled and the rest is written.
-template <typename Coder>
-void code_refine(Coder& c, std::vector<int32_t>& v, uint32_t width, uint32_t height, int bits) {
-  const int32_t lo = 0, hi = (int32_t(1) << bits) - 1;
-  const codec::FieldShape residual_shape_bits{0, 0, bits + 1, -(int32_t(1) << bits)};
-  const int64_t w = width, h = height;
-  auto at = [&](int64_t x, int64_t y) -> int32_t& { return v[size_t(y * w + x)]; };
-  // Clamps an even coordinate into [0, last even < n].
-  auto even_clamp = [](int64_t i, int64_t n) {
-    const int64_t last = (n - 1) & ~int64_t(1);
-    return std::clamp<int64_t>(i, 0, last);
-  };
-  auto slope = [](int32_t a, int32_t b, int32_t cc, int32_t d) {
-    return (std::abs(cc - b) + std::abs(a - 2 * b + cc) + std::abs(b - 2 * cc + d)) / 2;
-  };
-
-  // Pass A: (odd x, even y).
-  const int64_t aw = w / 2, ah = (h + 1) / 2;
-  if (aw > 0) {
-    std::vector<int32_t> interp(size_t(aw * ah)), side(size_t(aw * ah)), r(size_t(aw * ah));
-    for (int64_t j = 0; j < ah; ++j) {
-      for (int64_t i = 0; i < aw; ++i) {
-        const int64_t x = 2 * i + 1, y = 2 * j;
-        const int32_t a = at(even_clamp(x - 3, w), y), b = at(x - 1, y), cc = at(even_clamp(x + 1, w), y),
-                      d = at(even_clamp(x + 3, w), y);
-        const size_t k = size_t(j * aw + i);
-        interp[k] = codec::cubic_mid(a, b, cc, d, lo, hi);
-        side[k] = slope(a, b, cc, d);
-        if constexpr (!Coder::kDecoding) r[k] = at(x, y) - interp[k];
-      }
-    }
-    codec::FieldShape fs = residual_shape_bits;
-    fs.width = uint32_t(aw);
-    fs.height = uint32_t(ah);
-    if constexpr (Coder::kDecoding) {
-      codec::decode_field(r, fs, c, side);
-    } else {
-      codec::encode_field(r, fs, c, side);
-    }
-    for (int64_t j = 0; j < ah; ++j)
-      for (int64_t i = 0; i < aw; ++i) {
-        const size_t k = size_t(j * aw + i);
-        at(2 * i + 1, 2 * j) = (interp[k] + r[k]) & hi;
-      }
-  }
-  // Pass B: every x of odd y.
-  const int64_t bh = h / 2;
-  if (bh > 0) {
-    std::vector<int32_t> interp(size_t(w * bh)), side(size_t(w * bh)), r(size_t(w * bh));
-    for (int64_t j = 0; j < bh; ++j) {
-      const int64_t y = 2 * j + 1;
-      const int64_t ya = even_clamp(y - 3, h), yb = y - 1, yc = even_clamp(y + 1, h),
-                    yd = even_clamp(y + 3, h);
-      for (int64_t x = 0; x < w; ++x) {
-        const int32_t a = at(x, ya), b = at(x, yb), cc = at(x, yc), d = at(x, yd);
-        const size_t k = size_t(j * w + x);
-        interp[k] = codec::cubic_mid(a, b, cc, d, lo, hi);
-        side[k] = slope(a, b, cc, d);
-        if constexpr (!Coder::kDecoding) r[k] = at(x, y) - interp[k];
-      }
-    }
-    codec::FieldShape fs = residual_shape_bits;
-    fs.width = uint32_t(w);
-    fs.height = uint32_t(bh);
-    if constexpr (Coder::kDecoding) {
-      codec::decode_field(r, fs, c, side);
-    } else {
-      codec::encode_field(r, fs, c, side);
-    }
-    for (int64_t j = 0; j < bh; ++j)
-      for (int64_t x = 0; x < w; ++x) {
-        const size_t k = size_t(j * w + x);
-        at(x, 2 * j + 1) = (interp[k] + r[k]) & hi;
-      }
-  }
-}
-
 template <typename T>
 std::vector<uint8_t> encode_refine(std::span<const T> s, uint32_t width, uint32_t height) {
   std::vector<int32_t> f(s.size());
@@ -453,7 +239,7 @@ std::vector<uint8_t> encode_refine(std::span<const T> s, uint32_t width, uint32_
   std::vector<uint8_t> out = start_body();
   put_reduction(out, red);
   codec::RangeEncoder enc(out);
-  code_refine(enc, f, width, height, red.bits);
+  codec::encode_refinement(enc, f, width, height, red.bits);
   enc.finish();
   return with_header(RegionEncoding::kRefine, Traits<T>::kType, width, height, std::move(out));
 }
@@ -543,11 +329,20 @@ Result<std::vector<T>> decode_any(std::span<const uint8_t> payload, uint32_t wid
         ErrorCode::kCorrupt, "region.raw",
         "body holds " + std::to_string(body.size()) + " bytes, rect needs " + std::to_string(n * sizeof(T)));
   }
-  FastBody fast;
+  // Fast bodies are parsed (tables, section sizes) before the output is allocated.
+  const bool legacy_fast = hd.encoding == RegionEncoding::kFast && hd.version == 2;
+  codec::FastBody fast;
+  codec::FastBodyV2 fast_v2;
   if (hd.encoding == RegionEncoding::kFast) {
-    auto fb = parse_fast<T>(body, n);
-    if (!fb) return fb.error();
-    fast = *fb;
+    if (legacy_fast) {
+      auto fb = codec::parse_fast_body_v2(body, sizeof(T), n);
+      if (!fb) return fb.error();
+      fast_v2 = *fb;
+    } else {
+      auto fb = codec::parse_fast_body(body, Traits<T>::kBits);
+      if (!fb) return fb.error();
+      fast = *fb;
+    }
   }
   if (hd.encoding != RegionEncoding::kRaw && hd.encoding != RegionEncoding::kFast &&
       body.size() < kReductionSize + 5) {
@@ -565,7 +360,13 @@ Result<std::vector<T>> decode_any(std::span<const uint8_t> payload, uint32_t wid
         }
       }
       break;
-    case RegionEncoding::kFast: LOAM_TRY(decode_fast<T>(fast, width, height, out)); break;
+    case RegionEncoding::kFast:
+      if (legacy_fast) {
+        LOAM_TRY(codec::decode_fast_body_v2(fast_v2, width, height, std::span<T>(out)));
+      } else {
+        LOAM_TRY(codec::decode_fast_body(fast, width, height, std::span<T>(out)));
+      }
+      break;
     case RegionEncoding::kBest:
     case RegionEncoding::kDelta:
     case RegionEncoding::kRefine: {
@@ -594,7 +395,7 @@ Result<std::vector<T>> decode_any(std::span<const uint8_t> payload, uint32_t wid
             }
             f[2 * y * width + 2 * x] = int32_t((u - rd.r) / rd.g);
           }
-        code_refine(dec, f, width, height, rd.bits);
+        codec::decode_refinement(dec, f, width, height, rd.bits);
       }
       if (dec.overran()) return err(ErrorCode::kTruncated, field, "stream ended before the last sample");
       if (dec.remaining() != 0) {
@@ -644,17 +445,21 @@ Result<RegionHeader> read_region_header(std::span<const uint8_t> payload) {
   const uint8_t* p = payload.data();
   if (p[0] != kMagic0 || p[1] != kMagic1)
     return err(ErrorCode::kCorrupt, "region.magic", "not a region payload");
-  if (p[2] != kFormatVersion) {
+  if (p[2] < kOldestFormatVersion || p[2] > kFormatVersion) {
     return err(ErrorCode::kUnsupported, "region.version", "format version " + std::to_string(p[2]));
   }
   if (p[3] >= kRegionEncodingCount) {
     return err(ErrorCode::kBadEnum, "region.encoding", "encoding " + std::to_string(p[3]));
+  }
+  if (p[2] < kFormatVersion && RegionEncoding(p[3]) == RegionEncoding::kRefine) {
+    return err(ErrorCode::kUnsupported, "region.version", "version 2 refinement payloads are not decoded");
   }
   if (p[4] > uint8_t(SampleType::kDetailI8)) {
     return err(ErrorCode::kBadEnum, "region.type", "sample type " + std::to_string(p[4]));
   }
   if (p[5] != 0) return err(ErrorCode::kUnsupported, "region.flags", "unknown flags " + std::to_string(p[5]));
   RegionHeader h;
+  h.version = p[2];
   h.encoding = RegionEncoding(p[3]);
   h.type = SampleType(p[4]);
   h.width = get_u16(p + 6);

@@ -4,8 +4,8 @@
 //
 // Encodings (the payload's first bytes say which one was used):
 //   kRaw    samples as little-endian bytes; the fallback when nothing else is smaller.
-//   kFast   MED predictor, zigzag residual byte planes, one zstd (level 1) frame per plane:
-//           streaming speed.
+//   kFast   plane predictor, residual tokens in contexts from the row above, static
+//           interleaved rANS: streaming speed (fast_coder.h).
 //   kBest   blended context-adaptive predictor with bias correction and a context-modelled
 //           binary arithmetic coder: the smallest payload, ~10x slower than kFast. Where
 //           the kFast payload is smaller, that is what comes back (the header says so).
@@ -45,6 +45,7 @@ inline constexpr size_t kRegionHeaderSize = 18;
 
 // What a payload's header says (see docs/codec.md for the byte layout).
 struct RegionHeader {
+  uint8_t version = 0;  // format version: 3, or 2 for older payloads that still decode
   RegionEncoding encoding = RegionEncoding::kRaw;
   SampleType type = SampleType::kCoarseU16;
   uint32_t width = 0, height = 0;
@@ -53,7 +54,8 @@ struct RegionHeader {
 };
 
 // Reads and checks the header only (magic, version, enums, sizes, body length). Safe on any
-// input. It does not check the checksum; decode_region() does.
+// input. It does not check the checksum; decode_region() does. Version 2 headers of the
+// encodings whose version 2 body still decodes (raw, fast, best, delta) are accepted.
 Result<RegionHeader> read_region_header(std::span<const uint8_t> payload);
 
 // Samples the receiver already holds, needed by some encodings.
