@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <glm/glm.hpp>
 #include <glm/gtc/matrix_transform.hpp>
@@ -49,8 +50,11 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
                                                                  const RendererConfig& config) {
   auto mesh = ClipmapMesh::build(config.n);
   if (!mesh) return mesh.error();
-  if (config.detail_size < 0 || config.detail_size > 4096) {
-    return make_error(ErrorCode::kInvalidArgument, "clipmap.detail_size", "must be 0..4096");
+  if (config.detail_size < 0 || config.detail_size > 4096 ||
+      (config.detail_size & (config.detail_size - 1)) != 0) {
+    // A power of two, like the level tori (see region_size_): far-origin shifts are multiples.
+    return make_error(ErrorCode::kInvalidArgument, "clipmap.detail_size",
+                      "must be 0 or a power of two up to 4096");
   }
   std::unique_ptr<ClipmapRenderer> r(new ClipmapRenderer());
   r->source_ = &source;
@@ -63,7 +67,11 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
     return make_error(ErrorCode::kInvalidArgument, "clipmap.levels",
                       "must be 1.." + std::to_string(kMaxClipmapLevels));
   }
-  r->tex_size_ = config.n + 2 * kLevelPad;
+  // A level holds a region of n + 2 * kLevelPad samples in a torus of the next power of two:
+  // the far-origin shift (a multiple of 2^L tiles) is then a multiple of the torus, so a
+  // level's texels, and the filtered normal lookups, are the same at home and far away.
+  r->region_size_ = config.n + 2 * kLevelPad;
+  r->tex_size_ = int32_t(std::bit_ceil(uint32_t(r->region_size_)));
   r->mesh_ = std::move(*mesh);
   if (config.min_height_m >= config.max_height_m) {
     // Material range from the coarsest mip: every source holds it (a live session's viewer
@@ -166,8 +174,8 @@ void ClipmapRenderer::update_normals(int32_t l, const RectI& uploaded) {
   // edges), so they are computed where every stencil stays in the region: 4 samples in, which
   // still covers every vertex (kLevelPad = 5) and the sample after it that filtering reads.
   static_assert(kLevelPad >= 5);
-  const RectI region{level.region_x + 4, level.region_y + 4, level.region_x + tex_size_ - 4,
-                     level.region_y + tex_size_ - 4};
+  const RectI region{level.region_x + 4, level.region_y + 4, level.region_x + region_size_ - 4,
+                     level.region_y + region_size_ - 4};
   const RectI r = RectI{uploaded.x0 - 4, uploaded.y0 - 4, uploaded.x1 + 4, uploaded.y1 + 4}.intersect(region);
   const WorldParams& p = source_->params();
   normal_pass_->update(level.texture.get(), level.normals.get(), tex_size_, level_region(l), r, level.world,
@@ -184,7 +192,7 @@ int64_t ClipmapRenderer::update_levels(const Camera& camera) {
     const int64_t ry = (placed_[size_t(l)].origin_y >> l) - kLevelPad;
     std::optional<std::array<int64_t, 2>> old;
     if (level.valid) old = std::array<int64_t, 2>{level.region_x, level.region_y};
-    const std::vector<RectI> strips = toroidal_strips(old, {rx, ry}, tex_size_);
+    const std::vector<RectI> strips = toroidal_strips(old, {rx, ry}, region_size_);
     level.valid = true;
     level.region_x = rx;
     level.region_y = ry;
@@ -254,7 +262,7 @@ int64_t ClipmapRenderer::update_detail(const Camera& camera) {
 
 RectI ClipmapRenderer::level_region(int32_t l) const {
   const Level& level = level_[size_t(l)];
-  return {level.region_x, level.region_y, level.region_x + tex_size_, level.region_y + tex_size_};
+  return {level.region_x, level.region_y, level.region_x + region_size_, level.region_y + region_size_};
 }
 
 std::vector<uint32_t> ClipmapRenderer::read_level_normals(int32_t l, const RectI& rect) const {
@@ -277,7 +285,7 @@ void ClipmapRenderer::invalidate(const RectI& mip0_rect) {
   for (int32_t l = 0; l < levels_; ++l) {
     Level& level = level_[size_t(l)];
     if (!level.valid) continue;
-    const RectI held{level.region_x, level.region_y, level.region_x + tex_size_, level.region_y + tex_size_};
+    const RectI held = level_region(l);
     const RectI r = in_level_grid(mip0_rect, int64_t(1) << l).intersect(held);
     if (r.empty()) continue;
     upload(level, l, r);

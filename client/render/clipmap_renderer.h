@@ -6,10 +6,11 @@
 // the world's edge instead of the clamped terrain beyond it, per-piece frustum culling and
 // camera-relative positions.
 //
-// Level l reads mip l (spacing 2^l mip-0 samples) from a HeightSource into an R16UI texture of
-// N x N texels, N = n + 2 * kLevelPad: the n vertex samples plus the neighbours FD4 normals at
-// the coarser spacing reach. Mip-l sample (gx, gy) lives at texel (gx mod N, gy mod N), so a
-// camera move uploads only the strips that came into view; the level's normal map (R32UI,
+// Level l reads mip l (spacing 2^l mip-0 samples) from a HeightSource: a region of N x N
+// samples, N = n + 2 * kLevelPad (the n vertex samples plus the neighbours FD4 normals at the
+// coarser spacing reach), in an R16UI texture of P x P texels, P the power of two >= N.
+// Mip-l sample (gx, gy) lives at texel (gx mod P, gy mod P), so a camera move uploads only the
+// strips that came into view; the level's normal map (R32UI,
 // packed like protocol/normal_map.h) is recomputed on the GPU for exactly those strips. The
 // detail layer around the camera (detail_size^2 samples, R8I, toroidal alike) gets a gradient
 // map (RG16F) that perturbs the normals where a pixel covers less than about two detail
@@ -133,7 +134,9 @@ class ClipmapRenderer {
 
   const HeightSource* source_ = nullptr;
   RendererConfig config_;
-  int32_t levels_ = 0, tex_size_ = 0;
+  int32_t levels_ = 0;
+  int32_t region_size_ = 0;  // samples a level holds per side: n + 2 * kLevelPad
+  int32_t tex_size_ = 0;     // its texture (the torus): the next power of two
   std::optional<ClipmapMesh> mesh_;
   std::vector<Level> level_;
   std::vector<LevelPlacement> placed_;
