@@ -325,10 +325,10 @@ void Server::on_subscribe(const SessionPtr& s, const wire::Subscribe& sub) {
       return;
     }
     const uint64_t current = terrain_.world().tile_state(e.tile).version;
-    s->subs[e.tile] = e.held_version;
-    // A client that already holds the current version resumes without a transfer; 0 means
-    // it holds nothing (even where the current version is the initial terrain's 0).
-    if (e.held_version == 0 || e.held_version != current) send_region(s, e.tile);
+    // A client that already holds the current version (the initial terrain's 0 included)
+    // resumes without a transfer; otherwise the whole tile goes.
+    s->subs[e.tile] = e.held ? e.held_version : kNeedsRegion;
+    if (!e.held || e.held_version != current) send_region(s, e.tile);
   }
 }
 
@@ -535,6 +535,7 @@ void Server::send_region(const SessionPtr& s, const TileCoord& c, std::optional<
   wire::RegionUpdate header;
   header.tile = c;
   header.rect = rect;
+  header.patch = part.has_value();
   header.base_version = part ? base : 0;
   header.new_version = w.tile_state(c).version;
   header.encoding = wire::RegionEncoding::kCodec;
@@ -589,9 +590,9 @@ void Server::tick() {
     }
     // 2. Apply, acknowledge, stream events; note tiles a client cannot reproduce itself.
     // Per (client, tile): the version the client held before this tick's first change it could
-    // not follow (0: unknown) and the union of the samples changed since (tile-local).
+    // not follow (none: unknown) and the union of the samples changed since (tile-local).
     struct NeededRegion {
-      uint64_t base = 0;
+      std::optional<uint64_t> base;
       RectI rect;
     };
     std::map<std::pair<uint32_t, TileCoord>, NeededRegion> needs_region;
@@ -658,8 +659,9 @@ void Server::tick() {
       const auto& [id, c] = key;
       const auto it = sessions_.find(id);
       if (it == sessions_.end() || !it->second->subs.count(c)) continue;
-      const bool partial = need.base != 0 && need.rect.area() * 4 <= kTileSamples;
-      send_region(it->second, c, partial ? std::optional<RectI>(need.rect) : std::nullopt, need.base);
+      const bool patch = need.base && need.rect.area() * 4 <= kTileSamples;
+      send_region(it->second, c, patch ? std::optional<RectI>(need.rect) : std::nullopt,
+                  need.base.value_or(0));
     }
   }
   if (config_.hashes_every_ticks > 0 && tick_ % config_.hashes_every_ticks == 0) {

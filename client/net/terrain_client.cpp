@@ -53,7 +53,8 @@ Status TerrainClient::subscribe(const std::vector<TileCoord>& tiles) {
   wire::Subscribe sub;
   for (const TileCoord& c : tiles) {
     store_->want(c);
-    sub.entries.push_back({c, store_->version(c).value_or(0)});
+    const auto held = store_->version(c);
+    sub.entries.push_back({c, held.has_value(), held.value_or(0)});
     if (sub.entries.size() == wire::kMaxSubscribeEntries) {
       LOAM_TRY(connection_->send(sub));
       sub.entries.clear();
@@ -89,14 +90,9 @@ Status TerrainClient::on_region_chunk(const wire::RegionUpdate& r) {
   if (!done) return done.error();
   if (!done->has_value()) return {};
   const std::vector<uint8_t> payload = std::move(**done);
-  const bool whole = r.rect == RectI{0, 0, kTileSize, kTileSize};
-  if (r.base_version == 0 && !whole) {
-    return make_error(ErrorCode::kUnsupported, "region",
-                      "a partial region needs the base version it patches");
-  }
   const int32_t w = int32_t(r.rect.width()), h = int32_t(r.rect.height());
-  // A partial region patches the tile held at base_version; anything else (an earlier region
-  // lost, say) means the tile is re-requested whole below.
+  // A patch applies to the tile held at base_version; held at another (an earlier region lost,
+  // say), the tile is re-requested whole below.
   const Status st = [&]() -> Status {
     if (r.tile.layer == Layer::kCoarse) {
       std::vector<uint16_t> samples;
@@ -107,12 +103,12 @@ Status TerrainClient::on_region_chunk(const wire::RegionUpdate& r) {
         std::memcpy(samples.data(), payload.data(), payload.size());
       } else {
         const std::vector<uint16_t> base =
-            r.base_version != 0 ? store_->coarse_rect(r.tile, r.rect) : std::vector<uint16_t>{};
+            r.patch ? store_->coarse_rect(r.tile, r.rect) : std::vector<uint16_t>{};
         auto decoded = decode_region(payload, w, h, RegionRefs<uint16_t>{.base = base, .coarser = {}});
         if (!decoded) return decoded.error();
         samples = std::move(*decoded);
       }
-      if (r.base_version == 0) return store_->replace_coarse(r.tile, r.new_version, samples);
+      if (!r.patch) return store_->replace_coarse(r.tile, r.new_version, samples);
       return store_->patch_coarse(r.tile, r.rect, r.base_version, r.new_version, samples);
     }
     std::vector<int8_t> samples;
@@ -122,18 +118,17 @@ Status TerrainClient::on_region_chunk(const wire::RegionUpdate& r) {
       samples.assign(reinterpret_cast<const int8_t*>(payload.data()),
                      reinterpret_cast<const int8_t*>(payload.data()) + payload.size());
     } else {
-      const std::vector<int8_t> base =
-          r.base_version != 0 ? store_->detail_rect(r.tile, r.rect) : std::vector<int8_t>{};
+      const std::vector<int8_t> base = r.patch ? store_->detail_rect(r.tile, r.rect) : std::vector<int8_t>{};
       auto decoded = decode_detail_region(payload, w, h, RegionRefs<int8_t>{.base = base, .coarser = {}});
       if (!decoded) return decoded.error();
       samples = std::move(*decoded);
     }
-    if (r.base_version == 0) return store_->replace_detail(r.tile, r.new_version, samples);
+    if (!r.patch) return store_->replace_detail(r.tile, r.new_version, samples);
     return store_->patch_detail(r.tile, r.rect, r.base_version, r.new_version, samples);
   }();
-  if (!st.ok() && r.base_version != 0 && store_->wanted_tile(r.tile)) {
+  if (!st.ok() && r.patch && store_->wanted_tile(r.tile)) {
     wire::Subscribe sub;
-    sub.entries.push_back({r.tile, 0});
+    sub.entries.push_back({r.tile, false, 0});
     (void)connection_->send(sub);
   }
   return st;
@@ -150,7 +145,7 @@ Status TerrainClient::on_stamp_image(const wire::StampImageResponse& r) {
   auto give_up = [&](Error why) -> Status {
     // Without the image its stamps cannot be reproduced here: take the tiles they changed whole.
     wire::Subscribe sub;
-    for (const TileCoord& c : store_->tiles_waiting_for(r.image_id)) sub.entries.push_back({c, 0});
+    for (const TileCoord& c : store_->tiles_waiting_for(r.image_id)) sub.entries.push_back({c, false, 0});
     if (!sub.entries.empty()) LOAM_TRY(connection_->send(sub));
     return why;
   };
@@ -199,7 +194,7 @@ Status TerrainClient::handle(wire::Message& m) {
       if (!bad.empty()) {
         // Repair: ask for the tiles again as if we held nothing.
         wire::Subscribe sub;
-        for (const TileCoord& c : bad) sub.entries.push_back({c, 0});
+        for (const TileCoord& c : bad) sub.entries.push_back({c, false, 0});
         return connection_->send(sub);
       }
       return {};

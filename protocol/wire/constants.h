@@ -14,8 +14,11 @@ namespace loam::wire {
 inline constexpr uint32_t kHelloMagic = 0x4D414F4Cu;
 // A peer with a different major version cannot parse our messages; minor versions only add
 // optional behaviour negotiated in Hello/Welcome, never change a layout.
-inline constexpr uint16_t kProtocolMajor = 1;
-inline constexpr uint16_t kProtocolMinor = 1;  // 1.1 added StatsRequest / Stats
+// 2.0: Subscribe entries say whether a version is held (version 0, the initial terrain, can be
+// claimed); RegionUpdate patches (the changed samples of a tile over a held version); region
+// codec payloads of format 3. 1.1 had added StatsRequest / Stats.
+inline constexpr uint16_t kProtocolMajor = 2;
+inline constexpr uint16_t kProtocolMinor = 0;
 
 // Frame header: u32 payload length, u16 message type (little-endian), then the payload.
 inline constexpr size_t kFrameHeaderBytes = 6;

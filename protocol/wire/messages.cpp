@@ -233,10 +233,16 @@ Status serialize(S& s, Bye& m) {
 
 template <typename S>
 Status serialize(S& s, Subscribe& m) {
-  return serialize_vector(s, m.entries, kMaxSubscribeEntries, kTileCoordBytes + 8, "subscribe.count",
+  return serialize_vector(s, m.entries, kMaxSubscribeEntries, kTileCoordBytes + 9, "subscribe.count",
                           [&](SubscribeEntry& e) -> Status {
                             LOAM_TRY(serialize_tile(s, e.tile));
-                            return s.bits(e.held_version, "subscribe.held_version");
+                            LOAM_TRY(s.boolean(e.held, "subscribe.held"));
+                            LOAM_TRY(s.bits(e.held_version, "subscribe.held_version"));
+                            if (!e.held && e.held_version != 0) {
+                              return make_error(ErrorCode::kInvalidArgument, "subscribe.held_version",
+                                                "must be 0 when the tile is not held");
+                            }
+                            return {};
                           });
 }
 
@@ -292,13 +298,19 @@ template <typename S>
 Status serialize(S& s, RegionUpdate& m) {
   LOAM_TRY(serialize_tile(s, m.tile));
   LOAM_TRY(serialize_tile_rect(s, m.rect));
+  LOAM_TRY(s.boolean(m.patch, "region.patch"));
   LOAM_TRY(s.bits(m.base_version, "region.base_version"));
   LOAM_TRY(s.bits(m.new_version, "region.new_version"));
-  // base_version 0 is a full replacement (any new version, 0 = initial terrain); a delta
-  // must move forward.
-  if (m.base_version != 0 && m.new_version <= m.base_version) {
+  // A replacement is the whole tile at any version (0 = initial terrain); a patch moves a held
+  // version forward.
+  if (!m.patch && (m.base_version != 0 || !(m.rect == RectI{0, 0, kTileSize, kTileSize}))) {
+    return make_error(ErrorCode::kInvalidArgument,
+                      m.base_version != 0 ? "region.base_version" : "region.rect",
+                      "a replacement covers the whole tile and has no base version");
+  }
+  if (m.patch && m.new_version <= m.base_version) {
     return make_error(ErrorCode::kInvalidArgument, "region.new_version",
-                      "must be > base_version for a delta");
+                      "must be > base_version for a patch");
   }
   LOAM_TRY(serialize_enum(s, m.encoding, kRegionEncodingCount, "region.encoding"));
   LOAM_TRY(serialize_range<uint32_t>(s, m.total_bytes, 0, kMaxRegionPayloadBytes, "region.total_bytes"));
@@ -445,6 +457,7 @@ Result<std::vector<RegionUpdate>> chunk_region(const RegionUpdate& header, std::
     RegionUpdate c;
     c.tile = header.tile;
     c.rect = header.rect;
+    c.patch = header.patch;
     c.base_version = header.base_version;
     c.new_version = header.new_version;
     c.encoding = header.encoding;
@@ -460,9 +473,9 @@ Result<std::vector<RegionUpdate>> chunk_region(const RegionUpdate& header, std::
 
 Result<std::optional<std::vector<uint8_t>>> RegionAssembler::add(const RegionUpdate& chunk) {
   const auto same_region = [&](const RegionUpdate& a) {
-    return a.tile == chunk.tile && a.rect == chunk.rect && a.base_version == chunk.base_version &&
-           a.new_version == chunk.new_version && a.encoding == chunk.encoding &&
-           a.total_bytes == chunk.total_bytes;
+    return a.tile == chunk.tile && a.rect == chunk.rect && a.patch == chunk.patch &&
+           a.base_version == chunk.base_version && a.new_version == chunk.new_version &&
+           a.encoding == chunk.encoding && a.total_bytes == chunk.total_bytes;
   };
   if (!active_) {
     if (chunk.chunk_offset != 0) {

@@ -131,7 +131,8 @@ struct Bye {
 
 struct SubscribeEntry {
   TileCoord tile;
-  uint64_t held_version = 0;  // version the client already holds; 0 = none
+  bool held = false;          // the client holds the tile, at held_version
+  uint64_t held_version = 0;  // 0 when not held
   friend bool operator==(const SubscribeEntry&, const SubscribeEntry&) = default;
 };
 
@@ -179,8 +180,9 @@ struct DeformEvent {
 struct RegionUpdate {
   TileCoord tile;
   RectI rect;                 // tile-local samples, non-empty, inside the tile
-  uint64_t base_version = 0;  // 0 = full replacement, else a delta against that version
-  uint64_t new_version = 0;   // > base_version
+  bool patch = false;         // false: the whole tile (rect is all of it); true: rect over base_version
+  uint64_t base_version = 0;  // patch: the version of the tile the rect's samples apply to (0 otherwise)
+  uint64_t new_version = 0;   // patch: > base_version
   RegionEncoding encoding = RegionEncoding::kRaw;
   uint32_t total_bytes = 0;    // whole payload across chunks, <= kMaxRegionPayloadBytes
   uint32_t chunk_offset = 0;   // where this chunk starts in the payload

@@ -70,9 +70,9 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   v.emplace_back("pong", Pong{0x0102030405060708ull, 99});
   v.emplace_back("bye", Bye{ByeReason::kShutdown, "server restarting"});
   Subscribe sub;
-  sub.entries.push_back({TileCoord{Layer::kCoarse, 0, -2, -1}, 0});
-  sub.entries.push_back({TileCoord{Layer::kCoarse, 2, 0, 0}, 41});
-  sub.entries.push_back({TileCoord{Layer::kDetail, 0, 1, 0}, 40});
+  sub.entries.push_back({TileCoord{Layer::kCoarse, 0, -2, -1}, false, 0});
+  sub.entries.push_back({TileCoord{Layer::kCoarse, 2, 0, 0}, true, 41});
+  sub.entries.push_back({TileCoord{Layer::kDetail, 0, 1, 0}, true, 0});  // held at the initial version
   v.emplace_back("subscribe", sub);
   Unsubscribe unsub;
   unsub.tiles.push_back(TileCoord{Layer::kCoarse, 1, -1, 0});
@@ -99,6 +99,7 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   RegionUpdate reg;
   reg.tile = TileCoord{Layer::kCoarse, 0, -1, 0};
   reg.rect = RectI{4, 8, 6, 10};
+  reg.patch = true;
   reg.base_version = 100;
   reg.new_version = 123457;
   reg.encoding = RegionEncoding::kRaw;

@@ -69,7 +69,7 @@ TEST(WireMessages, FrameEncodeThenDecodeIsTheIdentityForEveryMessage) {
 TEST(WireMessages, EmptyAndMaximalCollectionsRoundTrip) {
   // Caps are inclusive: a message exactly at its cap must pass both ways.
   Subscribe sub;
-  sub.entries.resize(kMaxSubscribeEntries, SubscribeEntry{TileCoord{Layer::kCoarse, 3, -5, 9}, 77});
+  sub.entries.resize(kMaxSubscribeEntries, SubscribeEntry{TileCoord{Layer::kCoarse, 3, -5, 9}, true, 77});
   TileHashes hashes;
   Hello named;
   named.client_name = std::string(kMaxClientNameBytes, 'n');
@@ -158,8 +158,8 @@ TEST(WireDecode, BlobLengthBeyondItsCapIsOversize) {
   const Message& reg = samples[12].second;
   ASSERT_EQ(message_type(reg), MessageType::kRegionUpdate);
   std::vector<uint8_t> payload = payload_of(reg);
-  // chunk length sits after tile(10) rect(8) base(8) new(8) encoding(1) total(4) offset(4).
-  put<uint32_t>(payload, 43, 0xFFFFFFFFu);
+  // chunk length sits after tile(10) rect(8) patch(1) base(8) new(8) encoding(1) total(4) offset(4).
+  put<uint32_t>(payload, 44, 0xFFFFFFFFu);
   expect_error(decode_payload(type_of(reg), payload), ErrorCode::kOversize, "region.chunk");
 }
 
@@ -257,10 +257,10 @@ TEST(WireDecode, DeformEventBaseVersionAtOrAfterItsOwnSequenceIsRejected) {
 TEST(WireDecode, RegionChunkPastItsTotalOrRawSizeMismatchIsCorrupt) {
   const Message reg = sample_messages()[12].second;
   std::vector<uint8_t> payload = payload_of(reg);
-  put<uint32_t>(payload, 39, 1);  // chunk_offset: 1 + 8 bytes > total 8
+  put<uint32_t>(payload, 40, 1);  // chunk_offset: 1 + 8 bytes > total 8
   expect_error(decode_payload(type_of(reg), payload), ErrorCode::kCorrupt, "region.chunk_offset");
   payload = payload_of(reg);
-  put<uint32_t>(payload, 35, 10);  // total_bytes != 2x2 coarse samples
+  put<uint32_t>(payload, 36, 10);  // total_bytes != 2x2 coarse samples
   expect_error(decode_payload(type_of(reg), payload), ErrorCode::kCorrupt, "region.total_bytes");
   payload = payload_of(reg);
   put<uint16_t>(payload, 10, 6);  // rect.x0 == x1
@@ -282,19 +282,23 @@ TEST(WireDecode, StampImageWhosePixelCountDisagreesWithItsSizeIsCorrupt) {
 
 TEST(WireHandshake, UnknownMajorVersionIsAnErrorNamingBothVersions) {
   Hello h;
-  h.version_major = 2;
+  h.version_major = kProtocolMajor + 1;
   h.version_minor = 5;
+  const std::string theirs = std::to_string(kProtocolMajor + 1) + ".5";
   Result<Message> r = decode_payload(type_of(h), payload_of(h));
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kUnsupported);
   EXPECT_EQ(r.error().field, "hello.version_major");
-  EXPECT_NE(r.error().message.find("2.5"), std::string::npos) << r.error().message;
+  EXPECT_NE(r.error().message.find(theirs), std::string::npos) << r.error().message;
   const std::string ours = std::to_string(kProtocolMajor) + "." + std::to_string(kProtocolMinor);
   EXPECT_NE(r.error().message.find(ours), std::string::npos) << r.error().message;
   const ErrorMsg reply = to_error_message(r.error());
   EXPECT_EQ(reply.code, WireErrorCode::kUnsupported);
-  EXPECT_NE(reply.text.find("2.5"), std::string::npos);
-  EXPECT_EQ(version_mismatch(2, 5).code, WireErrorCode::kUnsupported);
+  EXPECT_NE(reply.text.find(theirs), std::string::npos);
+  EXPECT_EQ(version_mismatch(kProtocolMajor + 1, 5).code, WireErrorCode::kUnsupported);
+  // A 1.x peer (before patches and codec format 3) is refused the same way.
+  h.version_major = 1;
+  EXPECT_EQ(decode_payload(type_of(h), payload_of(h)).error().field, "hello.version_major");
 }
 
 TEST(WireHandshake, HelloWithWrongMagicIsRejected) {
@@ -421,6 +425,33 @@ TEST(FrameDecoder, WholeFrameDecodeRejectsBytesAfterTheFrame) {
   Result<Message> r = decode_frame(*frame);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().field, "frame.payload");
+}
+
+// Protocol 2: a region either replaces the whole tile (no base version) or patches a rect over
+// the version the client holds; anything in between is refused, naming the field.
+TEST(WireDecode, ReplacementOfLessThanTheWholeTileOrWithABaseVersionIsRejected) {
+  RegionUpdate reg = std::get<RegionUpdate>(sample_messages()[12].second);
+  ASSERT_TRUE(reg.patch);
+  reg.patch = false;  // a 2x2 rect is not the whole tile
+  EXPECT_EQ(encode_payload(reg).error().field, "region.base_version");
+  reg.base_version = 0;
+  EXPECT_EQ(encode_payload(reg).error().field, "region.rect");
+  reg.rect = RectI{0, 0, kTileSize, kTileSize};
+  reg.encoding = RegionEncoding::kCodec;
+  EXPECT_TRUE(encode_payload(reg).ok());
+  reg.patch = true;
+  reg.base_version = reg.new_version;
+  EXPECT_EQ(encode_payload(reg).error().field, "region.new_version");
+}
+
+TEST(WireDecode, SubscribeHeldVersionOfATileNotHeldIsRejected) {
+  Subscribe sub;
+  sub.entries.push_back({TileCoord{Layer::kCoarse, 0, 0, 0}, false, 5});
+  EXPECT_EQ(encode_payload(sub).error().field, "subscribe.held_version");
+  sub.entries[0].held = true;
+  EXPECT_TRUE(encode_payload(sub).ok());
+  sub.entries[0].held_version = 0;  // held at the initial terrain: claimable since protocol 2
+  EXPECT_TRUE(encode_payload(sub).ok());
 }
 
 TEST(WireRegion, ChunkedPayloadReassemblesToTheOriginal) {
