@@ -13,6 +13,8 @@
 #include "dem/default_terrain.h"
 #include "gl_test_context.h"
 #include "protocol/normal_map.h"
+#include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_validate.h"
 #include "protocol/surface.h"
 
 namespace loam::render {
@@ -242,6 +244,77 @@ TEST(ClipmapRender, FarFromTheOriginTheSameTerrainRendersTheSameImage) {
     for (size_t i = 3; i < a.size(); i += 4) terrain += a[i] != 0;
     EXPECT_GT(terrain, a.size() / 4 / 8) << "the view shows terrain";
   }
+}
+
+// Per-piece frustum culling drops pieces outside the view and changes no pixel.
+TEST(ClipmapRender, CullingSkipsPiecesWithoutChangingTheImage) {
+  LOAM_REQUIRE_GL();
+  const World& world = default_world();
+  WorldHeightSource source(world);
+  auto target = OffscreenTarget::create(200, 120);
+  ASSERT_TRUE(target.ok());
+  Camera cam = look_at(600, 1200, height_at(world, 600, 1200) + 40, 1100, 800, 30);
+  std::vector<uint8_t> images[2];
+  FrameStats stats[2];
+  for (int cull = 0; cull < 2; ++cull) {
+    RendererConfig cfg;
+    cfg.n = 63;
+    cfg.cull = cull == 1;
+    auto r = ClipmapRenderer::create(source, cfg);
+    ASSERT_TRUE(r.ok());
+    target->begin(0, 0, 0, 0);
+    stats[cull] = (*r)->render(cam, 200, 120);
+    images[cull] = target->read_rgba();
+  }
+  EXPECT_EQ(stats[0].pieces_culled, 0);
+  EXPECT_GT(stats[1].pieces_culled, 0);
+  EXPECT_LT(stats[1].triangles, stats[0].triangles);
+  EXPECT_TRUE(images[0] == images[1]);
+}
+
+// The detail layer shows near the camera: footprints on it change the shading (normal
+// mapping); with detail_displacement they move the finest level's geometry as well.
+TEST(ClipmapRender, DetailLayerShowsInTheShadingAndOptionallyInTheGeometry) {
+  LOAM_REQUIRE_GL();
+  World plain = default_world();
+  World printed = plain;
+  const WorldParams& p = plain.params();
+  for (int i = 0; i < 20; ++i) {
+    StampParams f;
+    f.kind = StampKind::kGaussian;
+    f.layer = Layer::kDetail;
+    f.center_x = 620 + 1.5 * i, f.center_y = 476 + (i % 2 ? 0.6 : -0.6);
+    f.radius = 1.2, f.intensity = -0.5;
+    auto q = validate_stamp(f, p);
+    ASSERT_TRUE(q.ok()) << q.error().describe();
+    ASSERT_TRUE(apply_stamp(printed, *q).ok());
+  }
+  printed.commit(1);
+  auto target = OffscreenTarget::create(240, 160);
+  ASSERT_TRUE(target.ok());
+  const Camera cam = look_at(628, 486, height_at(plain, 628, 486) + 8, 634, 476, height_at(plain, 634, 476));
+  auto draw = [&](const World& w, bool displace, std::vector<float>* depth) {
+    WorldHeightSource source(w);
+    RendererConfig cfg;
+    cfg.n = 63;
+    cfg.detail_displacement = displace;
+    auto r = ClipmapRenderer::create(source, cfg);
+    EXPECT_TRUE(r.ok());
+    target->begin(0, 0, 0, 0);
+    (*r)->render(cam, 240, 160);
+    if (depth) *depth = target->read_depth();
+    return target->read_rgba();
+  };
+  std::vector<float> d_plain, d_shaded, d_displaced;
+  const auto plain_img = draw(plain, false, &d_plain);
+  const auto shaded = draw(printed, false, &d_shaded);
+  (void)draw(printed, true, &d_displaced);
+  size_t pixels = 0;
+  for (size_t i = 0; i < plain_img.size(); i += 4)
+    pixels += plain_img[i] != shaded[i] || plain_img[i + 1] != shaded[i + 1];
+  EXPECT_GT(pixels, 100u) << "the prints change the shading";
+  EXPECT_TRUE(d_plain == d_shaded) << "without displacement the geometry is the coarse layer's";
+  EXPECT_FALSE(d_plain == d_displaced) << "displacement moves the finest level's vertices";
 }
 
 }  // namespace
