@@ -44,6 +44,26 @@ RectI in_level_grid(const RectI& mip0, int64_t s) {
 
 constexpr double kSkirtDepthM = 30.0;  // the earth skirt reaches this far below the lowest terrain
 
+// Calls fn(piece, texel x, texel y) for the pieces a rect of a toroidal region splits into in
+// its `torus`-sized texture (a rect no wider than the torus wraps at most once per axis: up
+// to four pieces), with unpack alignment 1 set; returns the samples covered.
+template <typename Fn>
+int64_t for_each_torus_piece(const RectI& rect, int64_t torus, const Fn& fn) {
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  int64_t texels = 0;
+  for (int64_t y = rect.y0; y < rect.y1;) {
+    const int64_t ty = floor_mod(y, torus), h = std::min(rect.y1 - y, torus - ty);
+    for (int64_t x = rect.x0; x < rect.x1;) {
+      const int64_t tx = floor_mod(x, torus), w = std::min(rect.x1 - x, torus - tx);
+      fn(RectI{x, y, x + w, y + h}, tx, ty);
+      texels += w * h;
+      x += w;
+    }
+    y += h;
+  }
+  return texels;
+}
+
 }  // namespace
 
 Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSource& source,
@@ -146,26 +166,16 @@ std::array<double, 2> ClipmapRenderer::lod_center_samples(const Camera& camera) 
 
 int64_t ClipmapRenderer::upload(Level& level, int32_t mip, const RectI& rect) {
   const int64_t n = tex_size_;
-  int64_t texels = 0;
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  // A rect no wider than the texture wraps at most once per axis: up to four pieces.
-  for (int64_t y = rect.y0; y < rect.y1;) {
-    const int64_t ty = floor_mod(y, n), h = std::min(rect.y1 - y, n - ty);
-    for (int64_t x = rect.x0; x < rect.x1;) {
-      const int64_t tx = floor_mod(x, n), w = std::min(rect.x1 - x, n - tx);
-      scratch_.resize(size_t(w * h));
-      source_->read(mip, {x, y, x + w, y + h}, scratch_);
-      glTextureSubImage2D(level.texture.get(), 0, GLint(tx), GLint(ty), GLsizei(w), GLsizei(h),
-                          GL_RED_INTEGER, GL_UNSIGNED_SHORT, scratch_.data());
-      for (int64_t j = 0; j < h; ++j) {
-        std::copy_n(scratch_.begin() + j * w, w, level.mirror.begin() + (ty + j) * n + tx);
-      }
-      texels += w * h;
-      x += w;
+  return for_each_torus_piece(rect, n, [&](const RectI& piece, int64_t tx, int64_t ty) {
+    const int64_t w = piece.width(), h = piece.height();
+    scratch_.resize(size_t(piece.area()));
+    source_->read(mip, piece, scratch_);
+    glTextureSubImage2D(level.texture.get(), 0, GLint(tx), GLint(ty), GLsizei(w), GLsizei(h), GL_RED_INTEGER,
+                        GL_UNSIGNED_SHORT, scratch_.data());
+    for (int64_t j = 0; j < h; ++j) {
+      std::copy_n(scratch_.begin() + j * w, w, level.mirror.begin() + (ty + j) * n + tx);
     }
-    y += h;
-  }
-  return texels;
+  });
 }
 
 void ClipmapRenderer::update_normals(int32_t l, const RectI& uploaded) {
@@ -204,21 +214,12 @@ int64_t ClipmapRenderer::update_levels(const Camera& camera) {
 
 int64_t ClipmapRenderer::upload_detail(const RectI& rect) {
   const int64_t n = config_.detail_size;
-  int64_t texels = 0;
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  for (int64_t y = rect.y0; y < rect.y1;) {
-    const int64_t ty = floor_mod(y, n), h = std::min(rect.y1 - y, n - ty);
-    for (int64_t x = rect.x0; x < rect.x1;) {
-      const int64_t tx = floor_mod(x, n), w = std::min(rect.x1 - x, n - tx);
-      detail_scratch_.resize(size_t(w * h));
-      source_->read_detail({x, y, x + w, y + h}, detail_scratch_);
-      glTextureSubImage2D(detail_.offsets.get(), 0, GLint(tx), GLint(ty), GLsizei(w), GLsizei(h),
-                          GL_RED_INTEGER, GL_BYTE, detail_scratch_.data());
-      texels += w * h;
-      x += w;
-    }
-    y += h;
-  }
+  const int64_t texels = for_each_torus_piece(rect, n, [&](const RectI& piece, int64_t tx, int64_t ty) {
+    detail_scratch_.resize(size_t(piece.area()));
+    source_->read_detail(piece, detail_scratch_);
+    glTextureSubImage2D(detail_.offsets.get(), 0, GLint(tx), GLint(ty), GLsizei(piece.width()),
+                        GLsizei(piece.height()), GL_RED_INTEGER, GL_BYTE, detail_scratch_.data());
+  });
   // Gradients by central differences: recompute one sample around what changed.
   const RectI region{detail_.region_x + 1, detail_.region_y + 1, detail_.region_x + n - 1,
                      detail_.region_y + n - 1};
