@@ -1,6 +1,7 @@
 #include "client/render/display_terrain.h"
 
 #include <algorithm>
+#include <climits>
 #include <optional>
 
 #include "gpu/gpu_stamper.h"
@@ -321,37 +322,50 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
   return dirty;
 }
 
-uint16_t DisplayTerrain::coarse_at(int32_t mip, int64_t x, int64_t y) const {
-  // (x, y): a mip-0 sample inside the world.
-  const int32_t tx = int32_t(floor_div(x, kTileSize)), ty = int32_t(floor_div(y, kTileSize));
-  if (store_->holds({Layer::kCoarse, 0, tx, ty})) return display_.coarse(x, y);
+DisplayTerrain::TileSource DisplayTerrain::source_for(int32_t mip, int32_t tx, int32_t ty) const {
+  if (store_->holds({Layer::kCoarse, 0, tx, ty})) return {0, display_.coarse_tile(0, tx, ty)};
   const int32_t mips = display_.params().mip_count();
-  auto from_mip = [&](int32_t m) -> std::optional<uint16_t> {
-    const int64_t j = floor_div(x, int64_t(1) << m), k = floor_div(y, int64_t(1) << m);
-    const TileCoord c{Layer::kCoarse, uint8_t(m), int32_t(floor_div(j, kTileSize)),
-                      int32_t(floor_div(k, kTileSize))};
+  // The mip-m tile holding every sample of mip-0 tile (tx, ty) (m >= 1: it spans 2^m tiles).
+  auto from_mip = [&](int32_t m) -> std::optional<TileSource> {
+    const TileCoord c{Layer::kCoarse, uint8_t(m), int32_t(floor_div(tx, int64_t(1) << m)),
+                      int32_t(floor_div(ty, int64_t(1) << m))};
     const std::span<const uint16_t> t = store_->coarse_samples(c);
     if (t.empty()) return std::nullopt;
-    return t[size_t(floor_mod(k, kTileSize) * kTileSize + floor_mod(j, kTileSize))];
+    return TileSource{m, t};
   };
-  // Exact: every mip up to `mip` holds the sample. Then coarser ones, the nearest sample below.
+  // Exact: every mip up to `mip` holds the samples a mip-`mip` level reads. Then coarser ones,
+  // the nearest sample below (while finer tiles load).
   for (int32_t m = std::min(mip, mips - 1); m >= 1; --m) {
-    if (const auto v = from_mip(m)) return *v;
+    if (const auto t = from_mip(m)) return *t;
   }
   for (int32_t m = mip + 1; m < mips; ++m) {
-    if (const auto v = from_mip(m)) return *v;
+    if (const auto t = from_mip(m)) return *t;
   }
-  return 0;
+  return {};
 }
 
 void DisplayTerrain::read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const {
   const RectI w = display_.params().sample_rect();
   const int64_t s = int64_t(1) << mip;
+  // Where samples come from is decided once per mip-0 tile, not per sample.
+  int64_t cached_tx = INT64_MIN, cached_ty = INT64_MIN;
+  TileSource src;
   size_t i = 0;
   for (int64_t y = rect.y0; y < rect.y1; ++y) {
     const int64_t gy = std::clamp(y * s, w.y0, w.y1 - 1);
     for (int64_t x = rect.x0; x < rect.x1; ++x) {
-      out[i++] = coarse_at(mip, std::clamp(x * s, w.x0, w.x1 - 1), gy);
+      const int64_t gx = std::clamp(x * s, w.x0, w.x1 - 1);
+      const int64_t tx = floor_div(gx, kTileSize), ty = floor_div(gy, kTileSize);
+      if (tx != cached_tx || ty != cached_ty) {
+        src = source_for(mip, int32_t(tx), int32_t(ty));
+        cached_tx = tx, cached_ty = ty;
+      }
+      if (src.samples.empty()) {
+        out[i++] = 0;
+        continue;
+      }
+      const int64_t j = gx >> src.mip, k = gy >> src.mip;  // floor: the nearest sample at or below
+      out[i++] = src.samples[size_t(floor_mod(k, kTileSize) * kTileSize + floor_mod(j, kTileSize))];
     }
   }
 }

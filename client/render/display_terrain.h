@@ -117,7 +117,13 @@ class DisplayTerrain final : public HeightSource {
   void stamp(const QuantizedStamp& q);  // queued on the GPU, done at once on the CPU
   void finish(std::vector<DisplayDirty>& dirty);
   void copy_from_store(Layer layer, const RectI& rect);
-  uint16_t coarse_at(int32_t mip, int64_t x, int64_t y) const;
+  // Where the samples of mip-0 tile (tx, ty) come from for a mip-`mip` level: the display's
+  // mip 0 where held, else a held mip tile (empty: nothing held there yet).
+  struct TileSource {
+    int32_t mip = 0;
+    std::span<const uint16_t> samples;
+  };
+  TileSource source_for(int32_t mip, int32_t tx, int32_t ty) const;
   // What a settled prediction should become if it was right: the displayed samples of its
   // reach with this sync's events of other stamps (in server order) applied on top.
   std::vector<int32_t> expected_after(const Pending& p,
