@@ -39,9 +39,14 @@ Timing measure(const Context& ctx, const std::function<void()>& fn, MeasureOptio
     const double spent = std::chrono::duration<double>(t1 - start).count();
     if (int(samples.size()) >= options.min_runs && spent >= options.min_seconds) break;
   }
+  return summarize(std::move(samples));
+}
+
+Timing summarize(std::vector<double> samples) {
+  Timing t;
+  if (samples.empty()) return t;
   std::sort(samples.begin(), samples.end());
   auto pct = [&](double p) { return samples[size_t(p * double(samples.size() - 1) + 0.5)]; };
-  Timing t;
   t.runs = int(samples.size());
   t.median_s = pct(0.5);
   t.p10_s = pct(0.1);

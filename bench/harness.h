@@ -38,6 +38,9 @@ struct MeasureOptions {
 // Runs fn warmup times untimed, then repeatedly timed; returns the distribution.
 Timing measure(const Context& ctx, const std::function<void()>& fn, MeasureOptions options = {});
 
+// The distribution of samples timed some other way (a GPU clock, a loop with its own phases).
+Timing summarize(std::vector<double> samples);
+
 // Bytes per second -> text like "1.23 GB/s".
 std::string format_rate(double bytes_per_second);
 
