@@ -50,7 +50,7 @@ int run_bot(const BotOptions& o) {
   const uint32_t stamps = o.stamps, seed = o.seed;
   const double rate = o.rate;
   client::TerrainClient c;
-  if (const Status st = c.connect(host, port, name, wire::Role::kBot); !st.ok()) {
+  if (const Status st = c.connect(host, port, name, wire::Role::kBot, o.token); !st.ok()) {
     std::fprintf(stderr, "loam-client bot: %s\n", st.error().describe().c_str());
     return 1;
   }

@@ -3,10 +3,13 @@
 //   render   draw one frame or a camera path headless through EGL into PNGs, from a live
 //            session, a DEM, a snapshot or the embedded terrain (client/render/headless.h)
 //   bot      the headless bot (no GL): joins, deforms with seeded random stamps, checks hashes
+//   probe    the health check: joins as a spectator, asks for Stats, prints one line or JSON
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
 #include "client/bot.h"
+#include "client/probe.h"
+#include "protocol/wire/session_token.h"
 #ifdef LOAM_HAVE_RENDER
 #include "client/render/headless.h"
 #endif
@@ -20,12 +23,35 @@ bool parse_size(const std::string& size, int32_t& w, int32_t& h) {
   return std::sscanf(size.c_str(), "%dx%d", &w, &h) == 2 && w > 0 && h > 0 && w <= 16384 && h <= 16384;
 }
 
+// --token, also read from LOAM_TOKEN (keeps a secret off the command line and out of `ps`).
+void add_token_option(CLI::App* cmd, std::string& hex) {
+  cmd->add_option("--token", hex, "Session token (32 hex digits) where the server has tokens")
+      ->envname("LOAM_TOKEN");
+}
+
+// Parses a --token given; false (after saying why) when it is malformed.
+bool parse_token_option(const char* cmd, const std::string& hex,
+                        std::optional<loam::wire::SessionToken>& out) {
+  if (hex.empty()) return true;
+  auto t = loam::wire::parse_session_token(hex, "--token");
+  if (!t) {
+    std::fprintf(stderr, "loam-client %s: %s\n", cmd, t.error().describe().c_str());
+    return false;
+  }
+  out = *t;
+  return true;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace loam;
   CLI::App app{"loam-client: Loam's client (viewer, headless renderer, bot)"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", "loam-client " LOAM_VERSION " (protocol " +
+                                        std::to_string(wire::kProtocolMajor) + "." +
+                                        std::to_string(wire::kProtocolMinor) + ")");
+  std::string token_hex;
 
   client::BotOptions bo;
   auto* bot = app.add_subcommand("bot", "Join a session and deform it with random stamps");
@@ -37,6 +63,18 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.1, 1000.0));
   bot->add_option("--seed", bo.seed)->capture_default_str();
+  add_token_option(bot, token_hex);
+
+  client::ProbeOptions po;
+  double probe_timeout_s = 5.0;
+  auto* probe = app.add_subcommand("probe", "Health check: join as a spectator, print the session's state");
+  probe->add_option("--host", po.host)->capture_default_str();
+  probe->add_option("--port", po.port)->capture_default_str();
+  probe->add_option("--timeout", probe_timeout_s, "Seconds for connect, handshake and Stats")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 600.0));
+  probe->add_flag("--json", po.json, "One JSON object instead of a line of text");
+  add_token_option(probe, token_hex);
 
 #ifdef LOAM_HAVE_RENDER
   render::RenderCommandOptions ro;
@@ -61,6 +99,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   render_cmd->add_option("--view-distance", ro.view_distance, "Meters")->capture_default_str();
   render_cmd->add_option("--fov", ro.fov_y_degrees, "Vertical field of view, degrees")->capture_default_str();
+  add_token_option(render_cmd, token_hex);
 #endif
 
 #ifdef LOAM_HAVE_VIEWER
@@ -83,16 +122,23 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   view_cmd->add_option("--view-distance", vo.renderer.view_distance, "Meters")->capture_default_str();
   view_cmd->add_flag("!--no-vsync", vo.vsync, "Render as fast as possible");
+  add_token_option(view_cmd, token_hex);
 #endif
 
   CLI11_PARSE(app, argc, argv);
-  if (*bot) return client::run_bot(bo);
+  if (*bot) return parse_token_option("bot", token_hex, bo.token) ? client::run_bot(bo) : 2;
+  if (*probe) {
+    if (!parse_token_option("probe", token_hex, po.token)) return 2;
+    po.timeout = std::chrono::milliseconds(int64_t(probe_timeout_s * 1000));
+    return client::run_probe(po);
+  }
 #ifdef LOAM_HAVE_RENDER
   if (*render_cmd) {
     if (!parse_size(size, ro.width, ro.height)) {
       std::fprintf(stderr, "loam-client render: --size wants WIDTHxHEIGHT, got %s\n", size.c_str());
       return 2;
     }
+    if (!parse_token_option("render", token_hex, ro.token)) return 2;
     return render::run_render_command(ro);
   }
 #endif
@@ -102,6 +148,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "loam-client view: --size wants WIDTHxHEIGHT, got %s\n", view_size.c_str());
       return 2;
     }
+    if (!parse_token_option("view", token_hex, vo.token)) return 2;
     return view::run_viewer(vo);
   }
 #endif

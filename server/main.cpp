@@ -36,6 +36,8 @@ int serve(const server::ServerConfig& config) {
   if (config.tick_hz < 1 || config.tick_hz > 1000) throw std::runtime_error("--tick-hz must be in 1..1000");
   const auto kind = gpu::parse_backend_kind(config.backend);
   if (!kind) die(kind.error());
+  const auto access = server::load_access_tokens(config);
+  if (!access) die(access.error());
   auto opened =
       server::open_storage(config.data_dir, config.dem_path, config.stamp_limits, config.stamp_images);
   if (!opened) die(opened.error());
@@ -88,6 +90,10 @@ std::vector<std::string> expand_logs(const std::vector<std::string>& args, std::
 
 int main(int argc, char** argv) {
   CLI::App app{"loam-server: host a Loam terrain session"};
+  app.set_version_flag("--version", "loam-server " LOAM_VERSION " (protocol " +
+                                        std::to_string(wire::kProtocolMajor) + "." +
+                                        std::to_string(wire::kProtocolMinor) + ", log format " +
+                                        std::to_string(log::kLogFormatVersion) + ")");
   app.require_subcommand(1);
   app.set_config("--config", "", "Read options from an INI/TOML file (docs/configuration.md)");
 
@@ -104,6 +110,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   serve_cmd->add_option("--tick-hz", config.tick_hz, "Ticks per second")->capture_default_str();
   serve_cmd->add_option("--editor-token", config.editor_tokens, "Token (32 hex digits) granting editing");
+  serve_cmd->add_option("--tokens-file", config.tokens_file,
+                        "File of 'editor HEX' / 'viewer HEX' lines (a mounted secret)");
   serve_cmd->add_option("--viewer-token", config.viewer_tokens,
                         "Token (32 hex digits) granting viewing only");
   serve_cmd->add_option("--max-clients", config.max_clients)->capture_default_str();

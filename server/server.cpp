@@ -21,17 +21,6 @@ namespace {
 // Tracked version of a subscribed tile the server will replace with a region this tick.
 constexpr uint64_t kNeedsRegion = ~uint64_t(0);
 
-std::optional<wire::SessionToken> parse_token(const std::string& hex) {
-  if (hex.size() != 2 * wire::kSessionTokenBytes) return std::nullopt;
-  wire::SessionToken t{};
-  for (size_t i = 0; i < t.size(); ++i) {
-    unsigned v = 0;
-    if (std::sscanf(hex.c_str() + 2 * i, "%2x", &v) != 1) return std::nullopt;
-    t[i] = uint8_t(v);
-  }
-  return t;
-}
-
 bool editor_role(wire::Role r) { return r != wire::Role::kSpectator; }
 
 std::string hex64(uint64_t v) {
@@ -79,6 +68,12 @@ Server::Server(asio::io_context& io, ServerConfig config, OpenedStorage opened)
       stats_timer_(io),
       signals_(io, SIGINT, SIGTERM) {
   last_snapshot_time_ = Clock::now();
+  // serve() reports bad tokens before it gets here; a caller that did not is failed closed.
+  auto access = load_access_tokens(config_);
+  if (access)
+    access_ = std::move(*access);
+  else
+    access_.deny_all = true;
 }
 
 Server::~Server() = default;
@@ -113,7 +108,16 @@ Status Server::start() {
                           {"port", std::to_string(port_)},
                           {"tick_hz", std::to_string(config_.tick_hz)},
                           {"last_seq", std::to_string(terrain_.last_seq())},
-                          {"world_hash", hex64(terrain_.world().world_hash())}});
+                          {"world_hash", hex64(terrain_.world().world_hash())},
+                          {"access", access_.required() ? "tokens" : "open"},
+                          {"editor_tokens", std::to_string(access_.editors.size())},
+                          {"viewer_tokens", std::to_string(access_.viewers.size())}});
+  if (!access_.required() && config_.bind_address != "127.0.0.1" && config_.bind_address != "::1" &&
+      config_.bind_address != "localhost") {
+    log_event("warning", {{"what",
+                           "no tokens configured on a non-loopback address: anyone who reaches "
+                           "this port can edit (docs/configuration.md, --tokens-file)"}});
+  }
   accept();
   next_tick_ = Clock::now();
   schedule_tick();
@@ -263,27 +267,15 @@ void Server::on_hello(const SessionPtr& s, const wire::Hello& h) {
     close(s, "version mismatch");
     return;
   }
-  const bool tokens_configured = !config_.editor_tokens.empty() || !config_.viewer_tokens.empty();
   wire::Role granted = h.requested_role;
-  if (tokens_configured) {
-    auto matches = [&](const std::vector<std::string>& list) {
-      if (!h.session_token) return false;
-      for (const std::string& t : list) {
-        const auto parsed = parse_token(t);
-        if (parsed && *parsed == *h.session_token) return true;
-      }
-      return false;
-    };
-    if (matches(config_.editor_tokens)) {
-      // granted as requested
-    } else if (matches(config_.viewer_tokens)) {
-      granted = wire::Role::kSpectator;
-    } else {
+  switch (check_access(access_, h.session_token)) {
+    case Access::kAsRequested: break;
+    case Access::kSpectator: granted = wire::Role::kSpectator; break;
+    case Access::kDenied:
       fatal(s, wire::WireErrorCode::kUnauthorized, "hello.session_token",
             h.session_token ? "wrong session token" : "this server requires a session token",
             wire::ByeReason::kKicked);
       return;
-    }
   }
   s->role = granted;
   s->editor = editor_role(granted);

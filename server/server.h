@@ -19,6 +19,7 @@
 
 #include "protocol/wire/framing.h"
 #include "protocol/wire/messages.h"
+#include "server/access_tokens.h"
 #include "server/server_config.h"
 #include "server/storage.h"
 
@@ -95,6 +96,7 @@ class Server {
 
   asio::io_context& io_;
   ServerConfig config_;
+  AccessTokens access_;
   Storage storage_;
   TerrainState terrain_;
   asio::ip::tcp::acceptor acceptor_;

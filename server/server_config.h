@@ -21,8 +21,10 @@ struct ServerConfig {
   std::string backend = "cpu";  // auto | gpu | cpu
   uint32_t tick_hz = 30;
   // Access: with any token configured, a client must present one (hex, 32 digits) in Hello.
+  // Checked at start (load_access_tokens); a Server given unreadable tokens lets nobody in.
   std::vector<std::string> editor_tokens;
   std::vector<std::string> viewer_tokens;
+  std::string tokens_file;  // more tokens, `editor HEX` / `viewer HEX` lines (server/access_tokens.h)
   // Limits.
   uint32_t max_clients = 64;
   uint32_t max_frame_bytes = 1u << 20;

@@ -190,6 +190,7 @@ int run_render_command(const RenderCommandOptions& o) {
     vo.renderer = cfg;
     vo.role = wire::Role::kSpectator;
     vo.name = "render";
+    vo.token = o.token;
     auto v =
         ViewerSession::connect(o.server.substr(0, colon), uint16_t(port), vo, camera_of(frames->front()));
     if (!v) return fail(v.error().describe());

@@ -19,7 +19,7 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
                                                               const ViewerOptions& options,
                                                               std::optional<Camera> initial) {
   std::unique_ptr<ViewerSession> v(new ViewerSession());
-  LOAM_TRY(v->client_.connect(host, port, options.name, options.role));
+  LOAM_TRY(v->client_.connect(host, port, options.name, options.role, options.token));
   const WorldParams& world = v->client_.welcome().world;
   // The coarsest mip first: a few tiles that show the whole world and set the materials.
   std::vector<TileCoord> top;

@@ -106,6 +106,7 @@ render::ViewerOptions session_options(const ViewerAppOptions& o) {
   render::ViewerOptions vo;
   vo.renderer = o.renderer;
   vo.name = o.name;
+  vo.token = o.token;
   vo.role = wire::Role::kPlayer;
   return vo;
 }

@@ -1,0 +1,51 @@
+#include "protocol/wire/session_token.h"
+
+namespace loam::wire {
+namespace {
+
+int hex_value(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+}  // namespace
+
+Result<SessionToken> parse_session_token(std::string_view hex, const std::string& field) {
+  if (hex.size() != 2 * kSessionTokenBytes) {
+    return make_error(ErrorCode::kInvalidArgument, field,
+                      "a session token is " + std::to_string(2 * kSessionTokenBytes) + " hex digits, got " +
+                          std::to_string(hex.size()) + " characters");
+  }
+  SessionToken t{};
+  for (size_t i = 0; i < t.size(); ++i) {
+    const int hi = hex_value(hex[2 * i]), lo = hex_value(hex[2 * i + 1]);
+    if (hi < 0 || lo < 0) {
+      return make_error(ErrorCode::kInvalidArgument, field,
+                        "a session token holds only hex digits (0-9, a-f); character " +
+                            std::to_string(2 * i + (hi < 0 ? 1 : 2)) + " is not one");
+    }
+    t[i] = uint8_t(hi << 4 | lo);
+  }
+  return t;
+}
+
+std::string format_session_token(const SessionToken& token) {
+  static constexpr char kDigits[] = "0123456789abcdef";
+  std::string out;
+  out.reserve(2 * token.size());
+  for (uint8_t b : token) {
+    out.push_back(kDigits[b >> 4]);
+    out.push_back(kDigits[b & 15]);
+  }
+  return out;
+}
+
+bool session_tokens_equal(const SessionToken& a, const SessionToken& b) {
+  uint8_t diff = 0;
+  for (size_t i = 0; i < a.size(); ++i) diff = uint8_t(diff | (a[i] ^ b[i]));
+  return diff == 0;
+}
+
+}  // namespace loam::wire

@@ -1,0 +1,25 @@
+// Session tokens as people write them: 32 hexadecimal digits (16 bytes) in config files,
+// secrets and command lines. The wire carries the 16 bytes (Hello.session_token); this is
+// the one place the text form is parsed and printed, for the server and every client.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "protocol/result.h"
+#include "protocol/wire/messages.h"
+
+namespace loam::wire {
+
+// Exactly 32 hex digits, either case, no prefix or spaces; anything else is kInvalidArgument
+// naming `field` (the flag or file line the text came from).
+Result<SessionToken> parse_session_token(std::string_view hex, const std::string& field = "token");
+
+// 32 lowercase hex digits.
+std::string format_session_token(const SessionToken& token);
+
+// Compares in time independent of where the tokens first differ (no early exit), so response
+// timing tells a guesser nothing about a prefix.
+bool session_tokens_equal(const SessionToken& a, const SessionToken& b);
+
+}  // namespace loam::wire

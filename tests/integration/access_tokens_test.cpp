@@ -1,0 +1,121 @@
+// The server's access tokens: the tokens-file format, the access each token grants, and a
+// server that refuses to start on a token it cannot read instead of running a session
+// nobody can join.
+#include "server/access_tokens.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "client/net/terrain_client.h"
+#include "integration_util.h"
+#include "protocol/wire/session_token.h"
+#include "server/server_config.h"
+#include "server_process.h"
+
+namespace loam::server {
+namespace {
+
+constexpr const char* kEditor = "00112233445566778899aabbccddeeff";
+constexpr const char* kViewer = "ffeeddccbbaa99887766554433221100";
+
+wire::SessionToken tok(const char* hex) { return *wire::parse_session_token(hex); }
+
+TEST(AccessTokens, TokensFileTakesRolesCommentsAndBlankLines) {
+  AccessTokens t;
+  const std::string text =
+      std::string("# who may join\n\neditor ") + kEditor + "\r\n  viewer\t" + kViewer + "  \n";
+  ASSERT_TRUE(parse_tokens_text(text, "tokens", t).ok());
+  ASSERT_EQ(t.editors.size(), 1u);
+  ASSERT_EQ(t.viewers.size(), 1u);
+  EXPECT_EQ(t.editors[0], tok(kEditor));
+  EXPECT_EQ(t.viewers[0], tok(kViewer));
+}
+
+TEST(AccessTokens, TokensFileErrorsNameFileAndLine) {
+  struct Case {
+    std::string text, field, says;
+  };
+  for (const Case& c : std::vector<Case>{
+           {std::string("editor ") + kEditor + "\nadmin " + kViewer + "\n", "tokens:2", "unknown role"},
+           {"# ok\neditor\n", "tokens:2", "expected"},
+           {"viewer 1234\n", "tokens:1", "32 hex digits"},
+       }) {
+    AccessTokens t;
+    const Status st = parse_tokens_text(c.text, "tokens", t);
+    ASSERT_FALSE(st.ok()) << c.text;
+    EXPECT_EQ(st.error().field, c.field);
+    EXPECT_NE(st.error().message.find(c.says), std::string::npos) << st.error().message;
+  }
+}
+
+TEST(AccessTokens, EditorAsRequestedViewerAsSpectatorOthersDenied) {
+  AccessTokens open;
+  EXPECT_EQ(check_access(open, std::nullopt), Access::kAsRequested);
+  AccessTokens t;
+  t.editors.push_back(tok(kEditor));
+  t.viewers.push_back(tok(kViewer));
+  EXPECT_EQ(check_access(t, tok(kEditor)), Access::kAsRequested);
+  EXPECT_EQ(check_access(t, tok(kViewer)), Access::kSpectator);
+  EXPECT_EQ(check_access(t, std::nullopt), Access::kDenied);
+  EXPECT_EQ(check_access(t, tok("0123456789abcdef0123456789abcdef")), Access::kDenied);
+  AccessTokens broken;
+  broken.deny_all = true;  // tokens were configured but could not be read: fail closed
+  EXPECT_EQ(check_access(broken, std::nullopt), Access::kDenied);
+}
+
+TEST(AccessTokens, LoadValidatesFlagsAndFile) {
+  ServerConfig c;
+  c.editor_tokens = {"00112233445566778899aabbccddeefg"};
+  auto bad_flag = load_access_tokens(c);
+  ASSERT_FALSE(bad_flag.ok());
+  EXPECT_EQ(bad_flag.error().field, "--editor-token");
+
+  const std::string dir = test::temp_data_dir("tokens");
+  std::filesystem::create_directories(dir);
+  c.editor_tokens.clear();
+  c.tokens_file = dir + "/missing";
+  EXPECT_EQ(load_access_tokens(c).error().code, ErrorCode::kIo);
+  c.tokens_file = dir + "/empty";
+  std::ofstream(c.tokens_file) << "# nothing yet\n";
+  auto empty = load_access_tokens(c);
+  ASSERT_FALSE(empty.ok());  // an empty secret must not open the session to everyone
+  EXPECT_NE(empty.error().message.find("no token"), std::string::npos);
+  c.tokens_file = dir + "/good";
+  std::ofstream(c.tokens_file) << "viewer " << kViewer << "\n";
+  c.editor_tokens = {kEditor};
+  auto good = load_access_tokens(c);
+  ASSERT_TRUE(good.ok()) << good.error().describe();
+  EXPECT_EQ(good->editors.size(), 1u);
+  EXPECT_EQ(good->viewers.size(), 1u);
+}
+
+TEST(AccessTokens, ServerRefusesToStartOnAMalformedToken) {
+  const std::string dir = test::temp_data_dir("badtoken");
+  test::ServerProcess server;
+  EXPECT_FALSE(server.start(dir, {"--viewer-token", "not-a-token"}));
+  EXPECT_NE(server.log().find("--viewer-token"), std::string::npos) << server.log();
+}
+
+TEST(AccessTokens, TokensFileGrantsRolesToRealClients) {
+  const std::string dir = test::temp_data_dir("tokensfile");
+  std::filesystem::create_directories(dir);
+  const std::string file = dir + "/tokens";
+  std::ofstream(file) << "editor " << kEditor << "\nviewer " << kViewer << "\n";
+  test::ServerProcess server;
+  ASSERT_TRUE(server.start(dir + "/data", {"--tokens-file", file})) << server.log();
+  client::TerrainClient editor, viewer, none;
+  ASSERT_TRUE(editor.connect("127.0.0.1", server.port(), "e", wire::Role::kPlayer, tok(kEditor)).ok());
+  EXPECT_EQ(editor.welcome().granted_role, wire::Role::kPlayer);
+  ASSERT_TRUE(viewer.connect("127.0.0.1", server.port(), "v", wire::Role::kPlayer, tok(kViewer)).ok());
+  EXPECT_EQ(viewer.welcome().granted_role, wire::Role::kSpectator);
+  const Status refused = none.connect("127.0.0.1", server.port(), "n", wire::Role::kPlayer);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kUnauthorized) << refused.error().describe();
+  EXPECT_NE(server.log().find("access=tokens editor_tokens=1 viewer_tokens=1"), std::string::npos);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
+}  // namespace
+}  // namespace loam::server

@@ -1,0 +1,51 @@
+#include "protocol/wire/session_token.h"
+
+#include <gtest/gtest.h>
+
+namespace loam::wire {
+namespace {
+
+TEST(SessionToken, ParsesEitherCaseAndFormatsLowercase) {
+  auto t = parse_session_token("00112233445566778899AABBccddeeff");
+  ASSERT_TRUE(t.ok()) << t.error().describe();
+  EXPECT_EQ((*t)[0], 0x00);
+  EXPECT_EQ((*t)[10], 0xaa);
+  EXPECT_EQ((*t)[15], 0xff);
+  EXPECT_EQ(format_session_token(*t), "00112233445566778899aabbccddeeff");
+}
+
+TEST(SessionToken, RejectsWrongLengthNamingTheField) {
+  for (const char* bad :
+       {"", "0011", "00112233445566778899aabbccddeeff00", " 0112233445566778899aabbccddeeff"}) {
+    auto t = parse_session_token(bad, "--editor-token");
+    ASSERT_FALSE(t.ok()) << bad;
+    EXPECT_EQ(t.error().code, ErrorCode::kInvalidArgument);
+    EXPECT_EQ(t.error().field, "--editor-token");
+  }
+}
+
+TEST(SessionToken, RejectsNonHexCharactersNamingTheirPosition) {
+  // sscanf("%2x") would have read "0x" and "+1" as numbers; a strict parser must not.
+  for (const char* bad : {"0x112233445566778899aabbccddeeff", "+1112233445566778899aabbccddeeff",
+                          "00112233445566778899aabbccddeefg", "0011223344556677 899aabbccddeeff"}) {
+    auto t = parse_session_token(bad);
+    ASSERT_FALSE(t.ok()) << bad;
+    EXPECT_NE(t.error().message.find("character"), std::string::npos) << t.error().message;
+  }
+  auto t = parse_session_token("00112233445566778899aabbccddeefg");
+  EXPECT_NE(t.error().message.find("character 32"), std::string::npos) << t.error().message;
+}
+
+TEST(SessionToken, EqualityLooksAtEveryByte) {
+  const SessionToken a = *parse_session_token("00112233445566778899aabbccddeeff");
+  SessionToken b = a;
+  EXPECT_TRUE(session_tokens_equal(a, b));
+  for (size_t i = 0; i < b.size(); ++i) {
+    b = a;
+    b[i] ^= 0x80;
+    EXPECT_FALSE(session_tokens_equal(a, b)) << i;
+  }
+}
+
+}  // namespace
+}  // namespace loam::wire
