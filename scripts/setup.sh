@@ -1,18 +1,28 @@
 #!/usr/bin/env bash
 # Installs every build, test and benchmark dependency of Loam from Debian's packages.
 # Idempotent: when every package is already installed it does nothing (no apt-get update).
+# `setup.sh --build` installs only what building needs (the container image's build stage).
 set -euo pipefail
 
-PACKAGES=(
+# What building Loam needs (the container image's build stage installs only these: --build).
+BUILD_PACKAGES=(
   # toolchain
-  cmake ninja-build ccache g++ clang libclang-rt-14-dev clang-format pkg-config
+  cmake ninja-build ccache g++ pkg-config
   # libraries
-  libasio-dev libglfw3-dev libglm-dev libzstd-dev libopenimageio-dev openimageio-tools
+  libasio-dev libglfw3-dev libglm-dev libzstd-dev libopenimageio-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgl-dev libepoxy-dev
   libgtest-dev libgmock-dev libcli11-dev libxxhash-dev libimgui-dev liblerc-dev nlohmann-json3-dev
-  # test and benchmark tools
-  xvfb xauth gnuplot-nox gdal-bin
 )
+# What testing, fuzzing and benchmarking need besides.
+TEST_PACKAGES=(
+  clang libclang-rt-14-dev clang-format openimageio-tools
+  xvfb xauth gnuplot-nox gdal-bin
+  # deploy/ checks: the systemd unit (systemd-analyze) and the manifests (YAML)
+  systemd python3-yaml
+)
+
+PACKAGES=("${BUILD_PACKAGES[@]}")
+if [ "${1:-}" != "--build" ]; then PACKAGES+=("${TEST_PACKAGES[@]}"); fi
 
 missing=()
 for p in "${PACKAGES[@]}"; do

@@ -15,12 +15,6 @@ bool contains(const std::vector<wire::SessionToken>& list, const wire::SessionTo
   return found;
 }
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-
 }  // namespace
 
 Access check_access(const AccessTokens& tokens, const std::optional<wire::SessionToken>& presented) {
@@ -29,33 +23,6 @@ Access check_access(const AccessTokens& tokens, const std::optional<wire::Sessio
   if (contains(tokens.editors, *presented)) return Access::kAsRequested;
   if (contains(tokens.viewers, *presented)) return Access::kSpectator;
   return Access::kDenied;
-}
-
-Status parse_tokens_text(std::string_view text, const std::string& source, AccessTokens& out) {
-  size_t line_no = 0;
-  while (!text.empty()) {
-    const size_t end = text.find('\n');
-    std::string_view line = trim(text.substr(0, end));
-    text.remove_prefix(end == std::string_view::npos ? text.size() : end + 1);
-    ++line_no;
-    if (line.empty() || line.front() == '#') continue;
-    const std::string where = source + ":" + std::to_string(line_no);
-    const size_t space = line.find_first_of(" \t");
-    if (space == std::string_view::npos)
-      return make_error(ErrorCode::kInvalidArgument, where, "expected 'editor TOKEN' or 'viewer TOKEN'");
-    const std::string_view role = line.substr(0, space);
-    const std::string_view hex = trim(line.substr(space + 1));
-    std::vector<wire::SessionToken>* list = role == "editor"   ? &out.editors
-                                            : role == "viewer" ? &out.viewers
-                                                               : nullptr;
-    if (!list)
-      return make_error(ErrorCode::kInvalidArgument, where,
-                        "unknown role '" + std::string(role) + "' (editor or viewer)");
-    auto token = wire::parse_session_token(hex, where);
-    if (!token) return token.error();
-    list->push_back(*token);
-  }
-  return {};
 }
 
 Result<AccessTokens> load_access_tokens(const ServerConfig& config) {
@@ -75,7 +42,7 @@ Result<AccessTokens> load_access_tokens(const ServerConfig& config) {
     if (!in) return make_error(ErrorCode::kIo, config.tokens_file, "cannot read the tokens file");
     std::ostringstream text;
     text << in.rdbuf();
-    LOAM_TRY(parse_tokens_text(text.str(), config.tokens_file, out));
+    LOAM_TRY(wire::parse_token_lines(text.str(), config.tokens_file, out));
     if (out.editors.empty() && out.viewers.empty())
       return make_error(ErrorCode::kInvalidArgument, config.tokens_file,
                         "the tokens file holds no token (an empty file would let everyone edit)");

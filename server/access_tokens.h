@@ -11,14 +11,13 @@
 
 #include "protocol/result.h"
 #include "protocol/wire/messages.h"
+#include "protocol/wire/session_token.h"
 
 namespace loam::server {
 
 struct ServerConfig;
 
-struct AccessTokens {
-  std::vector<wire::SessionToken> editors;  // grant the role a client asks for
-  std::vector<wire::SessionToken> viewers;  // grant spectator only
+struct AccessTokens : wire::SessionTokenList {
   bool deny_all = false;  // the configured tokens could not be read: nobody gets in (fail closed)
   bool required() const { return deny_all || !editors.empty() || !viewers.empty(); }
 };
@@ -27,11 +26,6 @@ enum class Access { kAsRequested, kSpectator, kDenied };
 
 // A Hello's token against the tokens (no tokens configured: everyone as requested).
 Access check_access(const AccessTokens& tokens, const std::optional<wire::SessionToken>& presented);
-
-// Adds a tokens file's lines to `out`: `editor HEX` or `viewer HEX`, one per line; blank
-// lines and lines starting with '#' are skipped. `source` names the file in errors, with the
-// line number.
-Status parse_tokens_text(std::string_view text, const std::string& source, AccessTokens& out);
 
 // The flags' tokens and the tokens file's, all validated.
 Result<AccessTokens> load_access_tokens(const ServerConfig& config);

@@ -4,10 +4,12 @@
 //   import, export   DEM files in and out
 //   log dump|summary human views of a deformation log
 //   snapshot info    what a snapshot holds
+//   tokens new       a fresh tokens file (random editor and viewer tokens) for --tokens-file
 #include <CLI/CLI.hpp>
 #include <asio.hpp>
 #include <cstdio>
 #include <filesystem>
+#include <random>
 #include <stdexcept>
 
 #include "dem/dem_export.h"
@@ -15,6 +17,7 @@
 #include "protocol/log/log_file.h"
 #include "protocol/log/log_json.h"
 #include "protocol/snapshot/snapshot.h"
+#include "protocol/wire/session_token.h"
 #include "server/event_log.h"
 #include "server/replay.h"
 #include "server/server.h"
@@ -96,6 +99,8 @@ int main(int argc, char** argv) {
                                         std::to_string(log::kLogFormatVersion) + ")");
   app.require_subcommand(1);
   app.set_config("--config", "", "Read options from an INI/TOML file (docs/configuration.md)");
+  // A misspelt key in the file is an error, not a setting silently left at its default.
+  app.allow_config_extras(CLI::config_extras_mode::error);
 
   server::ServerConfig config;
   auto* serve_cmd = app.add_subcommand("serve", "Run a terrain session over TCP");
@@ -180,6 +185,18 @@ int main(int argc, char** argv) {
   auto* info_cmd = snap_cmd->add_subcommand("info", "Print what a snapshot holds (verifying it)");
   info_cmd->add_option("path", snap_path, "Snapshot folder")->required();
 
+  auto* tokens_cmd = app.add_subcommand("tokens", "Access tokens");
+  tokens_cmd->require_subcommand(1);
+  int new_editors = 1, new_viewers = 1;
+  auto* tokens_new_cmd =
+      tokens_cmd->add_subcommand("new", "Print a tokens file with fresh random tokens (for --tokens-file)");
+  tokens_new_cmd->add_option("--editors", new_editors, "Editor tokens")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
+  tokens_new_cmd->add_option("--viewers", new_viewers, "Viewer tokens")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -187,6 +204,26 @@ int main(int argc, char** argv) {
   }
   try {
     if (*serve_cmd) return serve(config);
+    if (*tokens_new_cmd) {
+      if (new_editors + new_viewers == 0)
+        die(make_error(ErrorCode::kInvalidArgument, "tokens new", "no tokens asked for"));
+      // 128 bits each from the kernel's generator (std::random_device reads getrandom here).
+      std::random_device rd;
+      auto fresh = [&] {
+        wire::SessionToken t;
+        for (size_t i = 0; i < t.size(); i += 4) {
+          const uint32_t v = rd();
+          for (size_t b = 0; b < 4; ++b) t[i + b] = uint8_t(v >> (8 * b));
+        }
+        return wire::format_session_token(t);
+      };
+      std::printf(
+          "# loam-server tokens file (--tokens-file): an editor token lets a client deform,\n"
+          "# a viewer token only watch. Keep this file secret (chmod 600).\n");
+      for (int i = 0; i < new_editors; ++i) std::printf("editor %s\n", fresh().c_str());
+      for (int i = 0; i < new_viewers; ++i) std::printf("viewer %s\n", fresh().c_str());
+      return 0;
+    }
     if (*replay_cmd) {
       const auto segs = expand_logs(logs, &replay_data);
       const auto kind = gpu::parse_backend_kind(replay_backend);

@@ -10,6 +10,12 @@ int hex_value(char c) {
   return -1;
 }
 
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
 }  // namespace
 
 Result<SessionToken> parse_session_token(std::string_view hex, const std::string& field) {
@@ -46,6 +52,33 @@ bool session_tokens_equal(const SessionToken& a, const SessionToken& b) {
   uint8_t diff = 0;
   for (size_t i = 0; i < a.size(); ++i) diff = uint8_t(diff | (a[i] ^ b[i]));
   return diff == 0;
+}
+
+Status parse_token_lines(std::string_view text, const std::string& source, SessionTokenList& out) {
+  size_t line_no = 0;
+  while (!text.empty()) {
+    const size_t end = text.find('\n');
+    std::string_view line = trim(text.substr(0, end));
+    text.remove_prefix(end == std::string_view::npos ? text.size() : end + 1);
+    ++line_no;
+    if (line.empty() || line.front() == '#') continue;
+    const std::string where = source + ":" + std::to_string(line_no);
+    const size_t space = line.find_first_of(" \t");
+    if (space == std::string_view::npos)
+      return make_error(ErrorCode::kInvalidArgument, where, "expected 'editor TOKEN' or 'viewer TOKEN'");
+    const std::string_view role = line.substr(0, space);
+    const std::string_view hex = trim(line.substr(space + 1));
+    std::vector<SessionToken>* list = role == "editor"   ? &out.editors
+                                      : role == "viewer" ? &out.viewers
+                                                         : nullptr;
+    if (!list)
+      return make_error(ErrorCode::kInvalidArgument, where,
+                        "unknown role '" + std::string(role) + "' (editor or viewer)");
+    auto token = parse_session_token(hex, where);
+    if (!token) return token.error();
+    list->push_back(*token);
+  }
+  return {};
 }
 
 }  // namespace loam::wire

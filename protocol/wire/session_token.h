@@ -5,6 +5,7 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "protocol/result.h"
 #include "protocol/wire/messages.h"
@@ -21,5 +22,17 @@ std::string format_session_token(const SessionToken& token);
 // Compares in time independent of where the tokens first differ (no early exit), so response
 // timing tells a guesser nothing about a prefix.
 bool session_tokens_equal(const SessionToken& a, const SessionToken& b);
+
+// A tokens file, the form tokens are kept in as secrets (Kubernetes Secrets, systemd
+// credentials, Docker secrets): `editor HEX` or `viewer HEX`, one per line; blank lines and
+// lines starting with '#' are skipped. The server reads it for who may join
+// (server/access_tokens.h), a client for the token it presents.
+struct SessionTokenList {
+  std::vector<SessionToken> editors;  // grant the role a client asks for
+  std::vector<SessionToken> viewers;  // grant spectator only
+};
+
+// Adds the lines of `text` to `out`; errors name `source` and the line ("tokens:3").
+Status parse_token_lines(std::string_view text, const std::string& source, SessionTokenList& out);
 
 }  // namespace loam::wire

@@ -1,4 +1,4 @@
-// The server's access tokens: the tokens-file format, the access each token grants, and a
+// The server's access tokens: the access each token grants, loading them, and a
 // server that refuses to start on a token it cannot read instead of running a session
 // nobody can join.
 #include "server/access_tokens.h"
@@ -21,34 +21,6 @@ constexpr const char* kEditor = "00112233445566778899aabbccddeeff";
 constexpr const char* kViewer = "ffeeddccbbaa99887766554433221100";
 
 wire::SessionToken tok(const char* hex) { return *wire::parse_session_token(hex); }
-
-TEST(AccessTokens, TokensFileTakesRolesCommentsAndBlankLines) {
-  AccessTokens t;
-  const std::string text =
-      std::string("# who may join\n\neditor ") + kEditor + "\r\n  viewer\t" + kViewer + "  \n";
-  ASSERT_TRUE(parse_tokens_text(text, "tokens", t).ok());
-  ASSERT_EQ(t.editors.size(), 1u);
-  ASSERT_EQ(t.viewers.size(), 1u);
-  EXPECT_EQ(t.editors[0], tok(kEditor));
-  EXPECT_EQ(t.viewers[0], tok(kViewer));
-}
-
-TEST(AccessTokens, TokensFileErrorsNameFileAndLine) {
-  struct Case {
-    std::string text, field, says;
-  };
-  for (const Case& c : std::vector<Case>{
-           {std::string("editor ") + kEditor + "\nadmin " + kViewer + "\n", "tokens:2", "unknown role"},
-           {"# ok\neditor\n", "tokens:2", "expected"},
-           {"viewer 1234\n", "tokens:1", "32 hex digits"},
-       }) {
-    AccessTokens t;
-    const Status st = parse_tokens_text(c.text, "tokens", t);
-    ASSERT_FALSE(st.ok()) << c.text;
-    EXPECT_EQ(st.error().field, c.field);
-    EXPECT_NE(st.error().message.find(c.says), std::string::npos) << st.error().message;
-  }
-}
 
 TEST(AccessTokens, EditorAsRequestedViewerAsSpectatorOthersDenied) {
   AccessTokens open;

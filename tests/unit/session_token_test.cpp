@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <vector>
+
 namespace loam::wire {
 namespace {
 
@@ -44,6 +46,37 @@ TEST(SessionToken, EqualityLooksAtEveryByte) {
     b = a;
     b[i] ^= 0x80;
     EXPECT_FALSE(session_tokens_equal(a, b)) << i;
+  }
+}
+
+constexpr const char* kEditor = "00112233445566778899aabbccddeeff";
+constexpr const char* kViewer = "ffeeddccbbaa99887766554433221100";
+
+TEST(SessionTokenLines, TokensFileTakesRolesCommentsAndBlankLines) {
+  SessionTokenList t;
+  const std::string text =
+      std::string("# who may join\n\neditor ") + kEditor + "\r\n  viewer\t" + kViewer + "  \n";
+  ASSERT_TRUE(parse_token_lines(text, "tokens", t).ok());
+  ASSERT_EQ(t.editors.size(), 1u);
+  ASSERT_EQ(t.viewers.size(), 1u);
+  EXPECT_EQ(t.editors[0], *parse_session_token(kEditor));
+  EXPECT_EQ(t.viewers[0], *parse_session_token(kViewer));
+}
+
+TEST(SessionTokenLines, TokensFileErrorsNameFileAndLine) {
+  struct Case {
+    std::string text, field, says;
+  };
+  for (const Case& c : std::vector<Case>{
+           {std::string("editor ") + kEditor + "\nadmin " + kViewer + "\n", "tokens:2", "unknown role"},
+           {"# ok\neditor\n", "tokens:2", "expected"},
+           {"viewer 1234\n", "tokens:1", "32 hex digits"},
+       }) {
+    SessionTokenList t;
+    const Status st = parse_token_lines(c.text, "tokens", t);
+    ASSERT_FALSE(st.ok()) << c.text;
+    EXPECT_EQ(st.error().field, c.field);
+    EXPECT_NE(st.error().message.find(c.says), std::string::npos) << st.error().message;
   }
 }
 
