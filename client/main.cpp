@@ -5,14 +5,11 @@
 //   bot      the headless bot (no GL): joins, deforms with seeded random stamps, checks hashes
 //   probe    the health check: joins as a spectator, asks for Stats, prints one line or JSON
 #include <CLI/CLI.hpp>
-#include <cctype>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
 
 #include "client/bot.h"
 #include "client/probe.h"
-#include "protocol/wire/session_token.h"
+#include "client/token_options.h"
 #ifdef LOAM_HAVE_RENDER
 #include "client/render/headless.h"
 #endif
@@ -26,55 +23,6 @@ bool parse_size(const std::string& size, int32_t& w, int32_t& h) {
   return std::sscanf(size.c_str(), "%dx%d", &w, &h) == 2 && w > 0 && h > 0 && w <= 16384 && h <= 16384;
 }
 
-// Where a client's session token comes from: --token (also LOAM_TOKEN, which keeps it off
-// the command line and out of `ps`) or --token-file (a mounted secret: the bare token, or
-// the server's tokens file, of which an editing command takes the first editor token and a
-// watching one the first viewer token).
-struct TokenSource {
-  std::string hex, file;
-};
-
-void add_token_options(CLI::App* cmd, TokenSource& src) {
-  auto* t = cmd->add_option("--token", src.hex, "Session token (32 hex digits) where the server has tokens")
-                ->envname("LOAM_TOKEN");
-  cmd->add_option("--token-file", src.file, "File holding the token, or a loam-server tokens file")
-      ->envname("LOAM_TOKEN_FILE")
-      ->excludes(t);
-}
-
-loam::Result<loam::wire::SessionToken> token_from_file(const std::string& path, bool editing) {
-  using namespace loam;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return make_error(ErrorCode::kIo, path, "cannot read the token file");
-  std::ostringstream text;
-  text << in.rdbuf();
-  std::string s = text.str();
-  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
-  if (s.size() == 2 * wire::kSessionTokenBytes && s.find_first_of(" \t\n#") == std::string::npos)
-    return wire::parse_session_token(s, path);
-  wire::SessionTokenList list;
-  LOAM_TRY(wire::parse_token_lines(s, path, list));
-  const auto& first = editing ? list.editors : list.viewers;
-  const auto& second = editing ? list.viewers : list.editors;
-  if (!first.empty()) return first.front();
-  if (!second.empty()) return second.front();
-  return make_error(ErrorCode::kNotFound, path, "the file holds no token");
-}
-
-// Resolves the token options; false (after saying why) when the token is unusable.
-bool resolve_token(const char* cmd, const TokenSource& src, bool editing,
-                   std::optional<loam::wire::SessionToken>& out) {
-  if (src.hex.empty() && src.file.empty()) return true;
-  auto t = src.file.empty() ? loam::wire::parse_session_token(src.hex, "--token")
-                            : token_from_file(src.file, editing);
-  if (!t) {
-    std::fprintf(stderr, "loam-client %s: %s\n", cmd, t.error().describe().c_str());
-    return false;
-  }
-  out = *t;
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -84,7 +32,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "loam-client " LOAM_VERSION " (protocol " +
                                         std::to_string(wire::kProtocolMajor) + "." +
                                         std::to_string(wire::kProtocolMinor) + ")");
-  TokenSource token_src;
+  client::TokenSource token_src;
 
   client::BotOptions bo;
   auto* bot = app.add_subcommand("bot", "Join a session and deform it with random stamps");
@@ -96,7 +44,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.1, 1000.0));
   bot->add_option("--seed", bo.seed)->capture_default_str();
-  add_token_options(bot, token_src);
+  client::add_token_options(bot, token_src);
 
   client::ProbeOptions po;
   double probe_timeout_s = 5.0;
@@ -107,7 +55,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.1, 600.0));
   probe->add_flag("--json", po.json, "One JSON object instead of a line of text");
-  add_token_options(probe, token_src);
+  client::add_token_options(probe, token_src);
 
 #ifdef LOAM_HAVE_RENDER
   render::RenderCommandOptions ro;
@@ -132,7 +80,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   render_cmd->add_option("--view-distance", ro.view_distance, "Meters")->capture_default_str();
   render_cmd->add_option("--fov", ro.fov_y_degrees, "Vertical field of view, degrees")->capture_default_str();
-  add_token_options(render_cmd, token_src);
+  client::add_token_options(render_cmd, token_src);
 #endif
 
 #ifdef LOAM_HAVE_VIEWER
@@ -155,13 +103,14 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   view_cmd->add_option("--view-distance", vo.renderer.view_distance, "Meters")->capture_default_str();
   view_cmd->add_flag("!--no-vsync", vo.vsync, "Render as fast as possible");
-  add_token_options(view_cmd, token_src);
+  client::add_token_options(view_cmd, token_src);
 #endif
 
   CLI11_PARSE(app, argc, argv);
-  if (*bot) return resolve_token("bot", token_src, true, bo.token) ? client::run_bot(bo) : 2;
+  if (*bot)
+    return client::resolve_token("loam-client bot", token_src, true, bo.token) ? client::run_bot(bo) : 2;
   if (*probe) {
-    if (!resolve_token("probe", token_src, false, po.token)) return 2;
+    if (!client::resolve_token("loam-client probe", token_src, false, po.token)) return 2;
     po.timeout = std::chrono::milliseconds(int64_t(probe_timeout_s * 1000));
     return client::run_probe(po);
   }
@@ -171,7 +120,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "loam-client render: --size wants WIDTHxHEIGHT, got %s\n", size.c_str());
       return 2;
     }
-    if (!resolve_token("render", token_src, false, ro.token)) return 2;
+    if (!client::resolve_token("loam-client render", token_src, false, ro.token)) return 2;
     return render::run_render_command(ro);
   }
 #endif
@@ -181,7 +130,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "loam-client view: --size wants WIDTHxHEIGHT, got %s\n", view_size.c_str());
       return 2;
     }
-    if (!resolve_token("view", token_src, true, vo.token)) return 2;
+    if (!client::resolve_token("loam-client view", token_src, true, vo.token)) return 2;
     return view::run_viewer(vo);
   }
 #endif

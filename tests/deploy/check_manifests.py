@@ -2,8 +2,9 @@
 """Checks deploy/'s manifests against the programs they run (tests/deploy/deploy_test.sh).
 
 - Every command line in the Dockerfile (ENTRYPOINT, CMD, HEALTHCHECK), the compose files
-  and the Kubernetes manifests (containers' command + args, exec probes) runs loam-server
-  or loam-client with flags that program's --help lists, for the subcommand they follow.
+  and the Kubernetes manifests (containers' command + args, exec probes) runs loam-server,
+  loam-client or loam-probe with flags that program's --help lists, for the subcommand they
+  follow.
 - Every key of an ini file (deploy/server.ini, the ConfigMap's server.ini) is a
   `loam-server serve` flag.
 - The image's runtime packages provide every shared library the installed programs link,
@@ -50,11 +51,11 @@ def check_command(argv, where):
     if not argv:
         return
     program = os.path.basename(str(argv[0]))
-    if program not in ("loam-server", "loam-client"):
-        problems.append(f"{where}: runs {program}, not loam-server or loam-client")
+    if program not in ("loam-server", "loam-client", "loam-probe"):
+        problems.append(f"{where}: runs {program}, not loam-server, loam-client or loam-probe")
         return
     checked["commands"] += 1
-    subs = subcommands(program)
+    subs = subcommands(program) if program != "loam-probe" else set()
     subcommand = None
     for token in map(str, argv[1:]):
         if subcommand is None and token in subs:
@@ -65,7 +66,7 @@ def check_command(argv, where):
             checked["flags"] += 1
             if not flag_listed(flag, help_text(program, subcommand)):
                 problems.append(f"{where}: {program} {subcommand or ''} has no flag {flag}")
-    if subcommand is None:
+    if subcommand is None and program != "loam-probe":
         problems.append(f"{where}: {program} without a subcommand")
 
 
@@ -134,7 +135,7 @@ base_image = re.compile(r"^(libc|libm|libdl|libpthread|librt|libstdc\+\+|libgcc_
 sanitizers = re.compile(r"^lib(a|ub|l|t)san\.so")
 # libepoxy opens these with dlopen, so no NEEDED entry names them.
 needed = {"libEGL.so.1", "libOpenGL.so.0", "libGL.so.1", "libEGL_mesa.so.0", "dri/swrast_dri.so"}
-for program in ("loam-server", "loam-client", "loam"):
+for program in ("loam-server", "loam-client", "loam-probe", "loam"):
     out = subprocess.run(["readelf", "-d", os.path.join(BIN, program)], capture_output=True, text=True, check=True)
     needed |= set(re.findall(r"\(NEEDED\)\s+Shared library: \[([^\]]+)\]", out.stdout))
 for lib in sorted(needed):

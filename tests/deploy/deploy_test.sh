@@ -30,7 +30,7 @@ fail() {
 echo "== 1. cmake --install"
 cmake --install "$build" --prefix "$root/prefix" >"$root/install.log" || fail "cmake --install: $(cat "$root/install.log")"
 bin="$root/prefix/bin"
-for p in loam-server loam-client loam; do test -x "$bin/$p" || fail "$p not installed"; done
+for p in loam-server loam-client loam-probe loam; do test -x "$bin/$p" || fail "$p not installed"; done
 test -f "$root/prefix/share/loam/server.ini" || fail "server.ini not installed"
 test -f "$root/prefix/share/loam/loam-server@.service" || fail "the unit not installed"
 test -f "$root/prefix/share/doc/loam/deploy.md" || fail "deploy.md not installed"
@@ -93,7 +93,7 @@ grep -q "requires a session token" "$root/refused.txt" || fail "refusal without 
 "$bin/loam-client" bot --port "$port" --stamps 20 --rate 100 --seed 3 --token-file "$tokens" >"$root/bot.txt" ||
   fail "bot: $(cat "$root/bot.txt")"
 grep -q "20/20 stamps accepted" "$root/bot.txt" || fail "bot: $(cat "$root/bot.txt")"
-json=$("$bin/loam-client" probe --port "$port" --token-file "$tokens" --json) || fail "probe --json"
+json=$("$bin/loam-probe" --port "$port" --token-file "$tokens" --json) || fail "loam-probe --json"
 echo "$json" | grep -q '"sequence":20,' || fail "probe after 20 stamps: $json"
 stop_server
 ls "$data/snapshots" | grep -q "snapshot-0*20$" || fail "no shutdown snapshot at sequence 20: $(ls "$data/snapshots")"
@@ -101,8 +101,12 @@ ls "$data/snapshots" | grep -q "snapshot-0*20$" || fail "no shutdown snapshot at
 start_server 2
 port=$(cat "$root/port")
 grep -q "event=recovered .*last_seq=20" "$root/server.2.log" || fail "no recovery to sequence 20"
-LOAM_TOKEN=$(sed -n 's/^viewer //p' "$tokens") "$bin/loam-client" probe --port "$port" --json | grep -q '"sequence":20,' ||
-  fail "probe (LOAM_TOKEN) after recovery"
+LOAM_TOKEN=$(sed -n 's/^viewer //p' "$tokens") "$bin/loam-probe" --port "$port" --json | grep -q '"sequence":20,' ||
+  fail "loam-probe (LOAM_TOKEN) after recovery"
+if "$bin/loam-probe" --port "$port" --token 0123456789abcdef0123456789abcdef --timeout 3 2>"$root/wrong.txt"; then
+  fail "a probe with a wrong token was let in"
+fi
+grep -q "wrong session token" "$root/wrong.txt" || fail "refusal without a reason: $(cat "$root/wrong.txt")"
 stop_server
 
 # A misspelt key is an error at start, not a default kept quietly.

@@ -75,6 +75,7 @@ class ServerProcess {
 
   uint16_t port() const { return port_; }
   bool running() const { return pid_ > 0; }
+  pid_t pid() const { return pid_; }
 
   void kill9() {
     if (pid_ <= 0) return;
