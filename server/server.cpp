@@ -393,8 +393,13 @@ void Server::send(const SessionPtr& s, const wire::Message& m) {
     log_event("encode_error", {{"client", std::to_string(s->id)}, {"error", frame.error().describe()}});
     return;
   }
-  s->queued_bytes += frame->size();
-  s->out.push_back(std::move(*frame));
+  send_frame(s, std::move(*frame));
+}
+
+void Server::send_frame(const SessionPtr& s, std::vector<uint8_t> frame) {
+  if (s->closed) return;
+  s->queued_bytes += frame.size();
+  s->out.push_back(std::move(frame));
   if (s->queued_bytes > config_.max_queue_bytes && s->state != Session::State::kClosing) {
     // A client that does not read must not hold the server's memory: drop it.
     log_event("drop", {{"client", std::to_string(s->id)},
@@ -405,13 +410,19 @@ void Server::send(const SessionPtr& s, const wire::Message& m) {
     finish_close(s);
     return;
   }
-  flush(s);
+  if (!in_tick_) flush(s);
 }
 
 void Server::flush(const SessionPtr& s) {
   if (s->writing || s->out.empty() || s->closed) return;
   s->writing = true;
-  asio::async_write(s->socket, asio::buffer(s->out.front()), [this, s](const asio::error_code& ec, size_t n) {
+  // The front frames, gathered (writev): the deque keeps them in place until written.
+  constexpr size_t kMaxGatherBuffers = 64;
+  std::vector<asio::const_buffer> buffers;
+  const size_t count = std::min(s->out.size(), kMaxGatherBuffers);
+  buffers.reserve(count);
+  for (size_t i = 0; i < count; ++i) buffers.push_back(asio::buffer(s->out[i]));
+  asio::async_write(s->socket, buffers, [this, s, count](const asio::error_code& ec, size_t n) {
     s->writing = false;
     if (s->closed) return;
     if (ec) {
@@ -420,8 +431,10 @@ void Server::flush(const SessionPtr& s) {
       return;
     }
     stats_.bytes_out += n;
-    s->queued_bytes -= s->out.front().size();
-    s->out.pop_front();
+    for (size_t i = 0; i < count; ++i) {
+      s->queued_bytes -= s->out.front().size();
+      s->out.pop_front();
+    }
     if (s->out.empty() && s->state == Session::State::kClosing) {
       finish_close(s);
       return;
@@ -558,6 +571,17 @@ void Server::send_hashes(const SessionPtr& s) {
 void Server::tick() {
   const auto t0 = Clock::now();
   ++tick_;
+  in_tick_ = true;
+  struct FlushAtEnd {  // on every way out of the tick, shutdown included
+    Server* server;
+    ~FlushAtEnd() {
+      server->in_tick_ = false;
+      // A copy: a failed write can close a session, which erases it (posted, but be safe).
+      std::vector<SessionPtr> all;
+      for (auto& [id, s] : server->sessions_) all.push_back(s);
+      for (const SessionPtr& s : all) server->flush(s);
+    }
+  } flush_at_end{this};
   std::vector<PendingDeform> batch = std::move(pending_);
   pending_.clear();
   for (auto& [id, s] : sessions_) s->pending_this_tick = 0;
@@ -603,23 +627,30 @@ void Server::tick() {
       }
       if (!applied) continue;
       const AppliedStamp& a = *applied;
+      // One encoding of the event for every client it goes to.
+      wire::DeformEvent ev;
+      ev.global_seq = a.seq;
+      ev.origin_client_id = a.client_id;
+      ev.stamp = a.stamp;
+      ev.base_versions = a.base_versions;
+      if (ev.base_versions.size() > wire::kMaxEventTiles) ev.base_versions.resize(0);  // regions only
+      auto event_frame = wire::encode_frame(ev, wire::kAbsoluteMaxFrameBytes);
+      if (!event_frame)  // no event then: every client gets the changed tiles as regions
+        log_event("encode_error",
+                  {{"seq", std::to_string(a.seq)}, {"error", event_frame.error().describe()}});
       for (auto& [id, s] : sessions_) {
         if (s->state != Session::State::kReady) continue;
         bool touches = false;
         for (const wire::TileVersion& bv : a.base_versions) touches = touches || s->subs.count(bv.tile);
         if (!touches) continue;
-        wire::DeformEvent ev;
-        ev.global_seq = a.seq;
-        ev.origin_client_id = a.client_id;
-        ev.stamp = a.stamp;
-        ev.base_versions = a.base_versions;
-        if (ev.base_versions.size() > wire::kMaxEventTiles) ev.base_versions.resize(0);  // regions only
-        send(s, ev);
-        ++stats_.events_sent;
+        if (event_frame) {
+          send_frame(s, *event_frame);
+          ++stats_.events_sent;
+        }
         // The client's rule (client/net/confirmed_store): it applies the stamp to the mip-0
         // tiles of the stamp's layer it holds when each is at the listed base version (and,
         // for a footprint, it holds every listed one). Mip > 0 tiles always come as regions.
-        bool can_apply = !ev.base_versions.empty();
+        bool can_apply = event_frame && !ev.base_versions.empty();
         for (const wire::TileVersion& bv : a.base_versions) {
           if (bv.tile.mip != 0 || bv.tile.layer != a.stamp.layer) continue;
           const auto it = s->subs.find(bv.tile);
