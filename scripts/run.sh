@@ -12,7 +12,7 @@ cd "$(dirname "$0")/.."
 
 bash scripts/setup.sh
 cmake -S . -B build/release -G Ninja -DCMAKE_BUILD_TYPE=Release -DLOAM_BUILD_TESTS=OFF >/dev/null
-ninja -C build/release -j "$(nproc)" loam loam-server loam-client
+ninja -C build/release -j "$(nproc)" loam loam-server loam-client loam-probe
 
 port="${LOAM_PORT:-7878}"
 data="${LOAM_DATA_DIR:-loam-data}"
@@ -20,9 +20,9 @@ data="${LOAM_DATA_DIR:-loam-data}"
 ./build/release/server/loam-server serve --port "$port" --data-dir "$data" --backend auto "$@" &
 server=$!
 trap 'kill -INT $server 2>/dev/null; wait $server' INT TERM
-for _ in $(seq 100); do  # wait until it accepts connections
-  (exec 3<>/dev/tcp/127.0.0.1/"$port") 2>/dev/null && break
-  sleep 0.1
+for _ in $(seq 300); do  # until a real handshake works (recovery can replay a long log first)
+  ./build/release/client/loam-probe --port "$port" --timeout 1 2>/dev/null && break
+  sleep 0.2
 done
 ./build/release/client/loam-client bot --port "$port" --name bot-a --seed 1 --stamps 200 --rate 20 &
 bot_a=$!
@@ -37,6 +37,7 @@ else
 fi
 viewer=$!
 wait $bot_a $bot_b $viewer || true
+./build/release/client/loam-probe --port "$port" || true
 if [ -n "${LOAM_RUN_SECONDS:-}" ]; then
   sleep "$LOAM_RUN_SECONDS"
   kill -INT $server
