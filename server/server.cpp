@@ -66,7 +66,8 @@ Server::Server(asio::io_context& io, ServerConfig config, OpenedStorage opened)
       acceptor_(io),
       tick_timer_(io),
       stats_timer_(io),
-      signals_(io, SIGINT, SIGTERM) {
+      signals_(io, SIGINT, SIGTERM),
+      reload_signal_(io, SIGHUP) {
   last_snapshot_time_ = Clock::now();
   // serve() reports bad tokens before it gets here; a caller that did not is failed closed.
   auto access = load_access_tokens(config_);
@@ -104,6 +105,7 @@ Status Server::start() {
   signals_.async_wait([this](const asio::error_code& e, int sig) {
     if (!e) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
   });
+  wait_for_reload();
   log_event("listening", {{"address", config_.bind_address},
                           {"port", std::to_string(port_)},
                           {"tick_hz", std::to_string(config_.tick_hz)},
@@ -129,6 +131,27 @@ Status Server::start() {
     });
   }
   return {};
+}
+
+void Server::wait_for_reload() {
+  reload_signal_.async_wait([this](const asio::error_code& e, int) {
+    if (e) return;  // cancelled at shutdown
+    reload_tokens();
+    wait_for_reload();
+  });
+}
+
+void Server::reload_tokens() {
+  auto access = load_access_tokens(config_);
+  if (!access) {
+    // The tokens in force stay: a half-written secret must not lock everyone out.
+    log_event("tokens_reload_failed", {{"error", access.error().describe()}});
+    return;
+  }
+  access_ = std::move(*access);
+  log_event("tokens_reloaded", {{"access", access_.required() ? "tokens" : "open"},
+                                {"editor_tokens", std::to_string(access_.editors.size())},
+                                {"viewer_tokens", std::to_string(access_.viewers.size())}});
 }
 
 void Server::accept() {
@@ -788,6 +811,7 @@ void Server::shutdown(const std::string& reason) {
   tick_timer_.cancel();
   stats_timer_.cancel();
   signals_.cancel();
+  reload_signal_.cancel();
   if (!failed_) {
     // Stamps still queued were never acknowledged: dropping them loses nothing promised.
     pending_.clear();

@@ -76,6 +76,8 @@ class Server {
   // Queues an encoded frame (one encoding shared by every client a DeformEvent goes to).
   void send_frame(const SessionPtr& s, std::vector<uint8_t> frame);
   // Writes the queued frames, up to kMaxGatherBuffers of them in one gathered write.
+  void wait_for_reload();
+  void reload_tokens();
   void flush(const SessionPtr& s);
   void violation(const SessionPtr& s, wire::WireErrorCode code, const std::string& field,
                  const std::string& text);
@@ -106,6 +108,8 @@ class Server {
   asio::steady_timer tick_timer_;
   asio::steady_timer stats_timer_;
   asio::signal_set signals_;
+  // SIGHUP: the tokens are read again (a rotated secret); connected clients keep their roles.
+  asio::signal_set reload_signal_;
   std::chrono::steady_clock::time_point next_tick_;
   std::chrono::steady_clock::time_point last_snapshot_time_;
   std::map<uint32_t, SessionPtr> sessions_;

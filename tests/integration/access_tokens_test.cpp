@@ -4,9 +4,13 @@
 #include "server/access_tokens.h"
 
 #include <gtest/gtest.h>
+#include <signal.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <random>
+#include <thread>
 
 #include "client/net/terrain_client.h"
 #include "integration_util.h"
@@ -86,6 +90,55 @@ TEST(AccessTokens, TokensFileGrantsRolesToRealClients) {
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ErrorCode::kUnauthorized) << refused.error().describe();
   EXPECT_NE(server.log().find("access=tokens editor_tokens=1 viewer_tokens=1"), std::string::npos);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
+// Waits (polling the server's log file, with a deadline) for a line holding `what`.
+bool log_shows(const test::ServerProcess& server, const std::string& what) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (server.log().find(what) != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+TEST(AccessTokens, SighupReadsARotatedTokensFileAndKeepsTheOldOnesWhenTheNewFileIsBad) {
+  constexpr const char* kRotated = "0123456789abcdef0123456789abcdef";
+  const std::string dir = test::temp_data_dir("rotate");
+  const std::string file = dir + "/tokens";
+  auto write_tokens = [&](const std::string& text) {  // as a mounted secret changes: a rename
+    std::ofstream(file + ".new") << text;
+    std::filesystem::rename(file + ".new", file);
+  };
+  write_tokens(std::string("editor ") + kEditor + "\n");
+  test::ServerProcess server;
+  ASSERT_TRUE(server.start(dir + "/data", {"--tokens-file", file})) << server.log();
+  client::TerrainClient before;
+  ASSERT_TRUE(before.connect("127.0.0.1", server.port(), "before", wire::Role::kPlayer, tok(kEditor)).ok());
+
+  write_tokens(std::string("editor ") + kRotated + "\n");
+  ::kill(server.pid(), SIGHUP);
+  ASSERT_TRUE(log_shows(server, "event=tokens_reloaded access=tokens editor_tokens=1")) << server.log();
+  client::TerrainClient rotated, stale;
+  EXPECT_TRUE(
+      rotated.connect("127.0.0.1", server.port(), "rotated", wire::Role::kPlayer, tok(kRotated)).ok());
+  const Status refused =
+      stale.connect("127.0.0.1", server.port(), "stale", wire::Role::kPlayer, tok(kEditor));
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, ErrorCode::kUnauthorized);
+  // A client that joined before keeps its role: its stamp is accepted.
+  std::mt19937 rng(3);
+  const auto sent = before.deform(test::random_stamp(rng, before.welcome().world));
+  ASSERT_TRUE(sent.ok());
+  ASSERT_TRUE(before.wait_until([&] { return before.ack(*sent).has_value(); }, std::chrono::seconds(30)));
+  EXPECT_TRUE(before.ack(*sent)->accepted);
+
+  write_tokens("editor not-hex\n");
+  ::kill(server.pid(), SIGHUP);
+  ASSERT_TRUE(log_shows(server, "event=tokens_reload_failed")) << server.log();
+  client::TerrainClient still;
+  EXPECT_TRUE(still.connect("127.0.0.1", server.port(), "still", wire::Role::kPlayer, tok(kRotated)).ok());
   EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 
