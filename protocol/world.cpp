@@ -1,10 +1,14 @@
 #include "protocol/world.h"
 
+#include <xxhash.h>
+
 #include <algorithm>
 #include <cassert>
 #include <cstring>
 
 #include "protocol/tile_hash.h"
+#include "protocol/wire/byte_stream.h"
+#include "protocol/wire/fields.h"
 
 namespace loam {
 
@@ -310,7 +314,21 @@ std::vector<TileCoord> World::stored_detail_tiles() const {
   return out;
 }
 
-uint64_t World::world_hash() const {
+uint64_t world_hash_of(const WorldParams& p, uint64_t content_hash) {
+  // Little-endian fields in WorldParams' declaration order (the log's layout), then the
+  // content hash: XXH3-64, seed 0.
+  std::vector<uint8_t> b;
+  wire::WriteStream s(b);
+  WorldParams copy = p;
+  (void)wire::serialize_world_params(s, copy);
+  uint64_t c = content_hash;
+  (void)s.bits(c, "world.content_hash");
+  return XXH3_64bits(b.data(), b.size());
+}
+
+uint64_t World::world_hash() const { return world_hash_of(params_, content_hash()); }
+
+uint64_t World::content_hash() const {
   WorldHasher h;
   const CoarseMip& m0 = mips_[0];
   for (int64_t ty = m0.tiles.y0; ty < m0.tiles.y1; ++ty) {

@@ -80,8 +80,13 @@ class World {
   // Sets a tile's version without changing its content (loading a snapshot, which stores
   // versions beside the samples). Returns false for a tile outside the world.
   bool restore_version(const TileCoord& c, uint64_t version);
-  // Hash of every mip-0 coarse tile and every stored detail tile, in canonical order.
+  // The world's identity: its parameters (spacing, vertical scale and offset, detail factor
+  // and scale, origin, size) and its content_hash(), so a re-import at another scale hashes
+  // differently (docs/world.md, "World hash").
   uint64_t world_hash() const;
+  // Hash of every mip-0 coarse tile and every stored detail tile, in canonical order: the
+  // content alone (what version 1 logs and older snapshots recorded as the world hash).
+  uint64_t content_hash() const;
   size_t detail_tile_count() const { return detail_.size(); }
   std::vector<TileCoord> stored_detail_tiles() const;
 
@@ -107,5 +112,8 @@ class World {
   // Pending dirty rects per mip-0 tile (tile-local coordinates), merged per tile.
   std::unordered_map<TileCoord, RectI, TileCoordHash> pending_;
 };
+
+// World::world_hash of a world with these parameters and this content hash.
+uint64_t world_hash_of(const WorldParams& params, uint64_t content_hash);
 
 }  // namespace loam

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Runs on a lent GPU machine, over the kit scripts/device-kit.sh built (carried as .devkit):
+# Runs on a machine with a GPU, over the kit scripts/device-kit.sh built (carried as .devkit):
 # the GPU conformance tests (>= 1,000 random stamps, texel for texel against the CPU
 # reference; CI=true, so a missing EGL display fails instead of skipping) and the gpu-stamps
 # suite. Everything it writes goes to $OUT: gpu.txt, conformance.log, bench.log and
-# gpu-stamps-results.tgz (the suite's report, CSVs and plot data). Runs here too, on llvmpipe.
+# gpu-stamps-results.tgz (the suite's report, CSVs and plot data). Runs without a GPU too, on llvmpipe.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 

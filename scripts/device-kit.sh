@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
-# Builds the kit that measures Loam's GPU paths on a lent GPU machine (the workplace's device
-# tool), where none of our Debian libraries are installed. The kit, in .devkit/ (ignored):
+# Builds the kit that measures Loam's GPU paths on a machine with a GPU where none of our
+# Debian libraries are installed. The kit, in .devkit/ (ignored):
 #   bin/  loam_gpu_conformance_tests, loam-bench-gpu (Release, libstdc++ linked in)
 #   lib/  their shared libraries and this machine's glibc with its loader, so the binaries run
 #         whatever the other machine's C library is
 #   gl/   Debian's glvnd loader packages (libEGL.so.1 and friends), unpacked there only when
 #         that machine has no libEGL.so.1
-# Then, with the device tool: run `bash scripts/device-gpu-check.sh`, carrying `.devkit`.
+# Then, on that machine, with .devkit beside the working tree: bash scripts/device-gpu-check.sh
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -35,6 +35,10 @@ std::string hex64(uint64_t v) {
 
 [[noreturn]] void die(const Error& e) { throw std::runtime_error(e.describe()); }
 
+// Exit status of a verification tool (replay, log dump, log summary) that could not read the
+// whole log: its output does not describe the session (docs/configuration.md).
+constexpr int kExitDamaged = 3;
+
 int serve(const server::ServerConfig& config) {
   if (config.tick_hz < 1 || config.tick_hz > 1000) throw std::runtime_error("--tick-hz must be in 1..1000");
   const auto kind = gpu::parse_backend_kind(config.backend);
@@ -61,6 +65,28 @@ int serve(const server::ServerConfig& config) {
                      {"truncated_bytes", std::to_string(r.truncated_bytes)},
                      {"last_seq", std::to_string(r.last_seq)}});
   if (!r.damage.empty()) server::log_event("log_repaired", {{"damage", r.damage}});
+  for (const std::string& d : r.older_damage)
+    server::log_event("older_segment_damaged",
+                      {{"damage", d}, {"effect", "none: a newer snapshot covers it"}});
+  for (const std::string& d : r.images_damaged) server::log_event("stamp_image_damaged", {{"why", d}});
+  if (r.partial_snapshots_removed > 0)
+    server::log_event("partial_snapshots_removed", {{"count", std::to_string(r.partial_snapshots_removed)}});
+  if (r.limits_changed) {
+    const StampLimits& now = opened->storage.limits();
+    server::log_event(
+        "limits_recorded",
+        {{"recorded_before",
+          r.recorded_limits ? "max_radius=" + std::to_string(r.recorded_limits->max_radius_samples) +
+                                  " max_steps=" + std::to_string(r.recorded_limits->max_shockwave_steps) +
+                                  " max_cells=" + std::to_string(r.recorded_limits->max_shockwave_cells)
+                            : std::string("none (log format 1)")},
+         {"now", "max_radius=" + std::to_string(now.max_radius_samples) +
+                     " max_steps=" + std::to_string(now.max_shockwave_steps) +
+                     " max_cells=" + std::to_string(now.max_shockwave_cells)},
+         {"effect",
+          "logged stamps replayed under the recorded limits; new stamps are checked against the new ones "
+          "(a new log segment records them)"}});
+  }
   for (const StampTexture* t : opened->terrain.textures().all()) {
     char id[20];
     std::snprintf(id, sizeof id, "%016llx", (unsigned long long)t->id);
@@ -160,6 +186,9 @@ int main(int argc, char** argv) {
                          "Texture-stamp image the session registered (repeatable)");
   replay_cmd->add_option("--backend", replay_backend, "Stamp backend: auto, gpu or cpu")
       ->capture_default_str();
+  bool allow_damaged = false;
+  replay_cmd->add_flag("--allow-damaged", allow_damaged,
+                       "Replay the records before a damaged tail and exit 0 (default: exit 3, no hash)");
 
   std::string dem_in, out_path;
   auto* import_cmd = app.add_subcommand("import", "Import a DEM and report its quantization");
@@ -178,6 +207,19 @@ int main(int argc, char** argv) {
   summary_cmd->add_option("logs", logs, "Segment files or a data folder")->required();
   bool summary_json = false;
   summary_cmd->add_flag("--json", summary_json, "Print JSON instead of text");
+  for (auto* c : {dump_cmd, summary_cmd}) {
+    c->add_flag("--allow-damaged", allow_damaged, "Exit 0 even when a segment is damaged (default: exit 3)");
+  }
+  std::string repair_segment;
+  uint64_t repair_offset = 0;
+  auto* repair_cmd = log_cmd->add_subcommand(
+      "repair", "Cut the last segment at its damage (drops the damaged record and everything after it)");
+  repair_cmd->add_option("segment", repair_segment, "Segment file, or a data folder (its last segment)")
+      ->required();
+  repair_cmd
+      ->add_option("--at", repair_offset,
+                   "The damage's byte offset, as `log dump` reports it (required: confirms what is dropped)")
+      ->required();
 
   auto* snap_cmd = app.add_subcommand("snapshot", "Snapshot tools");
   snap_cmd->require_subcommand(1);
@@ -228,11 +270,15 @@ int main(int argc, char** argv) {
       const auto segs = expand_logs(logs, &replay_data);
       const auto kind = gpu::parse_backend_kind(replay_backend);
       if (!kind) die(kind.error());
-      auto r = server::replay_log(segs, replay_data, until, *kind, replay_images);
-      if (!r) die(r.error());
-      std::printf("records %llu, last sequence %llu, failed stamps %llu\n", (unsigned long long)r->records,
-                  (unsigned long long)r->last_seq, (unsigned long long)r->failed_stamps);
-      if (!r->tail_damage.empty()) std::printf("ignored damaged tail: %s\n", r->tail_damage.c_str());
+      auto r = server::replay_log(segs, replay_data, until, *kind, replay_images, allow_damaged);
+      if (!r) {
+        std::fprintf(stderr, "loam-server: error: %s\n", r.error().describe().c_str());
+        return r.error().code == ErrorCode::kCorrupt ? kExitDamaged : 1;
+      }
+      std::printf("records %llu, last sequence %llu\n", (unsigned long long)r->records,
+                  (unsigned long long)r->last_seq);
+      if (!r->tail_damage.empty())
+        std::printf("ignored damaged tail (--allow-damaged): %s\n", r->tail_damage.c_str());
       std::printf("world hash %s\n", hex64(r->world.world_hash()).c_str());
       const RectI all = r->world.params().sample_rect();
       if (!replay_png.empty() && !export_png16(r->world, all, replay_png).ok())
@@ -260,7 +306,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*export_cmd) {
-      auto opened = server::open_storage(export_dir, "", {});
+      auto opened = server::read_session(export_dir);
       if (!opened) die(opened.error());
       const World& w = opened->terrain.world();
       const bool exr = out_path.size() > 4 && out_path.substr(out_path.size() - 4) == ".exr";
@@ -275,9 +321,15 @@ int main(int argc, char** argv) {
       std::string dir;
       const auto segs = expand_logs(logs, &dir);
       std::vector<log::SegmentScan> scans;
+      std::vector<std::string> damaged;
       for (const std::string& s : segs) {
         auto scan = log::read_segment(s);
-        if (!scan) die(scan.error());
+        if (!scan) {
+          // An unreadable segment: the others are still shown, and the exit says so.
+          damaged.push_back(scan.error().describe());
+          continue;
+        }
+        if (scan->tail_error) damaged.push_back(s + ": " + scan->tail_error->describe());
         scans.push_back(std::move(*scan));
       }
       if (*dump_cmd) {
@@ -286,6 +338,37 @@ int main(int argc, char** argv) {
         const auto sum = log::summarize(scans);
         std::fputs((summary_json ? log::summary_to_json(sum) : log::summary_to_text(sum)).c_str(), stdout);
       }
+      for (const std::string& d : damaged) std::fprintf(stderr, "loam-server: damaged: %s\n", d.c_str());
+      if (!damaged.empty() && !allow_damaged) return kExitDamaged;
+      return 0;
+    }
+    if (*repair_cmd) {
+      std::string dir;
+      auto segs = expand_logs({repair_segment}, &dir);
+      if (segs.empty()) die(make_error(ErrorCode::kNotFound, repair_segment, "no log segments"));
+      const std::string& seg = segs.back();
+      auto scan = log::read_segment(seg);
+      if (!scan) die(scan.error());
+      if (!scan->tail_error) {
+        std::printf("%s: clean, nothing to repair\n", seg.c_str());
+        return 0;
+      }
+      if (scan->damage_offset != repair_offset) {
+        die(make_error(ErrorCode::kInvalidArgument, "--at",
+                       seg + " is damaged at byte offset " + std::to_string(scan->damage_offset) + ", not " +
+                           std::to_string(repair_offset) + " (" + scan->tail_error->describe() + ")"));
+      }
+      auto bytes = log::read_file(seg);
+      if (!bytes) die(bytes.error());
+      const uint64_t dropped = bytes->size() - scan->good_bytes;
+      const auto cut = log::truncate_segment(seg, scan->good_bytes);
+      if (!cut.ok()) die(cut.error());
+      std::printf(
+          "%s: cut at byte offset %zu: dropped %llu bytes (at most %llu records) after sequence %llu (%s)\n",
+          seg.c_str(), scan->good_bytes, (unsigned long long)dropped,
+          (unsigned long long)((dropped + log::kRecordOverheadBytes + log::kStampRecordBodyBytes - 1) /
+                               (log::kRecordOverheadBytes + log::kStampRecordBodyBytes)),
+          (unsigned long long)scan->last_seq(), scan->tail_error->describe().c_str());
       return 0;
     }
     if (*info_cmd) {

@@ -3,6 +3,7 @@
 #include "dem/stamp_texture_io.h"
 #include "gpu/stamp_backend.h"
 #include "protocol/log/log_file.h"
+#include "server/stamp_image_store.h"
 #include "server/terrain_source.h"
 #include "server/terrain_state.h"
 
@@ -10,9 +11,26 @@ namespace loam::server {
 
 Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const std::string& data_dir,
                                 uint64_t until_seq, gpu::BackendKind backend,
-                                const std::vector<std::string>& stamp_images) {
+                                const std::vector<std::string>& stamp_images, bool allow_damaged) {
   if (segments.empty()) return make_error(ErrorCode::kInvalidArgument, "log", "no log segments given");
-  auto scans = log::read_log(segments);
+  // With allow_damaged, the log ends at the first damaged segment: its records before the
+  // damage replay, and the segments after it (which cannot chain to it) are left out.
+  std::vector<std::string> readable = segments;
+  std::string left_out;
+  if (allow_damaged) {
+    for (size_t i = 0; i < segments.size(); ++i) {
+      auto scan = log::read_segment(segments[i]);
+      const bool damaged = !scan || scan->tail != log::TailState::kClean;
+      if (!damaged) continue;
+      readable.resize(scan ? i + 1 : i);
+      if (segments.size() > readable.size())
+        left_out = "; " + std::to_string(segments.size() - readable.size()) + " segment(s) after it left out";
+      if (!scan) left_out = scan.error().describe() + left_out;
+      break;
+    }
+    if (readable.empty()) return make_error(ErrorCode::kCorrupt, segments.front(), left_out);
+  }
+  auto scans = log::read_log(readable);
   if (!scans) return scans.error();
   const log::SegmentHeader& first = scans->front().header.header;
   if (first.base_seq != 0) {
@@ -20,21 +38,43 @@ Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const 
                       "replay starts at segment 0 (this segment continues from sequence " +
                           std::to_string(first.base_seq) + ")");
   }
-  auto world = load_described_terrain(first.initial, data_dir);
+  for (size_t i = 0; i < scans->size(); ++i) {
+    const log::SegmentScan& scan = (*scans)[i];
+    if (scan.tail == log::TailState::kClean || !scan.tail_error || allow_damaged) continue;
+    return make_error(ErrorCode::kCorrupt, segments[i],
+                      std::string("damaged (") + log::to_string(scan.tail) + ") at byte offset " +
+                          std::to_string(scan.damage_offset) + ": " + scan.tail_error->describe() +
+                          "; the records after it cannot be read, so the hash would not be the session's "
+                          "(--allow-damaged replays what can be read)");
+  }
+  auto world = load_described_terrain(first.initial, first.world, data_dir);
   if (!world) return world.error();
   TerrainState terrain(std::move(*world), 0);
+  if (!data_dir.empty()) {
+    const LoadedImages stored = load_stamp_images(data_dir, terrain.textures());
+    (void)stored;  // a damaged image fails the record that needs it, by name
+  }
   for (const std::string& f : stamp_images) {
     auto id = register_stamp_texture_file(terrain.textures(), f);
     if (!id) return id.error();
   }
   if (backend != gpu::BackendKind::kCpu) {
-    auto made = gpu::make_stamp_backend(backend, terrain.world(), &terrain.textures(), terrain.limits());
+    // The widest limits: each segment's own are checked by TerrainState::apply.
+    const StampLimits widest{kHardMaxRadiusSamples, kHardMaxShockwaveSteps, kHardMaxShockwaveCells};
+    auto made = gpu::make_stamp_backend(backend, terrain.world(), &terrain.textures(), widest);
     if (!made) return made.error();
     terrain.set_backend(std::move(*made));
   }
-  ReplayResult out{World(first.world, 0), 0, 0, 0, {}};
-  for (const log::SegmentScan& scan : *scans) {
-    if (scan.tail != log::TailState::kClean && scan.tail_error) out.tail_damage = scan.tail_error->describe();
+  ReplayResult out{World(first.world, 0), 0, 0, {}};
+  for (size_t i = 0; i < scans->size(); ++i) {
+    const log::SegmentScan& scan = (*scans)[i];
+    if (scan.tail != log::TailState::kClean && scan.tail_error)
+      out.tail_damage = segments[i] + ": " + scan.tail_error->describe() + left_out;
+    else if (!left_out.empty() && i + 1 == scans->size())
+      out.tail_damage = left_out;
+    // Each segment's records mean what they meant under the limits it recorded (version 1
+    // segments recorded none: the defaults).
+    terrain.set_limits(scan.header.header.has_limits ? scan.header.header.limits : StampLimits{});
     for (const log::LogRecord& r : scan.records) {
       if (r.global_seq > until_seq) break;
       if (r.global_seq != terrain.last_seq() + 1) {
@@ -42,7 +82,12 @@ Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const 
                           "sequence gap: expected " + std::to_string(terrain.last_seq() + 1) + ", found " +
                               std::to_string(r.global_seq));
       }
-      if (!terrain.apply(r.stamp, r.global_seq, r.client_id)) ++out.failed_stamps;
+      if (auto applied = terrain.apply(r.stamp, r.global_seq, r.client_id); !applied) {
+        return make_error(applied.error().code, "log",
+                          "record " + std::to_string(r.global_seq) + " (" + to_string(r.stamp.kind) +
+                              ", client " + std::to_string(r.client_id) + ", tick " + std::to_string(r.tick) +
+                              ") of " + segments[i] + " fails to apply: " + applied.error().describe());
+      }
       ++out.records;
     }
   }

@@ -69,6 +69,9 @@ Server::Server(asio::io_context& io, ServerConfig config, OpenedStorage opened)
       signals_(io, SIGINT, SIGTERM),
       reload_signal_(io, SIGHUP) {
   last_snapshot_time_ = Clock::now();
+  // Ticks continue the log's: its writer refuses a tick that goes backwards, and a restarted
+  // server must be able to log at once.
+  tick_ = storage_.last_tick();
   // serve() reports bad tokens before it gets here; a caller that did not is failed closed.
   auto access = load_access_tokens(config_);
   if (access)
@@ -372,6 +375,17 @@ void Server::on_deform(const SessionPtr& s, const wire::Deform& d) {
     reject(wire::WireErrorCode::kUnauthorized, "role", "viewers cannot deform");
     return;
   }
+  if (!storage_.writable()) {
+    // Not the client's fault: refused, not counted as a violation.
+    wire::DeformAck ack;
+    ack.client_seq = d.client_seq;
+    ack.accepted = false;
+    ack.reject_code = wire::WireErrorCode::kIo;
+    ack.field = "storage.unavailable";
+    ++stats_.deforms_rejected;
+    send(s, ack);
+    return;
+  }
   const auto now = Clock::now();
   s->tokens =
       std::min(config_.deform_burst, s->tokens + std::chrono::duration<double>(now - s->refill).count() *
@@ -609,12 +623,17 @@ void Server::tick() {
   pending_.clear();
   for (auto& [id, s] : sessions_) s->pending_this_tick = 0;
 
+  if (!storage_.writable()) try_resume_storage(t0);
+  if (!batch.empty() && !storage_.writable()) {
+    refuse_batch(batch);
+    batch.clear();
+  }
   if (!batch.empty()) {
     // 1. Sequence and log the whole tick, then one fsync: the durability point.
     uint64_t seq = terrain_.last_seq();
     for (const PendingDeform& p : batch) {
       const Status st = storage_.append({++seq, tick_, p.client_id, p.stamp});
-      if (!st.ok()) {
+      if (!st.ok()) {  // a broken invariant (sequence or tick), not the disk
         log_event("fatal", {{"error", st.error().describe()}});
         failed_ = true;
         shutdown("log append failed");
@@ -622,11 +641,20 @@ void Server::tick() {
       }
     }
     if (const Status st = storage_.sync(); !st.ok()) {
-      log_event("fatal", {{"error", st.error().describe()}});
-      failed_ = true;
-      shutdown("log sync failed");
-      return;
+      // A full disk or an I/O error: nothing of this tick is durable (the writer cut the
+      // file back), so nothing of it is applied or acknowledged. The server keeps serving
+      // reads and hashes, refuses edits, and retries the log with a growing interval.
+      log_event("storage_unavailable",
+                {{"error", st.error().describe()}, {"refused", std::to_string(batch.size())}});
+      ++stats_.storage_failures;
+      resume_backoff_s_ = kResumeBackoffMinS;
+      next_resume_try_ =
+          t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(resume_backoff_s_));
+      refuse_batch(batch);
+      batch.clear();
     }
+  }
+  if (!batch.empty()) {
     // 2. Apply, acknowledge, stream events; note tiles a client cannot reproduce itself.
     // Per (client, tile): the version the client held before this tick's first change it could
     // not follow (none: unknown) and the union of the samples changed since (tile-local).
@@ -726,7 +754,36 @@ void Server::tick() {
   }
 }
 
+void Server::refuse_batch(const std::vector<PendingDeform>& batch) {
+  for (const PendingDeform& p : batch) {
+    ++stats_.deforms_rejected;
+    auto sender = p.session.lock();
+    if (!sender) continue;
+    wire::DeformAck ack;
+    ack.client_seq = p.client_seq;
+    ack.accepted = false;
+    ack.reject_code = wire::WireErrorCode::kIo;
+    ack.field = "storage.unavailable";
+    send(sender, ack);
+  }
+}
+
+void Server::try_resume_storage(Clock::time_point now) {
+  if (now < next_resume_try_) return;
+  if (const Status st = storage_.resume(terrain_.last_seq()); !st.ok()) {
+    resume_backoff_s_ = std::min(resume_backoff_s_ * 2.0, kResumeBackoffMaxS);
+    next_resume_try_ =
+        now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(resume_backoff_s_));
+    log_event("storage_retry",
+              {{"error", st.error().describe()}, {"next_in_s", std::to_string(resume_backoff_s_)}});
+    return;
+  }
+  log_event("storage_resumed", {{"seq", std::to_string(terrain_.last_seq())}});
+}
+
 void Server::maybe_snapshot(bool force) {
+  if (!storage_.writable()) return;  // the log must be writable to start the next segment
+  if (!force && Clock::now() < snapshot_retry_after_) return;
   const uint64_t since = terrain_.last_seq() - storage_.last_snapshot_seq();
   const double age = std::chrono::duration<double>(Clock::now() - last_snapshot_time_).count();
   const bool due = force || (config_.snapshot_every_stamps > 0 && since >= config_.snapshot_every_stamps) ||
@@ -735,12 +792,21 @@ void Server::maybe_snapshot(bool force) {
   // header already describes): a snapshot would add nothing.
   if (!due || since == 0 || terrain_.last_seq() == 0) return;
   const auto t0 = Clock::now();
-  auto path = storage_.snapshot(terrain_);
+  auto path = storage_.snapshot(terrain_, tick_);
   last_snapshot_time_ = Clock::now();
   if (!path) {
-    log_event("snapshot_error", {{"error", path.error().describe()}});
+    // Nothing is left behind (write_snapshot removes its partial folder); retrying at once
+    // on a full disk would only churn, so the interval grows.
+    snapshot_backoff_s_ = snapshot_backoff_s_ == 0
+                              ? kSnapshotBackoffMinS
+                              : std::min(snapshot_backoff_s_ * 2.0, kSnapshotBackoffMaxS);
+    snapshot_retry_after_ = last_snapshot_time_ + std::chrono::duration_cast<Clock::duration>(
+                                                      std::chrono::duration<double>(snapshot_backoff_s_));
+    log_event("snapshot_error",
+              {{"error", path.error().describe()}, {"retry_in_s", std::to_string(snapshot_backoff_s_)}});
     return;
   }
+  snapshot_backoff_s_ = 0;
   log_event("snapshot",
             {{"path", *path},
              {"seq", std::to_string(terrain_.last_seq())},
@@ -767,7 +833,9 @@ void Server::report_stats() {
                       {"partial_regions_sent", std::to_string(stats_.partial_regions_sent)},
                       {"max_queue_bytes", std::to_string(max_queue)},
                       {"tick_p50_ms", std::to_string(pct(0.5))},
-                      {"tick_p99_ms", std::to_string(pct(0.99))}});
+                      {"tick_p99_ms", std::to_string(pct(0.99))},
+                      {"storage", storage_.writable() ? "ok" : "refusing edits"},
+                      {"storage_failures", std::to_string(stats_.storage_failures)}});
   if (stopping_) return;
   stats_timer_.expires_after(
       std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config_.stats_interval_s)));
@@ -815,7 +883,9 @@ void Server::shutdown(const std::string& reason) {
   if (!failed_) {
     // Stamps still queued were never acknowledged: dropping them loses nothing promised.
     pending_.clear();
-    if (const Status st = storage_.sync(); !st.ok()) log_event("fatal", {{"error", st.error().describe()}});
+    if (storage_.writable()) {
+      if (const Status st = storage_.sync(); !st.ok()) log_event("fatal", {{"error", st.error().describe()}});
+    }
     maybe_snapshot(true);
   }
   std::vector<SessionPtr> all;

@@ -32,6 +32,7 @@ struct ServerStats {
   uint64_t bytes_in = 0, bytes_out = 0;
   uint64_t regions_sent = 0, partial_regions_sent = 0, events_sent = 0;
   uint64_t tick_overruns = 0;
+  uint64_t storage_failures = 0;  // syncs that failed (a full disk): edits refused until resumed
 };
 
 class Server {
@@ -96,6 +97,10 @@ class Server {
   void send_hashes(const SessionPtr& s);
   bool valid_tile(const TileCoord& c) const;
   void maybe_snapshot(bool force);
+  // Rejects deforms that could not be made durable (ack: i/o error, field storage.unavailable).
+  void refuse_batch(const std::vector<PendingDeform>& batch);
+  // While the log is not writable: reopen it when the back-off interval has passed.
+  void try_resume_storage(std::chrono::steady_clock::time_point now);
   void report_stats();
   wire::Stats stats_message(uint32_t request_id) const;
 
@@ -112,6 +117,14 @@ class Server {
   asio::signal_set reload_signal_;
   std::chrono::steady_clock::time_point next_tick_;
   std::chrono::steady_clock::time_point last_snapshot_time_;
+  // A failed snapshot is retried after a growing interval (a full disk).
+  static constexpr double kSnapshotBackoffMinS = 5.0, kSnapshotBackoffMaxS = 300.0;
+  double snapshot_backoff_s_ = 0;
+  std::chrono::steady_clock::time_point snapshot_retry_after_{};
+  // A failed log sync refuses edits; reopening is retried after a growing interval.
+  static constexpr double kResumeBackoffMinS = 0.25, kResumeBackoffMaxS = 10.0;
+  double resume_backoff_s_ = kResumeBackoffMinS;
+  std::chrono::steady_clock::time_point next_resume_try_{};
   std::map<uint32_t, SessionPtr> sessions_;
   std::vector<PendingDeform> pending_;
   uint32_t next_client_id_ = 1;

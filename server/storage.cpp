@@ -1,11 +1,15 @@
 #include "server/storage.h"
 
+#include <sys/statvfs.h>
+
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 
 #include "dem/stamp_texture_io.h"
 #include "protocol/snapshot/snapshot.h"
+#include "server/stamp_image_store.h"
 #include "server/terrain_source.h"
 
 namespace loam::server {
@@ -17,6 +21,27 @@ uint64_t now_unix_us() {
   return uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(
                       std::chrono::system_clock::now().time_since_epoch())
                       .count());
+}
+
+// Only the header of a segment (recovery picks where to start before reading records).
+Result<log::DecodedHeader> read_segment_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return make_error(ErrorCode::kNotFound, path, "cannot open");
+  std::vector<uint8_t> bytes(12 + log::kMaxHeaderBodyBytes + 8);
+  in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size()));
+  bytes.resize(size_t(in.gcount()));
+  auto h = log::decode_segment_header(bytes);
+  if (!h) {
+    Error e = h.error();
+    e.message = path + ": " + e.message;
+    return e;
+  }
+  return h;
+}
+
+std::string describe_record(const log::LogRecord& r, const std::string& segment) {
+  return "record " + std::to_string(r.global_seq) + " (" + to_string(r.stamp.kind) + ", client " +
+         std::to_string(r.client_id) + ", tick " + std::to_string(r.tick) + ") of " + segment;
 }
 
 }  // namespace
@@ -35,24 +60,79 @@ std::vector<std::string> list_segments(const std::string& data_dir) {
   return out;
 }
 
+Result<uint64_t> free_bytes(const std::string& path) {
+  struct statvfs st {};
+  if (::statvfs(path.c_str(), &st) != 0) return make_error(ErrorCode::kIo, path, "statvfs failed");
+  return uint64_t(st.f_bavail) * uint64_t(st.f_frsize);
+}
+
 struct StorageOpener {
-  static Status register_images(TerrainState& terrain, const std::vector<std::string>& files) {
+  // Registers the options' images and every image the folder holds, and stores the new ones.
+  static Status register_images(TerrainState& terrain, const std::string& data_dir,
+                                const std::vector<std::string>& files, RecoveryReport& report,
+                                bool read_only = false) {
+    const LoadedImages stored = load_stamp_images(data_dir, terrain.textures());
+    report.images_loaded = stored.loaded;
+    report.images_damaged = stored.damaged;
     for (const std::string& f : files) {
       auto id = register_stamp_texture_file(terrain.textures(), f);
       if (!id) return id.error();
     }
+    if (read_only) return {};
+    auto written = store_stamp_images(data_dir, terrain.textures());
+    if (!written) return written.error();
     return {};
   }
 
+  static std::string segment_path(const std::string& data_dir, uint32_t index) {
+    return (fs::path(data_dir) / "log" / log::segment_file_name(index)).string();
+  }
+
+  // The last segment, recovered: a torn tail is cut off; a segment whose header never became
+  // complete (a crash while it was created: it can hold no record) is removed.
+  static Result<log::Recovery> recover_last(std::vector<std::string>& segments, RecoveryReport& report) {
+    for (;;) {
+      auto recovered = log::recover_segment(segments.back());
+      if (recovered) return recovered;
+      const Error& e = recovered.error();
+      std::error_code ec;
+      const uint64_t size = fs::file_size(segments.back(), ec);
+      const bool torn_header = segments.size() > 1 && e.field.rfind("log.", 0) == 0 &&
+                               (e.code == ErrorCode::kTruncated || size == 0);
+      if (!torn_header) {
+        if (e.field == "record.checksum" || e.code == ErrorCode::kCorrupt) {
+          Error advice = e;
+          advice.message +=
+              ". Recovery does not drop written records by itself: inspect with `loam-server log dump`, "
+              "then `loam-server log repair` to cut the segment at the damage";
+          return advice;
+        }
+        return e;
+      }
+      report.damage += "removed " + segments.back() + " (" + std::to_string(size) +
+                       " bytes, its header incomplete: a crash while it was created); ";
+      fs::remove(segments.back(), ec);
+      if (ec) return make_error(ErrorCode::kIo, segments.back(), "cannot remove: " + ec.message());
+      segments.pop_back();
+    }
+  }
+
   static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path,
-                                    const StampLimits& limits, const std::vector<std::string>& stamp_images) {
+                                    const StampLimits& limits, const std::vector<std::string>& stamp_images,
+                                    bool read_only) {
+    LOAM_TRY(validate_limits(limits));
+    if (read_only) {
+      if (list_segments(data_dir).empty())
+        return make_error(ErrorCode::kNotFound, data_dir, "no session log here");
+    }
     std::error_code ec;
     fs::create_directories(fs::path(data_dir) / "log", ec);
     if (ec) return make_error(ErrorCode::kIo, data_dir, "cannot create the data folder: " + ec.message());
     RecoveryReport report;
+    if (!read_only) report.partial_snapshots_removed = remove_partial_snapshots(data_dir);
     Storage storage;
     storage.data_dir_ = data_dir;
-    const std::vector<std::string> segments = list_segments(data_dir);
+    std::vector<std::string> segments = list_segments(data_dir);
 
     if (segments.empty()) {
       if (!list_snapshots(data_dir).empty()) {
@@ -62,39 +142,45 @@ struct StorageOpener {
       log::InitialTerrain initial;
       auto world = load_initial_terrain(dem_path, &initial);
       if (!world) return world.error();
+      TerrainState terrain(std::move(*world), 0, limits);
+      LOAM_TRY(register_images(terrain, data_dir, stamp_images, report));
       log::SegmentHeader h;
-      h.world = world->params();
+      h.world = terrain.world().params();
       h.initial = initial;
       h.created_unix_us = now_unix_us();
       h.segment_index = 0;
       h.base_world_hash = initial.world_hash;
-      const std::string path = (fs::path(data_dir) / "log" / log::segment_file_name(0)).string();
-      auto writer = log::LogWriter::create(path, h);
+      h.limits = limits;
+      auto writer = log::LogWriter::create(segment_path(data_dir, 0), h);
       if (!writer) return writer.error();
       storage.writer_.emplace(std::move(*writer));
       storage.initial_ = initial;
-      TerrainState terrain(std::move(*world), 0, limits);
-      LOAM_TRY(register_images(terrain, stamp_images));
       return OpenedStorage{std::move(storage), std::move(terrain), report};
     }
 
     report.fresh = false;
-    report.segments = segments.size();
-    auto recovered = log::recover_segment(segments.back());
+    auto recovered = [&]() -> Result<log::Recovery> {
+      if (!read_only) return recover_last(segments, report);
+      // Read-only: a damaged tail is left as it is; the records before it count.
+      auto scan = log::read_segment(segments.back());
+      if (!scan) return scan.error();
+      log::Recovery r;
+      if (scan->tail_error) report.damage = "not repaired (read-only): " + scan->tail_error->describe();
+      r.scan = std::move(*scan);
+      return r;
+    }();
     if (!recovered) return recovered.error();
     if (recovered->removed_bytes > 0) {
       report.truncated_bytes = recovered->removed_bytes;
-      report.damage = recovered->damage + " (truncated " + std::to_string(recovered->removed_bytes) +
-                      " bytes at offset " + std::to_string(recovered->truncated_at) + " of " +
-                      segments.back() + ")";
+      report.damage += recovered->damage + " (truncated " + std::to_string(recovered->removed_bytes) +
+                       " bytes at offset " + std::to_string(recovered->truncated_at) + " of " +
+                       segments.back() + ")";
     }
-    auto scans = log::read_log(segments);
-    if (!scans) return scans.error();
-    const log::InitialTerrain initial = scans->front().header.header.initial;
-    const uint64_t log_last = scans->back().last_seq();
+    const uint64_t log_last = recovered->scan.last_seq();
 
-    // Newest valid snapshot that the log reaches.
+    // Newest valid snapshot that the log reaches, and the segment that continues it.
     std::optional<LoadedSnapshot> snap;
+    size_t start = 0;
     for (const std::string& path : list_snapshots(data_dir)) {
       auto loaded = read_snapshot(path);
       if (!loaded) {
@@ -105,32 +191,67 @@ struct StorageOpener {
         report.skipped.push_back(path + ": beyond the log's last sequence " + std::to_string(log_last));
         continue;
       }
+      std::optional<size_t> found;
+      for (size_t i = segments.size(); i-- > 0;) {
+        auto h = read_segment_header(segments[i]);
+        if (h && h->header.base_seq <= loaded->manifest.last_seq) {
+          found = i;
+          break;
+        }
+      }
+      if (!found) {
+        report.skipped.push_back(path + ": no readable segment continues it");
+        continue;
+      }
+      start = *found;
       snap.emplace(std::move(*loaded));
       break;
     }
-    World world = [&]() -> World {
-      if (snap) return std::move(snap->world);
-      return World(scans->front().header.header.world, 0);
-    }();
+    const std::vector<std::string> needed(segments.begin() + ptrdiff_t(start), segments.end());
+    auto scans = log::read_log(needed);
+    if (!scans) return scans.error();
+    if (read_only && scans->back().tail_error) {
+      // read_log left the tail unrepaired; the records before it are what a restart replays.
+      scans->back().tail = log::TailState::kClean;
+    }
+    // Older segments are not needed; their damage is reported so an operator can archive them.
+    for (size_t i = 0; i < start; ++i) {
+      auto scan = log::read_segment(segments[i]);
+      if (!scan) {
+        report.older_damage.push_back(scan.error().describe());
+      } else if (scan->tail != log::TailState::kClean && scan->tail_error) {
+        report.older_damage.push_back(segments[i] + ": " + scan->tail_error->describe());
+      }
+    }
+    report.segments = needed.size();
+    report.segments_skipped = start;
+    const log::SegmentHeader& first = scans->front().header.header;
+    const log::InitialTerrain initial = first.initial;
+
     uint64_t base = 0;
+    std::optional<World> world;
     if (snap) {
       base = snap->manifest.last_seq;
       report.snapshot_path = snap->path;
       report.snapshot_seq = base;
+      world.emplace(std::move(snap->world));
     } else {
-      auto initial_world = load_described_terrain(initial, data_dir);
+      auto initial_world = load_described_terrain(initial, first.world, data_dir);
       if (!initial_world) return initial_world.error();
-      world = std::move(*initial_world);
+      world.emplace(std::move(*initial_world));
     }
-    TerrainState terrain(std::move(world), base, limits);
+    TerrainState terrain(std::move(*world), base, limits);
     if (snap) {
       for (const StampTexture& t : snap->textures) {
         auto id = terrain.textures().add(t.width, t.height, t.samples);
         if (!id) return id.error();
       }
     }
-    LOAM_TRY(register_images(terrain, stamp_images));
-    for (const log::SegmentScan& scan : *scans) {
+    LOAM_TRY(register_images(terrain, data_dir, stamp_images, report, read_only));
+    for (size_t i = 0; i < scans->size(); ++i) {
+      const log::SegmentScan& scan = (*scans)[i];
+      // What a logged stamp means is what it meant when it was accepted.
+      terrain.set_limits(scan.header.header.has_limits ? scan.header.header.limits : limits);
       for (const log::LogRecord& r : scan.records) {
         if (r.global_seq <= base) continue;
         if (r.global_seq != terrain.last_seq() + 1) {
@@ -138,30 +259,94 @@ struct StorageOpener {
                             "sequence gap: expected " + std::to_string(terrain.last_seq() + 1) + ", found " +
                                 std::to_string(r.global_seq));
         }
-        (void)terrain.apply(r.stamp, r.global_seq, r.client_id);  // a failing stamp is a no-op, as live
+        auto applied = terrain.apply(r.stamp, r.global_seq, r.client_id);
+        if (!applied) {
+          return make_error(applied.error().code, "log",
+                            describe_record(r, needed[i]) + " fails to apply: " + applied.error().describe() +
+                                ". Recovery stops rather than serve a world without an acknowledged stamp");
+        }
         ++report.replayed_records;
       }
     }
     report.last_seq = terrain.last_seq();
+    const log::SegmentScan& last = scans->back();
+    report.last_tick = std::max(last.last_tick, snap && snap->manifest.has_session ? snap->manifest.tick : 0);
+    if (last.header.header.has_limits) report.recorded_limits = last.header.header.limits;
+    storage.initial_ = initial;
+    storage.last_snapshot_seq_ = snap ? base : 0;
+    if (read_only) return OpenedStorage{std::move(storage), std::move(terrain), report};
+    terrain.set_limits(limits);
+
+    if (last.header.header.has_limits && last.header.header.limits == limits &&
+        last.header.header.format_version == log::kLogFormatVersion) {
+      auto writer = log::LogWriter::open_append(segments.back());
+      if (!writer) return writer.error();
+      storage.writer_.emplace(std::move(*writer));
+      return OpenedStorage{std::move(storage), std::move(terrain), report};
+    }
+    // The options' limits differ from the recorded ones (or the log predates recording them):
+    // a new segment records them before any new stamp is accepted under them.
+    report.limits_changed = true;
+    if (terrain.last_seq() == 0 && segments.size() == 1 && last.records.empty()) {
+      // Nothing stamped yet: segment 0 is rewritten with the limits (the initial terrain's
+      // description is unchanged; its hash now covers the parameters).
+      log::SegmentHeader h = last.header.header;
+      h.format_version = log::kLogFormatVersion;
+      h.has_limits = true;
+      h.limits = limits;
+      h.initial.world_hash = h.base_world_hash = terrain.world().world_hash();
+      storage.initial_ = h.initial;
+      auto writer = log::LogWriter::create_replacing(segments.back(), h);
+      if (!writer) return writer.error();
+      storage.writer_.emplace(std::move(*writer));
+      return OpenedStorage{std::move(storage), std::move(terrain), report};
+    }
     auto writer = log::LogWriter::open_append(segments.back());
     if (!writer) return writer.error();
     storage.writer_.emplace(std::move(*writer));
-    storage.initial_ = initial;
-    storage.last_snapshot_seq_ = snap ? base : 0;
+    auto rolled =
+        storage.snapshot(terrain, report.last_tick, /*reuse_existing=*/snap && base == terrain.last_seq());
+    if (!rolled) return rolled.error();
     return OpenedStorage{std::move(storage), std::move(terrain), report};
   }
 };
 
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
                                    const StampLimits& limits, const std::vector<std::string>& stamp_images) {
-  return StorageOpener::open(data_dir, dem_path, limits, stamp_images);
+  return StorageOpener::open(data_dir, dem_path, limits, stamp_images, false);
 }
 
-Result<std::string> Storage::snapshot(const TerrainState& terrain) {
+Result<OpenedStorage> read_session(const std::string& data_dir) {
+  return StorageOpener::open(data_dir, "", StampLimits{}, {}, true);
+}
+
+Status Storage::resume(uint64_t last_seq) {
+  if (writer_->is_open()) return {};
+  auto free = free_bytes(data_dir_);
+  if (!free) return free.error();
+  if (*free < kMinFreeBytes) {
+    return make_error(
+        ErrorCode::kIo, data_dir_,
+        "no space: " + std::to_string(*free) + " bytes free, edits need " + std::to_string(kMinFreeBytes));
+  }
+  auto w = log::LogWriter::reopen_after_failure(writer_->path(), writer_->durable_bytes(), last_seq);
+  if (!w) return w.error();
+  writer_.emplace(std::move(*w));
+  return {};
+}
+
+Result<std::string> Storage::snapshot(const TerrainState& terrain, uint64_t tick, bool reuse_existing) {
   LOAM_TRY(writer_->sync());
   const uint32_t next = writer_->header().segment_index + 1;
-  auto path = write_snapshot(data_dir_, terrain.world(), terrain.last_seq(), next, terrain.textures());
-  if (!path) return path.error();
+  std::string path;
+  if (reuse_existing) {
+    path = (fs::path(data_dir_) / "snapshots" / snapshot_dir_name(terrain.last_seq())).string();
+  } else {
+    auto written = write_snapshot(data_dir_, terrain.world(), terrain.last_seq(), next, terrain.textures(),
+                                  SnapshotSession{terrain.limits(), tick});
+    if (!written) return written.error();
+    path = *written;
+  }
   log::SegmentHeader h;
   h.world = terrain.world().params();
   h.initial = initial_;
@@ -171,12 +356,17 @@ Result<std::string> Storage::snapshot(const TerrainState& terrain) {
   h.base_snapshot_id = terrain.last_seq();
   h.base_world_hash = terrain.world().world_hash();
   h.prev_header_checksum = writer_->header_checksum();
-  const std::string seg = (fs::path(data_dir_) / "log" / log::segment_file_name(next)).string();
-  auto writer = log::LogWriter::create(seg, h);
+  h.limits = terrain.limits();
+  h.base_tick = std::max(tick, writer_->last_tick());
+  auto writer = log::LogWriter::create(segment_path_of(next), h);
   if (!writer) return writer.error();
   writer_.emplace(std::move(*writer));
   last_snapshot_seq_ = terrain.last_seq();
   return path;
+}
+
+std::string Storage::segment_path_of(uint32_t index) const {
+  return (fs::path(data_dir_) / "log" / log::segment_file_name(index)).string();
 }
 
 }  // namespace loam::server

@@ -1,11 +1,15 @@
-// The server's data folder: the deformation log (segments under log/) and snapshots (under
-// snapshots/), and recovery from them.
+// The server's data folder: the deformation log (segments under log/), snapshots (under
+// snapshots/) and the texture-stamp images (under images/), and recovery from them.
 //
 // open_storage() starts a fresh session (initial terrain, segment 0) in an empty folder, or
-// recovers: the torn tail of the last segment is truncated and reported, segments must chain,
-// the newest valid snapshot not beyond the log is loaded (an invalid one is reported and
-// skipped), and the records after it are replayed. Durability is explicit: append() buffers,
-// sync() makes everything appended durable (the server acknowledges stamps only after it).
+// recovers: the torn tail of the last segment is truncated and reported (a complete record
+// that fails its checksum is media damage and stops recovery: `loam-server log repair`), the
+// newest valid snapshot not beyond the log is loaded, and only the segments from the one that
+// continues it are read and replayed (damage in older segments is reported, not fatal). Each
+// segment's records replay under the stamp limits its header recorded; a record that fails to
+// apply is an error naming it. If the options' limits differ from the recorded ones, a new
+// segment recording them starts before any new stamp. Durability is explicit: append()
+// buffers, sync() makes everything appended durable (the server acknowledges only after it).
 #pragma once
 
 #include <optional>
@@ -21,12 +25,22 @@ struct RecoveryReport {
   bool fresh = true;
   std::string snapshot_path;  // empty: started from the initial terrain
   uint64_t snapshot_seq = 0;
-  size_t segments = 0;
+  size_t segments = 0;          // segments read
+  size_t segments_skipped = 0;  // older segments the snapshot made unnecessary
   uint64_t replayed_records = 0;
   uint64_t truncated_bytes = 0;
-  std::string damage;                // what recovery repaired, for the server's log
-  std::vector<std::string> skipped;  // invalid snapshots, with why
+  std::string damage;                     // what recovery repaired, for the server's log
+  std::vector<std::string> skipped;       // invalid snapshots, with why
+  std::vector<std::string> older_damage;  // damage in segments before the snapshot (not needed)
+  std::vector<std::string> images_damaged;
+  size_t images_loaded = 0;
+  size_t partial_snapshots_removed = 0;
+  // The limits the log recorded (when they differ from the options, a new segment now records
+  // the options' limits), and whether a new segment was started for that.
+  std::optional<StampLimits> recorded_limits;
+  bool limits_changed = false;
   uint64_t last_seq = 0;
+  uint64_t last_tick = 0;
 };
 
 class Storage {
@@ -34,18 +48,37 @@ class Storage {
   Storage(Storage&&) noexcept = default;
   Storage& operator=(Storage&&) noexcept = default;
 
-  Status append(const log::LogRecord& r) { return writer_->append(r); }
+  Status append(const log::LogRecord& r) {
+    if (!writer_->is_open())
+      return make_error(ErrorCode::kIo, writer_->path(), "log is closed after a failure");
+    return writer_->append(r);
+  }
   Status sync() { return writer_->sync(); }
+  // False after a failed sync() until resume() succeeds.
+  bool writable() const { return writer_->is_open(); }
+  // After a failed sync: checks that the file system has room again, cuts the segment back to
+  // what was durable and reopens it. `last_seq` is the last sequence the server applied.
+  Status resume(uint64_t last_seq);
   // Writes a snapshot of the terrain after its last sequence and starts a new log segment
-  // chained to it. Call after sync(). Returns the snapshot's path.
-  Result<std::string> snapshot(const TerrainState& terrain);
+  // chained to it. Call after sync(). Returns the snapshot's path. On failure nothing is left
+  // behind and the log goes on in the current segment.
+  // `reuse_existing`: a valid snapshot at the terrain's sequence is already there (only the
+  // segment is new: the limits changed).
+  Result<std::string> snapshot(const TerrainState& terrain, uint64_t tick, bool reuse_existing = false);
   uint64_t last_snapshot_seq() const { return last_snapshot_seq_; }
   const std::string& data_dir() const { return data_dir_; }
   uint32_t segment_index() const { return writer_->header().segment_index; }
+  // The tick of the last record (or segment start): the server's ticks continue from it.
+  uint64_t last_tick() const { return writer_->last_tick(); }
+  // The limits the current segment records: the ones live stamps are checked and applied under.
+  const StampLimits& limits() const { return writer_->header().limits; }
+  // Free bytes below which edits are refused (a full disk): the log needs room for a tick.
+  static constexpr uint64_t kMinFreeBytes = 1u << 20;
 
  private:
   friend struct StorageOpener;
   Storage() = default;
+  std::string segment_path_of(uint32_t index) const;
   std::string data_dir_;
   std::optional<log::LogWriter> writer_;
   log::InitialTerrain initial_;
@@ -59,13 +92,23 @@ struct OpenedStorage {
 };
 
 // `dem_path` (empty: the embedded default) is used only when the folder holds no session.
-// `stamp_images` are texture-stamp image files registered before any replay (images stored
-// in the loaded snapshot are registered too).
+// `limits` are the options' stamp limits: a fresh session records them; a recovered one replays
+// under the recorded ones and records these for what follows. `stamp_images` are texture-stamp
+// image files to register; they are stored in the folder, and every image stored there (and in
+// the loaded snapshot) is registered before any replay.
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
                                    const StampLimits& limits,
                                    const std::vector<std::string>& stamp_images = {});
 
+// The session's current world without changing the folder (export, inspection): like a
+// recovery, but a damaged tail is left alone (its records before the damage count), nothing is
+// written, and the returned Storage must not be used to log.
+Result<OpenedStorage> read_session(const std::string& data_dir);
+
 // Segment files under <data_dir>/log, in index order.
 std::vector<std::string> list_segments(const std::string& data_dir);
+
+// Free bytes for an unprivileged writer on the file system holding `path` (statvfs).
+Result<uint64_t> free_bytes(const std::string& path);
 
 }  // namespace loam::server

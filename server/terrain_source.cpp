@@ -38,7 +38,33 @@ Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerr
   return std::move(imported->world);
 }
 
-Result<World> load_described_terrain(const log::InitialTerrain& initial, const std::string& data_dir) {
+std::string world_params_difference(const WorldParams& a, const WorldParams& b) {
+  auto num = [](double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.17g", v);
+    return std::string(buf);
+  };
+  struct Field {
+    const char* name;
+    double a, b;
+  };
+  const Field fields[] = {{"meters_per_sample", a.meters_per_sample, b.meters_per_sample},
+                          {"height_offset", a.height_offset, b.height_offset},
+                          {"meters_per_unit", a.meters_per_unit, b.meters_per_unit},
+                          {"detail_factor", double(a.detail_factor), double(b.detail_factor)},
+                          {"detail_meters_per_unit", a.detail_meters_per_unit, b.detail_meters_per_unit},
+                          {"origin_tile_x", double(a.origin_tile_x), double(b.origin_tile_x)},
+                          {"origin_tile_y", double(a.origin_tile_y), double(b.origin_tile_y)},
+                          {"tiles_x", double(a.tiles_x), double(b.tiles_x)},
+                          {"tiles_y", double(a.tiles_y), double(b.tiles_y)}};
+  for (const Field& f : fields) {
+    if (!(f.a == f.b)) return std::string(f.name) + " " + num(f.a) + " against " + num(f.b);
+  }
+  return "";
+}
+
+Result<World> load_described_terrain(const log::InitialTerrain& initial, const WorldParams& logged,
+                                     const std::string& data_dir) {
   Result<World> world = [&]() -> Result<World> {
     switch (initial.source) {
       case log::InitialSource::kGenerated:
@@ -59,7 +85,14 @@ Result<World> load_described_terrain(const log::InitialTerrain& initial, const s
     return make_error(ErrorCode::kBadEnum, "log.initial.source", "unknown source");
   }();
   if (!world) return world.error();
-  if (world->world_hash() != initial.world_hash) {
+  if (const std::string diff = world_params_difference(world->params(), logged); !diff.empty()) {
+    return make_error(
+        ErrorCode::kCorrupt, "log.world",
+        "the initial terrain now loads with other parameters than the log recorded (" + diff +
+            "): was the DEM or its sidecar changed? Replay needs the terrain the session began on");
+  }
+  // Version 1 logs recorded the content hash; with the parameters equal, either identifies it.
+  if (world->world_hash() != initial.world_hash && world->content_hash() != initial.world_hash) {
     char buf[160];
     std::snprintf(buf, sizeof buf, "initial terrain hash %016llx differs from the log's %016llx",
                   (unsigned long long)world->world_hash(), (unsigned long long)initial.world_hash);

@@ -19,6 +19,12 @@ Result<AppliedStamp> TerrainState::apply(const QuantizedStamp& q, uint64_t seq, 
     return make_error(ErrorCode::kInvalidArgument, "seq",
                       "expected " + std::to_string(last_seq_ + 1) + ", got " + std::to_string(seq));
   }
+  // The limits in force (a replayed segment's recorded ones) decide, whatever the backend was
+  // made with.
+  if (Status st = check(q); !st.ok()) {
+    last_seq_ = seq;
+    return st.error();
+  }
   AppliedStamp out;
   out.seq = seq;
   out.client_id = client_id;

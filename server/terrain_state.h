@@ -39,6 +39,8 @@ class TerrainState {
   TextureRegistry& textures() { return *textures_; }
   const TextureRegistry& textures() const { return *textures_; }
   const StampLimits& limits() const { return limits_; }
+  // Recovery and replay apply each log segment under the limits it recorded.
+  void set_limits(const StampLimits& limits) { limits_ = limits; }
   uint64_t last_seq() const { return last_seq_; }
 
   // Checks a stamp that arrived from the wire against the world and limits.

@@ -50,6 +50,20 @@ std::string segment_file_name(uint32_t index) {
   return buf;
 }
 
+namespace {
+
+// Writes a new segment file holding only `bytes` (its header) at `path` and makes it
+// durable. A failure (a full disk) removes the partial file: a segment with a torn header
+// would stop the next start-up.
+Status write_new_segment(int fd, const std::string& path, const std::vector<uint8_t>& bytes) {
+  Status st = write_all(fd, bytes.data(), bytes.size(), path);
+  if (st.ok() && ::fsync(fd) != 0) st = io_error(path, "fsync");
+  if (!st.ok()) ::unlink(path.c_str());
+  return st;
+}
+
+}  // namespace
+
 Result<LogWriter> LogWriter::create(const std::string& path, const SegmentHeader& header) {
   std::vector<uint8_t> bytes;
   Result<uint64_t> sum = append_segment_header(bytes, header);
@@ -61,10 +75,54 @@ Result<LogWriter> LogWriter::create(const std::string& path, const SegmentHeader
   w.header_ = header;
   w.header_checksum_ = *sum;
   w.next_seq_ = header.base_seq + 1;
-  LOAM_TRY(write_all(w.fd_, bytes.data(), bytes.size(), path));
-  if (::fsync(w.fd_) != 0) return io_error(path, "fsync");
+  w.last_tick_ = header.base_tick;
+  LOAM_TRY(write_new_segment(w.fd_, path, bytes));
   LOAM_TRY(sync_parent_dir(path));
-  w.file_bytes_ = bytes.size();
+  w.file_bytes_ = w.durable_bytes_ = bytes.size();
+  return w;
+}
+
+Result<LogWriter> LogWriter::create_replacing(const std::string& path, const SegmentHeader& header) {
+  const std::string tmp = path + ".tmp";
+  ::unlink(tmp.c_str());  // a leftover of an earlier attempt
+  Result<LogWriter> w = create(tmp, header);
+  if (!w.ok()) return w.error();
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    Error e = io_error(path, "rename");
+    ::unlink(tmp.c_str());
+    return e;
+  }
+  LOAM_TRY(sync_parent_dir(path));
+  w->path_ = path;
+  return w;
+}
+
+Result<LogWriter> LogWriter::reopen_after_failure(const std::string& path, uint64_t durable_bytes,
+                                                  uint64_t expected_last_seq) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return io_error(path, "stat");
+  if (uint64_t(st.st_size) < durable_bytes) {
+    return make_error(ErrorCode::kCorrupt, path,
+                      "shorter (" + std::to_string(st.st_size) + " bytes) than what was made durable (" +
+                          std::to_string(durable_bytes) + ")");
+  }
+  if (uint64_t(st.st_size) > durable_bytes) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+    if (fd < 0) return io_error(path, "open");
+    if (::ftruncate(fd, off_t(durable_bytes)) != 0 || ::fsync(fd) != 0) {
+      Error e = io_error(path, "truncate to the durable length");
+      ::close(fd);
+      return e;
+    }
+    ::close(fd);
+  }
+  Result<LogWriter> w = open_append(path);
+  if (!w.ok()) return w.error();
+  if (w->next_seq() != expected_last_seq + 1) {
+    return make_error(ErrorCode::kCorrupt, path,
+                      "ends at sequence " + std::to_string(w->next_seq() - 1) + ", expected " +
+                          std::to_string(expected_last_seq));
+  }
   return w;
 }
 
@@ -83,8 +141,8 @@ Result<LogWriter> LogWriter::open_append(const std::string& path) {
   w.header_ = scan->header.header;
   w.header_checksum_ = scan->header.checksum;
   w.next_seq_ = scan->last_seq() + 1;
-  w.last_tick_ = scan->records.empty() ? 0 : scan->records.back().tick;
-  w.file_bytes_ = scan->good_bytes;
+  w.last_tick_ = scan->last_tick;
+  w.file_bytes_ = w.durable_bytes_ = scan->good_bytes;
   return w;
 }
 
@@ -100,6 +158,7 @@ LogWriter& LogWriter::operator=(LogWriter&& other) noexcept {
     next_seq_ = other.next_seq_;
     last_tick_ = other.last_tick_;
     file_bytes_ = other.file_bytes_;
+    durable_bytes_ = other.durable_bytes_;
     pending_ = std::move(other.pending_);
   }
   return *this;
@@ -129,24 +188,34 @@ Status LogWriter::sync() {
   if (!pending_.empty()) {
     Status st = write_all(fd_, pending_.data(), pending_.size(), path_);
     if (!st.ok()) {
-      // A partial write leaves a torn tail on disk; the file is no longer appendable
-      // without recovery, so refuse further use rather than interleave records.
-      ::close(fd_);
-      fd_ = -1;
+      // A partial write (a full disk) may have left whole records of this batch after the
+      // durable end: records nobody acknowledged that recovery would replay. Cut them off
+      // (this frees space, so it works on a full disk) and refuse further use until reopened.
+      fail_back_to_durable();
       return st;
     }
     file_bytes_ += pending_.size();
-    pending_.clear();
   }
   if (::fdatasync(fd_) != 0) {
     // After a failed fsync the page cache state is unknown (the "fsyncgate" lesson):
     // never retry on the same descriptor.
     Error e = io_error(path_, "fdatasync");
-    ::close(fd_);
-    fd_ = -1;
+    fail_back_to_durable();
     return e;
   }
+  pending_.clear();
+  durable_bytes_ = file_bytes_;
   return {};
+}
+
+void LogWriter::fail_back_to_durable() {
+  const int saved = errno;
+  if (::ftruncate(fd_, off_t(durable_bytes_)) == 0) (void)::fdatasync(fd_);
+  ::close(fd_);
+  fd_ = -1;
+  file_bytes_ = durable_bytes_;
+  pending_.clear();
+  errno = saved;
 }
 
 Result<std::vector<uint8_t>> read_file(const std::string& path, uint64_t max_bytes) {
@@ -214,19 +283,24 @@ Result<Recovery> recover_segment(const std::string& path) {
   rec.removed_bytes = bytes->size() - scan->good_bytes;
   rec.truncated_at = scan->good_bytes;
   rec.damage = damage.describe();
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
-  if (fd < 0) return io_error(path, "open");
-  if (::ftruncate(fd, off_t(scan->good_bytes)) != 0 || ::fsync(fd) != 0) {
-    Error e = io_error(path, "truncate");
-    ::close(fd);
-    return e;
-  }
-  ::close(fd);
+  LOAM_TRY(truncate_segment(path, scan->good_bytes));
   scan->tail = TailState::kClean;
   scan->tail_error.reset();
   scan->damage_offset = 0;
   rec.scan = std::move(*scan);
   return rec;
+}
+
+Status truncate_segment(const std::string& path, uint64_t length) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) return io_error(path, "open");
+  if (::ftruncate(fd, off_t(length)) != 0 || ::fsync(fd) != 0) {
+    Error e = io_error(path, "truncate");
+    ::close(fd);
+    return e;
+  }
+  ::close(fd);
+  return {};
 }
 
 Result<std::vector<SegmentScan>> read_log(const std::vector<std::string>& paths) {

@@ -24,9 +24,19 @@ class LogWriter {
   // Creates a new segment file (fails if it exists), writes the header and makes it durable
   // (file and directory fsync). The first record must have sequence header.base_seq + 1.
   static Result<LogWriter> create(const std::string& path, const SegmentHeader& header);
+  // Like create(), but writes the file beside `path` and renames it over `path`: replaces a
+  // segment that holds no records (a session that has not stamped yet, restarted with other
+  // limits). The caller checks that it holds none.
+  static Result<LogWriter> create_replacing(const std::string& path, const SegmentHeader& header);
   // Reopens an existing segment to append after its last record. Fails if its tail is not
   // clean: run recover_segment() first.
   static Result<LogWriter> open_append(const std::string& path);
+  // Reopens a segment after a failed sync(): cuts it back to `durable_bytes` (what the last
+  // successful sync made durable; a failed write may have left part of a batch after it),
+  // makes that durable and opens it for appending. Errors when the file is shorter than
+  // `durable_bytes` or its records do not end at `expected_last_seq`.
+  static Result<LogWriter> reopen_after_failure(const std::string& path, uint64_t durable_bytes,
+                                                uint64_t expected_last_seq);
 
   LogWriter(LogWriter&& other) noexcept;
   LogWriter& operator=(LogWriter&& other) noexcept;
@@ -36,8 +46,16 @@ class LogWriter {
 
   // Buffers one record; its sequence must be next_seq() and its tick not before the last.
   Status append(const LogRecord& r);
-  // Writes every buffered record and fdatasyncs: the durability point.
+  // Writes every buffered record and fdatasyncs: the durability point. On failure (a full
+  // disk, an I/O error) the records buffered since the last successful sync are not durable:
+  // the file is cut back to durable_bytes() where possible and the writer closes (after a
+  // failed fsync the page cache cannot be trusted); reopen it with reopen_after_failure().
   Status sync();
+  bool is_open() const { return fd_ >= 0; }
+  const std::string& path() const { return path_; }
+  uint64_t last_tick() const { return last_tick_; }
+  // Bytes made durable by the last successful sync (or create/open).
+  uint64_t durable_bytes() const { return durable_bytes_; }
 
   uint64_t next_seq() const { return next_seq_; }
   uint64_t header_checksum() const { return header_checksum_; }
@@ -47,6 +65,7 @@ class LogWriter {
 
  private:
   LogWriter() = default;
+  void fail_back_to_durable();
   int fd_ = -1;
   std::string path_;
   SegmentHeader header_;
@@ -54,6 +73,7 @@ class LogWriter {
   uint64_t next_seq_ = 1;
   uint64_t last_tick_ = 0;
   uint64_t file_bytes_ = 0;
+  uint64_t durable_bytes_ = 0;
   std::vector<uint8_t> pending_;
 };
 
@@ -73,6 +93,10 @@ struct Recovery {
 // truncates the file to the last good record and fsyncs. Damage with data after it is a
 // kCorrupt Error naming the byte offset, and the file is left untouched.
 Result<Recovery> recover_segment(const std::string& path);
+
+// Cuts a segment file to `length` bytes and fsyncs it (recover_segment for a torn tail;
+// `loam-server log repair` when an operator drops a damaged record).
+Status truncate_segment(const std::string& path, uint64_t length);
 
 // Scans segment files in order and checks that each chains to the one before it; only the
 // last may have a damaged tail (reported in its scan, not repaired).

@@ -32,10 +32,10 @@ template <typename S>
 Status serialize_header_body(S& s, SegmentHeader& h) {
   // The version comes first so a future reader can refuse before parsing anything else.
   LOAM_TRY(s.bits(h.format_version, "log.format_version"));
-  if (h.format_version != kLogFormatVersion) {
+  if (h.format_version < kOldestLogFormatVersion || h.format_version > kLogFormatVersion) {
     return make_error(ErrorCode::kUnsupported, "log.format_version",
                       "log format " + std::to_string(h.format_version) + ", this reader knows " +
-                          std::to_string(kLogFormatVersion));
+                          std::to_string(kOldestLogFormatVersion) + ".." + std::to_string(kLogFormatVersion));
   }
   LOAM_TRY(wire::serialize_world_params(s, h.world));
   LOAM_TRY(s.bits(h.initial.world_hash, "log.initial.world_hash"));
@@ -49,6 +49,22 @@ Status serialize_header_body(S& s, SegmentHeader& h) {
   LOAM_TRY(s.bits(h.base_snapshot_id, "log.base_snapshot_id"));
   LOAM_TRY(s.bits(h.base_world_hash, "log.base_world_hash"));
   LOAM_TRY(s.bits(h.prev_header_checksum, "log.prev_header_checksum"));
+  if (h.format_version >= 2) {
+    h.has_limits = true;
+    LOAM_TRY(s.f64(h.limits.max_radius_samples, "log.limits.max_radius_samples"));
+    LOAM_TRY(s.bits(h.limits.max_shockwave_steps, "log.limits.max_shockwave_steps"));
+    LOAM_TRY(s.bits(h.limits.max_shockwave_cells, "log.limits.max_shockwave_cells"));
+    if (Status st = validate_limits(h.limits); !st.ok()) {
+      Error e = st.error();
+      e.field = "log." + e.field;
+      return e;
+    }
+    LOAM_TRY(s.bits(h.base_tick, "log.base_tick"));
+  } else {
+    h.has_limits = false;
+    h.limits = {};
+    h.base_tick = 0;
+  }
   if (h.segment_index == 0) {
     // The first segment starts at the initial terrain and chains to nothing.
     if (h.base_seq != 0) return make_error(ErrorCode::kCorrupt, "log.base_seq", "must be 0 in segment 0");
@@ -117,8 +133,15 @@ RecordRead read_record(std::span<const uint8_t> bytes, size_t offset) {
       return rr;
     }
     rr.state = TailState::kCorrupt;
-    // Confined to the end when no more than one record's bytes remain.
-    rr.recoverable = remaining <= kRecordOverheadBytes + kStampRecordBodyBytes;
+    // A torn append is short: a damaged length with a whole record's bytes or more after it
+    // is damage to written data, never truncated by itself.
+    rr.recoverable = remaining < kRecordOverheadBytes + kStampRecordBodyBytes;
+    if (rr.recoverable) {
+      rr.state = TailState::kTorn;
+      rr.error = make_error(ErrorCode::kTruncated, "record.length",
+                            at(offset) + "record cut short (" + std::to_string(remaining) + " bytes)");
+      return rr;
+    }
     rr.error = make_error(ErrorCode::kCorrupt, "record.length",
                           at(offset) + "impossible record length " + std::to_string(len));
     return rr;
@@ -134,9 +157,21 @@ RecordRead read_record(std::span<const uint8_t> bytes, size_t offset) {
   const uint64_t stored = load_le<uint64_t>(bytes.data() + offset + 4 + len);
   const bool at_end = offset + total == bytes.size();
   if (stored != checksum(bytes.data() + offset, 4 + size_t(len))) {
+    // A complete record that fails its checksum is media damage, not a torn append (a torn
+    // append is short), even at the very end: it may have been acknowledged after its
+    // fdatasync, so it is never dropped silently. A zero-filled remainder is still torn.
+    if (at_end && zeros_to_end(bytes, offset + 4)) {
+      rr.state = TailState::kTorn;
+      rr.error = make_error(ErrorCode::kTruncated, "record", at(offset) + "zero-filled final record");
+      return rr;
+    }
     rr.state = TailState::kCorrupt;
-    rr.recoverable = at_end;
-    rr.error = make_error(ErrorCode::kCorrupt, "record.checksum", at(offset) + "record checksum mismatch");
+    rr.recoverable = false;
+    rr.error =
+        make_error(ErrorCode::kCorrupt, "record.checksum",
+                   at(offset) + (at_end ? "complete final record fails its checksum (media damage, not a "
+                                          "torn append)"
+                                        : "record checksum mismatch"));
     return rr;
   }
   wire::ReadStream s(bytes.subspan(offset + 4, len));
@@ -145,7 +180,8 @@ RecordRead read_record(std::span<const uint8_t> bytes, size_t offset) {
   if (!st.ok()) {
     // A checksummed record that does not decode was written by a broken or newer writer.
     rr.state = TailState::kCorrupt;
-    rr.recoverable = at_end;
+    rr.recoverable = false;
+    (void)at_end;
     Error e = st.error();
     e.message = at(offset) + e.message;
     rr.error = e;
@@ -228,7 +264,8 @@ Result<SegmentScan> scan_segment(std::span<const uint8_t> bytes) {
   size_t offset = scan.header.bytes;
   scan.good_bytes = offset;
   uint64_t expected = scan.header.header.base_seq + 1;
-  uint64_t last_tick = 0;
+  uint64_t last_tick = scan.header.header.base_tick;
+  scan.last_tick = last_tick;
   while (offset < bytes.size()) {
     RecordRead rr = read_record(bytes, offset);
     if (rr.error) {
@@ -250,6 +287,7 @@ Result<SegmentScan> scan_segment(std::span<const uint8_t> bytes) {
           at(offset) + "tick " + std::to_string(rr.record.tick) + " after tick " + std::to_string(last_tick));
     }
     last_tick = rr.record.tick;
+    scan.last_tick = last_tick;
     ++expected;
     // Bounded by the file size: each record consumed at least kRecordOverheadBytes + 1.
     scan.records.push_back(rr.record);
@@ -274,7 +312,10 @@ Status check_chain(const SegmentScan& prev, const SegmentHeader& next) {
   if (!(next.world == p.world)) {
     return make_error(ErrorCode::kCorrupt, "log.world", "world parameters differ from the previous segment");
   }
-  if (!(next.initial == p.initial)) {
+  // Version 1 hashed the content only: across a version change the hashes differ in meaning.
+  log::InitialTerrain a = next.initial, b = p.initial;
+  if (next.format_version != p.format_version) a.world_hash = b.world_hash = 0;
+  if (!(a == b)) {
     return make_error(ErrorCode::kCorrupt, "log.initial",
                       "initial terrain differs from the previous segment");
   }
@@ -282,6 +323,16 @@ Status check_chain(const SegmentScan& prev, const SegmentHeader& next) {
     return make_error(ErrorCode::kCorrupt, "log.base_seq",
                       "segment starts after sequence " + std::to_string(next.base_seq) +
                           " but the previous segment ends at " + std::to_string(prev.last_seq()));
+  }
+  if (next.format_version < p.format_version) {
+    return make_error(ErrorCode::kCorrupt, "log.format_version",
+                      "segment of format " + std::to_string(next.format_version) + " follows one of format " +
+                          std::to_string(p.format_version));
+  }
+  if (next.base_tick < prev.last_tick) {
+    return make_error(ErrorCode::kCorrupt, "log.base_tick",
+                      "segment starts at tick " + std::to_string(next.base_tick) +
+                          " but the previous segment ends at tick " + std::to_string(prev.last_tick));
   }
   if (next.prev_header_checksum != prev.header.checksum) {
     return make_error(ErrorCode::kCorrupt, "log.prev_header_checksum",

@@ -20,11 +20,16 @@
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 #include "protocol/stamps/stamp.h"
+#include "protocol/stamps/stamp_validate.h"
 
 namespace loam::log {
 
 inline constexpr char kSegmentMagic[8] = {'L', 'O', 'A', 'M', 'L', 'O', 'G', '\n'};
-inline constexpr uint16_t kLogFormatVersion = 1;
+// Version 2 adds the stamp limits and the base tick to the segment header, and its world
+// hashes cover the world's parameters (World::world_hash); version 1 segments still read,
+// their hashes being World::content_hash.
+inline constexpr uint16_t kLogFormatVersion = 2;
+inline constexpr uint16_t kOldestLogFormatVersion = 1;
 inline constexpr uint32_t kMaxHeaderBodyBytes = 16384;
 inline constexpr size_t kMaxPathBytes = 4096;          // InitialTerrain::dem_path
 inline constexpr size_t kMaxImportParamsBytes = 4096;  // InitialTerrain::import_params
@@ -63,6 +68,17 @@ struct SegmentHeader {
   uint64_t base_world_hash = 0;
   // Checksum field of the previous segment's header (0 for segment 0): the chain link.
   uint64_t prev_header_checksum = 0;
+  // Version 2. The limits every record of this segment was admitted and applied under: what a
+  // logged stamp means must not depend on the options of the process that reads it. A
+  // version 1 segment recorded none (has_limits false: readers use their own).
+  bool has_limits = true;
+  StampLimits limits;
+  // The tick of the state this segment continues from: records' ticks never go below it, so
+  // ticks rise across the whole log and a restarted server continues them.
+  uint64_t base_tick = 0;
+  // True when the hashes above are World::world_hash (covering the world's parameters);
+  // false in version 1 (World::content_hash).
+  bool hashes_cover_params() const { return format_version >= 2; }
   friend bool operator==(const SegmentHeader&, const SegmentHeader&) = default;
 };
 
@@ -105,10 +121,14 @@ struct SegmentScan {
   TailState tail = TailState::kClean;
   std::optional<Error> tail_error;  // the damage, its message naming the byte offset
   size_t damage_offset = 0;         // byte offset of the first damaged record
-  // True when the damage is confined to the final record (torn, or a bad checksum on a
-  // record that ends exactly at end of file, or zeros to the end): truncating to good_bytes
-  // is safe. False for damage with more data after it: an operator must look.
+  // True when the damage is a torn append: the file ends inside the final record, or zeros
+  // run to the end (a file system extended the file before the data landed). Truncating to
+  // good_bytes then loses only a record that was never acknowledged. False for anything else,
+  // a complete record with a bad checksum at the end included: that is media damage to a
+  // record that may have been acknowledged, and an operator must decide
+  // (`loam-server log repair`).
   bool recoverable = true;
+  uint64_t last_tick = 0;  // of the last good record (base_tick when none)
 
   uint64_t last_seq() const { return records.empty() ? header.header.base_seq : records.back().global_seq; }
 };

@@ -125,7 +125,8 @@ std::string snapshot_dir_name(uint64_t snapshot_id) {
 }
 
 Result<std::string> write_snapshot(const std::string& data_dir, const World& world, uint64_t last_seq,
-                                   uint32_t next_segment_index, const TextureRegistry& textures) {
+                                   uint32_t next_segment_index, const TextureRegistry& textures,
+                                   const SnapshotSession& session) {
   const WorldParams& p = world.params();
   std::vector<uint8_t> bin;
   put(bin, kMagic, sizeof kMagic);
@@ -196,7 +197,13 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
       {"coarse_tiles", coarse},
       {"detail_tiles", detail},
       {"tiles_bytes", bin.size()},
-      {"world", world_json(p)}};
+      {"world", world_json(p)},
+      {"world_hash_covers_params", true},
+      {"tick", session.tick},
+      {"limits",
+       {{"max_radius_samples", session.limits.max_radius_samples},
+        {"max_shockwave_steps", session.limits.max_shockwave_steps},
+        {"max_shockwave_cells", session.limits.max_shockwave_cells}}}};
   const std::string text = m.dump(1) + "\n";
 
   std::error_code ec;
@@ -206,17 +213,41 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
   const fs::path final_dir = root / snapshot_dir_name(last_seq);
   const fs::path tmp = root / (".tmp-" + snapshot_dir_name(last_seq));
   fs::remove_all(tmp, ec);
-  fs::create_directories(tmp, ec);
-  if (ec) return make_error(ErrorCode::kIo, tmp.string(), "cannot create: " + ec.message());
-  LOAM_TRY(write_file_synced((tmp / "tiles.bin").string(), bin));
-  LOAM_TRY(write_file_synced((tmp / "manifest.json").string(),
-                             std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size())));
-  LOAM_TRY(fsync_path(tmp.string()));
-  if (fs::exists(final_dir)) fs::remove_all(final_dir, ec);  // same id rewritten (e.g. shutdown twice)
-  fs::rename(tmp, final_dir, ec);
-  if (ec) return make_error(ErrorCode::kIo, final_dir.string(), "rename failed: " + ec.message());
+  const Status written = [&]() -> Status {
+    fs::create_directories(tmp, ec);
+    if (ec) return make_error(ErrorCode::kIo, tmp.string(), "cannot create: " + ec.message());
+    LOAM_TRY(write_file_synced((tmp / "tiles.bin").string(), bin));
+    LOAM_TRY(write_file_synced((tmp / "manifest.json").string(),
+                               std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size())));
+    LOAM_TRY(fsync_path(tmp.string()));
+    if (fs::exists(final_dir)) fs::remove_all(final_dir, ec);  // same id rewritten (e.g. shutdown twice)
+    fs::rename(tmp, final_dir, ec);
+    if (ec) return make_error(ErrorCode::kIo, final_dir.string(), "rename failed: " + ec.message());
+    return {};
+  }();
+  if (!written.ok()) {
+    // A partial snapshot would hold the disk space a full disk needs back.
+    std::error_code ignored;
+    fs::remove_all(tmp, ignored);
+    return written.error();
+  }
   LOAM_TRY(fsync_path(root.string()));
   return final_dir.string();
+}
+
+size_t remove_partial_snapshots(const std::string& data_dir) {
+  std::error_code ec;
+  const fs::path root = fs::path(data_dir) / "snapshots";
+  if (!fs::is_directory(root, ec)) return 0;
+  std::vector<fs::path> partial;
+  for (const auto& e : fs::directory_iterator(root, ec)) {
+    if (e.path().filename().string().rfind(".tmp-", 0) == 0) partial.push_back(e.path());
+  }
+  size_t removed = 0;
+  for (const fs::path& p : partial) {
+    if (fs::remove_all(p, ec) > 0 && !ec) ++removed;
+  }
+  return removed;
 }
 
 Result<SnapshotManifest> read_snapshot_manifest(const std::string& path) {
@@ -239,6 +270,17 @@ Result<SnapshotManifest> read_snapshot_manifest(const std::string& path) {
     m.coarse_tiles = j.at("coarse_tiles").get<size_t>();
     m.detail_tiles = j.at("detail_tiles").get<size_t>();
     m.tiles_bytes = j.at("tiles_bytes").get<uint64_t>();
+    m.hash_covers_params = j.value("world_hash_covers_params", false);
+    if (j.contains("limits")) {
+      const nlohmann::json& l = j.at("limits");
+      m.has_session = true;
+      m.limits.max_radius_samples = l.at("max_radius_samples").get<double>();
+      m.limits.max_shockwave_steps = l.at("max_shockwave_steps").get<uint32_t>();
+      m.limits.max_shockwave_cells = l.at("max_shockwave_cells").get<int64_t>();
+      m.tick = j.at("tick").get<uint64_t>();
+      if (Status st = validate_limits(m.limits); !st.ok())
+        return make_error(ErrorCode::kCorrupt, mpath, "manifest: " + st.error().describe());
+    }
   } catch (const nlohmann::json::exception& e) {
     return make_error(ErrorCode::kCorrupt, mpath, std::string("manifest: ") + e.what());
   }
@@ -352,8 +394,8 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path) {
     if (world.tile_state(v.c).hash != v.hash)
       return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(v.c) + " hash mismatch");
   }
-  if (world.world_hash() != manifest->world_hash)
-    return make_error(ErrorCode::kCorrupt, tpath, "world hash mismatch");
+  const uint64_t hash = manifest->hash_covers_params ? world.world_hash() : world.content_hash();
+  if (hash != manifest->world_hash) return make_error(ErrorCode::kCorrupt, tpath, "world hash mismatch");
   return LoadedSnapshot{*manifest, std::move(world), path, std::move(images)};
 }
 

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "protocol/result.h"
+#include "protocol/stamps/stamp_validate.h"
 #include "protocol/stamps/texture_registry.h"
 #include "protocol/world.h"
 
@@ -32,6 +33,20 @@ struct SnapshotManifest {
   WorldParams world;
   size_t coarse_tiles = 0, detail_tiles = 0;
   uint64_t tiles_bytes = 0;
+  // The session settings that give the logged stamps their meaning, recorded beside the
+  // terrain (absent in snapshots written before they were recorded).
+  bool has_session = false;
+  StampLimits limits;
+  uint64_t tick = 0;
+  // world_hash is World::world_hash (parameters included); false in older snapshots, whose
+  // world_hash is World::content_hash.
+  bool hash_covers_params = false;
+};
+
+// What a snapshot records of the session besides the terrain.
+struct SnapshotSession {
+  StampLimits limits;
+  uint64_t tick = 0;
 };
 
 struct LoadedSnapshot {
@@ -44,8 +59,13 @@ struct LoadedSnapshot {
 std::string snapshot_dir_name(uint64_t snapshot_id);
 
 // Writes a snapshot of `world` after `last_seq` under <data_dir>/snapshots/. Returns its path.
+// On failure (a full disk) the partial temporary folder is removed: nothing is left behind.
 Result<std::string> write_snapshot(const std::string& data_dir, const World& world, uint64_t last_seq,
-                                   uint32_t next_segment_index, const TextureRegistry& textures);
+                                   uint32_t next_segment_index, const TextureRegistry& textures,
+                                   const SnapshotSession& session = {});
+// Removes temporary folders that a crash during write_snapshot left under <data_dir>/snapshots.
+// Returns how many it removed.
+size_t remove_partial_snapshots(const std::string& data_dir);
 
 // Reads and fully verifies one snapshot folder.
 Result<LoadedSnapshot> read_snapshot(const std::string& path);

@@ -218,4 +218,24 @@ Status check_quantized(const QuantizedStamp& q, const WorldParams& world, const 
   return {};
 }
 
+Status validate_limits(const StampLimits& limits) {
+  if (!std::isfinite(limits.max_radius_samples) || !(limits.max_radius_samples > 0.0) ||
+      limits.max_radius_samples > kHardMaxRadiusSamples) {
+    return make_error(ErrorCode::kInvalidArgument, "limits.max_radius_samples",
+                      "must be a finite number in (0, " + std::to_string(int64_t(kHardMaxRadiusSamples)) +
+                          "], got " + std::to_string(limits.max_radius_samples));
+  }
+  if (limits.max_shockwave_steps < 1 || limits.max_shockwave_steps > kHardMaxShockwaveSteps) {
+    return make_error(ErrorCode::kInvalidArgument, "limits.max_shockwave_steps",
+                      "must be in 1.." + std::to_string(kHardMaxShockwaveSteps) + ", got " +
+                          std::to_string(limits.max_shockwave_steps));
+  }
+  if (limits.max_shockwave_cells < 1 || limits.max_shockwave_cells > kHardMaxShockwaveCells) {
+    return make_error(ErrorCode::kInvalidArgument, "limits.max_shockwave_cells",
+                      "must be in 1.." + std::to_string(kHardMaxShockwaveCells) + ", got " +
+                          std::to_string(limits.max_shockwave_cells));
+  }
+  return {};
+}
+
 }  // namespace loam

@@ -29,7 +29,15 @@ struct StampLimits {
   double max_radius_samples = 4096.0;              // in the stamp's layer samples, <= kHardMaxRadiusSamples
   uint32_t max_shockwave_steps = 1024;             // requested steps (before any split)
   int64_t max_shockwave_cells = int64_t(1) << 24;  // area of the final shockwave box
+  friend bool operator==(const StampLimits&, const StampLimits&) = default;
 };
+// Hard ceilings of the limits themselves.
+inline constexpr uint32_t kHardMaxShockwaveSteps = 65535;
+inline constexpr int64_t kHardMaxShockwaveCells = int64_t(1) << 32;
+
+// Checks that limits are usable: finite, positive, within the hard ceilings (a NaN radius
+// would otherwise turn every radius comparison off). The error names the limit.
+Status validate_limits(const StampLimits& limits);
 
 // Validates and quantizes. `textures` may be null (then no texture id is registered).
 Result<QuantizedStamp> validate_stamp(const StampParams& params, const WorldParams& world,

@@ -1,5 +1,5 @@
 // The golden stamp sequence: a fixed pseudo-random sequence of every stamp kind on both
-// layers (integer LCG, no libm), applied to a flat world. Its world hash pins the profile
+// layers (integer LCG, no libm), applied to a flat world. Its content hash pins the profile
 // table baking and every kernel: the GCC unit tests and a clang-built check in CI
 // (tests/determinism/golden_check.cpp, built with the fuzzers) must both reproduce it.
 // No GoogleTest here, so the clang build can compile it with protocol/ alone.
@@ -12,7 +12,8 @@ namespace loam::determinism {
 
 inline constexpr uint64_t kGoldenStampSequenceHash = 0xc875caa4907e2017ull;
 
-// World hash after the sequence; `error` gets the first stamp that failed (should be none).
+// Content hash (World::content_hash) after the sequence; `error` gets the first stamp that failed (should be
+// none).
 uint64_t golden_stamp_sequence_hash(std::string* error);
 
 }  // namespace loam::determinism

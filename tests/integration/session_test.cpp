@@ -164,9 +164,28 @@ void kill_during_storm(uint32_t seed) {
   client::TerrainClient c;
   ASSERT_TRUE(c.connect("127.0.0.1", restarted.port(), "checker").ok());
   const uint64_t recovered_seq = c.welcome().global_sequence;
+  {
+    // Edit at once: the restarted server must log and acknowledge (its ticks continue the
+    // log's instead of starting again at 0, which the log refused: a crash loop).
+    client::TerrainClient editor;
+    ASSERT_TRUE(editor.connect("127.0.0.1", restarted.port(), "after-crash").ok());
+    std::mt19937 rng(seed + 1000);
+    std::vector<uint32_t> seqs;
+    for (int i = 0; i < 10; ++i) seqs.push_back(*editor.deform(random_stamp(rng, editor.welcome().world)));
+    ASSERT_TRUE(editor.wait_until([&] { return editor.ack(seqs.back()).has_value(); }, 30s))
+        << restarted.log();
+    for (uint32_t s : seqs) {
+      ASSERT_TRUE(editor.ack(s).has_value());
+      EXPECT_TRUE(editor.ack(s)->accepted) << editor.ack(s)->field;
+      EXPECT_GT(editor.ack(s)->global_seq, recovered_seq);
+    }
+    EXPECT_TRUE(restarted.running());
+    EXPECT_EQ(restarted.log().find("event=fatal"), std::string::npos) << restarted.log();
+  }
+  const uint64_t edited_seq = recovered_seq + 10;
   EXPECT_GE(recovered_seq, max_seq) << "an acknowledged stamp was lost\n" << restarted.log();
   // The restarted server's tiles equal a replay of the log from the initial terrain.
-  const World expected = replayed_world(dir, recovered_seq);
+  const World expected = replayed_world(dir, edited_seq);
   std::vector<TileCoord> tiles = c.all_coarse_tiles(0);
   const auto m1 = c.all_coarse_tiles(1);
   tiles.insert(tiles.end(), m1.begin(), m1.end());
@@ -176,7 +195,7 @@ void kill_during_storm(uint32_t seed) {
   EXPECT_EQ(restarted.terminate(), 0) << restarted.log();
 }
 
-TEST(Recovery, KillNineDuringDeformStormKeepsEveryAcknowledgedStamp) {
+TEST(Recovery, KillNineDuringDeformStormKeepsEveryAcknowledgedStampAndEditsAtOnceAfterRestart) {
   for (uint32_t seed : {1u, 2u, 3u}) {
     SCOPED_TRACE("seed " + std::to_string(seed));
     kill_during_storm(seed);
@@ -414,11 +433,10 @@ TEST(Recovery, TextureStampImagesAreStoredWithTheSnapshot) {
   EXPECT_EQ(image->width, 32);
   const uint64_t last = c.ack(s)->global_seq;
   EXPECT_EQ(again.terminate(), 0);
-  // Replay of the log needs the image too, and applies both texture stamps.
-  auto replayed = server::replay_log(server::list_segments(dir + "/data"), dir + "/data", last,
-                                     gpu::BackendKind::kCpu, {png});
+  // Replay of the log finds the image in the data folder (no --stamp-image needed), and
+  // applies both texture stamps.
+  auto replayed = server::replay_log(server::list_segments(dir + "/data"), dir + "/data", last);
   ASSERT_TRUE(replayed.ok()) << replayed.error().describe();
-  EXPECT_EQ(replayed->failed_stamps, 0u);
   EXPECT_EQ(replayed->last_seq, last);
 }
 

@@ -90,7 +90,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s\n", replayed.error().describe().c_str());
       return 1;
     }
-    std::printf("%s %016llx\n", name.c_str(), (unsigned long long)replayed->world.world_hash());
+    std::printf("%s %016llx %016llx\n", name.c_str(), (unsigned long long)replayed->world.content_hash(),
+                (unsigned long long)replayed->world.world_hash());
   }
   return 0;
 }

@@ -31,9 +31,16 @@ void write_file(const fs::path& p, const std::vector<uint8_t>& bytes) {
       .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
 }
 
-std::vector<uint8_t> golden_log_segment(size_t records) {
+std::vector<uint8_t> golden_log_segment(size_t records, uint16_t format_version = log::kLogFormatVersion) {
   std::vector<uint8_t> bytes;
-  EXPECT_TRUE(log::append_segment_header(bytes, test::sample_segment_header()).ok());
+  log::SegmentHeader h = test::sample_segment_header();
+  if (format_version == 1) {  // format 1 recorded neither limits nor a base tick
+    h.format_version = 1;
+    h.has_limits = false;
+    h.limits = {};
+    h.base_tick = 0;
+  }
+  EXPECT_TRUE(log::append_segment_header(bytes, h).ok());
   for (uint64_t s = 1; s <= records; ++s)
     EXPECT_TRUE(log::append_record(bytes, test::sample_record(s, s)).ok());
   return bytes;
@@ -61,12 +68,27 @@ TEST(WireGolden, EveryMessageEncodesToItsCommittedBytesAndDecodesBack) {
   if (updating()) write_file(source_dir() / "fuzz/corpus/wire_fuzz/all_messages_stream.bin", stream);
 }
 
+TEST(WireGolden, FormatOneLogSegmentStillEncodesToItsCommittedBytesAndReads) {
+  // Logs are long-lived: a format 1 segment (before limits and base ticks) still reads.
+  const std::vector<uint8_t> bytes = golden_log_segment(3, 1);
+  Result<std::vector<uint8_t>> committed =
+      log::read_file((source_dir() / "tests/golden/log/segment-3-records.bin").string());
+  ASSERT_TRUE(committed.ok()) << committed.error().describe();
+  EXPECT_EQ(*committed, bytes);
+  Result<log::SegmentScan> scan = log::scan_segment(*committed);
+  ASSERT_TRUE(scan.ok()) << scan.error().describe();
+  EXPECT_EQ(scan->header.header.format_version, 1);
+  EXPECT_FALSE(scan->header.header.has_limits);
+  EXPECT_FALSE(scan->header.header.hashes_cover_params());
+  EXPECT_EQ(scan->records.size(), 3u);
+}
+
 TEST(WireGolden, LogSegmentEncodesToItsCommittedBytes) {
   const std::vector<uint8_t> bytes = golden_log_segment(3);
-  const fs::path golden = source_dir() / "tests/golden/log/segment-3-records.bin";
+  const fs::path golden = source_dir() / "tests/golden/log/segment-3-records-v2.bin";
   if (updating()) {
     write_file(golden, bytes);
-    write_file(source_dir() / "fuzz/corpus/log_fuzz/segment-3-records.bin", bytes);
+    write_file(source_dir() / "fuzz/corpus/log_fuzz/segment-3-records-v2.bin", bytes);
     write_file(source_dir() / "fuzz/corpus/log_fuzz/segment-empty.bin", golden_log_segment(0));
     std::vector<uint8_t> torn = golden_log_segment(2);
     torn.resize(torn.size() - 5);

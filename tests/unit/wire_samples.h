@@ -153,6 +153,8 @@ inline log::SegmentHeader sample_segment_header() {
   h.segment_index = 0;
   h.base_seq = 0;
   h.base_world_hash = h.initial.world_hash;
+  h.limits = {1000.0, 512, int64_t(1) << 20};
+  h.base_tick = 0;
   return h;
 }
 

@@ -187,5 +187,32 @@ TEST(World, FromSamplesRejectsWrongSampleCount) {
   EXPECT_EQ(w.error().field, "samples");
 }
 
+// A re-import at another scale must not hash like the original: the world hash covers the
+// parameters; the content hash (what format 1 logs recorded) does not.
+TEST(World, WorldHashCoversTheWorldsParametersContentHashDoesNot) {
+  const WorldParams a = small_params();
+  const World base(a, 1000);
+  auto changed = [&](auto edit) {
+    WorldParams p = a;
+    edit(p);
+    return World(p, 1000);
+  };
+  const World variants[] = {
+      changed([](WorldParams& p) { p.meters_per_sample *= 2; }),
+      changed([](WorldParams& p) { p.meters_per_unit *= 2; }),
+      changed([](WorldParams& p) { p.height_offset += 1; }),
+      changed([](WorldParams& p) { p.detail_factor = p.detail_factor == 4 ? 2 : 4; }),
+      changed([](WorldParams& p) { p.detail_meters_per_unit *= 2; }),
+  };
+  for (const World& v : variants) {
+    EXPECT_NE(v.world_hash(), base.world_hash());
+    EXPECT_EQ(v.content_hash(), base.content_hash());
+  }
+  // Moved or resized, the tile coordinates differ, so both hashes do.
+  EXPECT_NE(changed([](WorldParams& p) { p.origin_tile_x += 1; }).world_hash(), base.world_hash());
+  EXPECT_EQ(World(a, 1000).world_hash(), base.world_hash());
+  EXPECT_EQ(base.world_hash(), world_hash_of(a, base.content_hash()));
+}
+
 }  // namespace
 }  // namespace loam
