@@ -666,6 +666,9 @@ void Server::tick() {
     for (const PendingDeform& p : batch) {
       const uint64_t s_seq = terrain_.last_seq() + 1;
       auto applied = terrain_.apply(p.stamp, s_seq, p.client_id);
+      for (const Error& e : terrain_.take_backend_failures())
+        log_event("backend_error",
+                  {{"seq", std::to_string(s_seq)}, {"error", e.describe()}, {"fallback", "cpu"}});
       if (!applied)
         log_event("apply_error", {{"seq", std::to_string(s_seq)}, {"error", applied.error().describe()}});
       ++stats_.deforms_accepted;

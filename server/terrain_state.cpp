@@ -47,6 +47,14 @@ Result<AppliedStamp> TerrainState::apply(const QuantizedStamp& q, uint64_t seq, 
     }
   }
   auto changed = backend_ ? backend_->apply(world_, q) : apply_stamp(world_, q, textures_.get(), limits_);
+  if (!changed && backend_) {
+    // The stamp is logged already and passed check(): a backend failure (a lost GL context)
+    // must not make it a no-op that recovery would then refuse. The CPU reference gives the
+    // same integers; the backend's copy is brought up to date.
+    backend_failures_.push_back(changed.error());
+    changed = apply_stamp(world_, q, textures_.get(), limits_);
+    if (changed) backend_->world_changed(world_, q.layer, *changed);
+  }
   if (!changed) {
     // The sequence is consumed either way (it may already be in the log); replay does the
     // same, so a stamp that fails to apply is a no-op everywhere.

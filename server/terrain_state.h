@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "gpu/stamp_backend.h"
@@ -50,6 +51,8 @@ class TerrainState {
   // Evaluates stamps with `backend` from now on (made for this world); null: the CPU reference.
   void set_backend(std::unique_ptr<gpu::StampBackend> backend) { backend_ = std::move(backend); }
   const gpu::StampBackend* backend() const { return backend_.get(); }
+  // Backend failures since the last call (each stamp was then applied by the CPU reference).
+  std::vector<Error> take_backend_failures() { return std::exchange(backend_failures_, {}); }
 
  private:
   World world_;
@@ -57,6 +60,7 @@ class TerrainState {
   StampLimits limits_;
   uint64_t last_seq_ = 0;
   std::unique_ptr<gpu::StampBackend> backend_;
+  std::vector<Error> backend_failures_;
 };
 
 }  // namespace loam::server
