@@ -45,7 +45,8 @@ struct StorageOpener {
   }
 
   static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path,
-                                    const StampLimits& limits, const std::vector<std::string>& stamp_images) {
+                                    const StampLimits& limits, const std::vector<std::string>& stamp_images,
+                                    int dem_band) {
     std::error_code ec;
     fs::create_directories(fs::path(data_dir) / "log", ec);
     if (ec) return make_error(ErrorCode::kIo, data_dir, "cannot create the data folder: " + ec.message());
@@ -60,7 +61,7 @@ struct StorageOpener {
                           "snapshots without a log: refusing to guess the session");
       }
       log::InitialTerrain initial;
-      auto world = load_initial_terrain(dem_path, &initial);
+      auto world = load_initial_terrain(dem_path, &initial, dem_band);
       if (!world) return world.error();
       log::SegmentHeader h;
       h.world = world->params();
@@ -153,8 +154,9 @@ struct StorageOpener {
 };
 
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
-                                   const StampLimits& limits, const std::vector<std::string>& stamp_images) {
-  return StorageOpener::open(data_dir, dem_path, limits, stamp_images);
+                                   const StampLimits& limits, const std::vector<std::string>& stamp_images,
+                                   int dem_band) {
+  return StorageOpener::open(data_dir, dem_path, limits, stamp_images, dem_band);
 }
 
 Result<std::string> Storage::snapshot(const TerrainState& terrain) {

@@ -61,9 +61,10 @@ struct OpenedStorage {
 // `dem_path` (empty: the embedded default) is used only when the folder holds no session.
 // `stamp_images` are texture-stamp image files registered before any replay (images stored
 // in the loaded snapshot are registered too).
+// `dem_band` names the DEM's height band (0: its only band).
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
                                    const StampLimits& limits,
-                                   const std::vector<std::string>& stamp_images = {});
+                                   const std::vector<std::string>& stamp_images = {}, int dem_band = 0);
 
 // Segment files under <data_dir>/log, in index order.
 std::vector<std::string> list_segments(const std::string& data_dir);
