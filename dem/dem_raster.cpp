@@ -183,7 +183,8 @@ Result<DemRaster> decode(RasterSource& src, const std::string& name, const std::
   if (dem.integer_source) dem.vertical_step = scale;
   dem.loam_world = side.loam_world;
 
-  // Read in strips: the output grows with what was decoded, never with the header's claim.
+  // Read in strips: the resident output grows with what was decoded, never with the header's
+  // claim.
   const std::optional<double> nodata = band.nodata;
   const bool nodata_nan = nodata && std::isnan(*nodata);
   const int64_t rows_per_strip = strip_rows(src);
@@ -202,6 +203,9 @@ Result<DemRaster> decode(RasterSource& src, const std::string& name, const std::
         v = offset + scale * v;
       }
     }
+    // Once the first strip decoded, reserve the whole raster: address space only (pages become
+    // resident as strips are written), and no reallocation copies on the way.
+    if (y == 0) dem.meters.reserve(size_t(w * h));
   }
   if (dem.nodata_count == w * h)
     return fail(ErrorCode::kInvalidArgument, name, "every sample is NaN or NoData");
