@@ -9,7 +9,7 @@
 namespace loam {
 namespace {
 
-constexpr size_t kMaxMessages = 4;
+constexpr size_t kMaxMessages = 3;
 constexpr size_t kMaxMessageChars = 240;
 constexpr int64_t kGdalCacheBytes = int64_t(64) << 20;
 
@@ -38,7 +38,13 @@ void GdalErrorCapture::record(int error_class, const char* message) {
   const bool failure = error_class == CE_Failure || error_class == CE_Fatal;
   failures_ += failure ? 1 : 0;
   std::vector<std::string>& list = failure ? errors_ : warnings_;
-  if (list.size() < kMaxMessages) list.push_back(printable(message));
+  std::string text = printable(message);
+  // GDAL repeats a driver's message inside its own ("IReadBlock failed ...: <the message>"):
+  // keep the first, most specific, once.
+  for (const std::string& m : list) {
+    if (!m.empty() && (text.find(m) != std::string::npos || m.find(text) != std::string::npos)) return;
+  }
+  if (list.size() < kMaxMessages) list.push_back(std::move(text));
 }
 
 std::string GdalErrorCapture::text(const std::string& fallback) const {
@@ -56,6 +62,9 @@ void ensure_gdal_ready() {
   static std::once_flag once;
   std::call_once(once, [] {
     GdalErrorCapture quiet;
+    // A VRT is untrusted input too: no Python pixel functions (gdal_source.cpp refuses raw
+    // bands and nested VRTs).
+    CPLSetConfigOption("GDAL_VRT_ENABLE_PYTHON", "NO");
     GDALAllRegister();
     GDALSetCacheMax64(kGdalCacheBytes);
   });

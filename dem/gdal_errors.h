@@ -26,7 +26,8 @@ class GdalErrorCapture {
   std::vector<std::string> errors_, warnings_;
 };
 
-// Registers GDAL's drivers and caps its block cache, once per process.
+// Registers GDAL's drivers, caps its block cache (64 MiB) and turns off VRT Python pixel
+// functions, once per process.
 void ensure_gdal_ready();
 
 }  // namespace loam

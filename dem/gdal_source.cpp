@@ -8,6 +8,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <string_view>
 
 #include "dem/gdal_errors.h"
 
@@ -144,6 +145,32 @@ class GdalSource final : public RasterSource {
   std::string vsimem_path_;
 };
 
+// A VRT may window, mosaic and scale raster files; it may not read any file as raw samples
+// (VRTRawRasterBand: /etc/passwd, /dev/zero) nor nest other VRTs (which would escape this
+// check). GDAL's own serialization of the opened VRT is what is inspected.
+Status check_vrt(GDALDatasetH ds, const std::string& name) {
+  GdalErrorCapture quiet;
+  char** xml = GDALGetMetadata(ds, "xml:VRT");
+  const std::string text = xml && xml[0] ? xml[0] : "";
+  if (text.find("VRTRawRasterBand") != std::string::npos) {
+    return make_error(ErrorCode::kUnsupported, name,
+                      "a VRT raw band (VRTRawRasterBand) reads any file as samples: not accepted for a DEM");
+  }
+  std::string lower = text;
+  for (char& c : lower) c = char(std::tolower(static_cast<unsigned char>(c)));
+  for (size_t at = lower.find("<sourcefilename"); at != std::string::npos;
+       at = lower.find("<sourcefilename", at + 1)) {
+    const size_t close = lower.find("</sourcefilename>", at);
+    if (close == std::string::npos) break;
+    const std::string_view entry(lower.data() + at, close - at);
+    if (entry.size() >= 4 && entry.substr(entry.size() - 4) == ".vrt") {
+      return make_error(ErrorCode::kUnsupported, name,
+                        "a VRT whose sources are VRTs is not accepted (nest one level)");
+    }
+  }
+  return {};
+}
+
 Result<std::unique_ptr<RasterSource>> open_path(const std::string& gdal_path, const std::string& name,
                                                 const std::string& ext, std::string vsimem_path) {
   const char* driver = gdal_driver_for_extension(ext);
@@ -165,7 +192,9 @@ Result<std::unique_ptr<RasterSource>> open_path(const std::string& gdal_path, co
     if (!vsimem_path.empty()) VSIUnlink(vsimem_path.c_str());
     return make_error(ErrorCode::kCorrupt, name, "cannot decode: " + why);
   }
-  return std::unique_ptr<RasterSource>(new GdalSource(ds, name, std::move(vsimem_path)));
+  auto source = std::unique_ptr<RasterSource>(new GdalSource(ds, name, std::move(vsimem_path)));
+  if (std::string(driver) == "VRT") LOAM_TRY(check_vrt(ds, name));
+  return source;
 }
 
 }  // namespace

@@ -159,6 +159,11 @@ def cases():
          b'<VRTDataset rasterXSize="64" rasterYSize="48"><VRTRasterBand dataType="UInt16" band="1">'
          b'<SimpleSource><SourceFilename relativeToVRT="1">nowhere.tif</SourceFilename><SourceBand>1</SourceBand>'
          b'</SimpleSource></VRTRasterBand></VRTDataset>', None),
+        ("raw_band.vrt", "VRT raw band reading /etc/passwd as samples",
+         b'<VRTDataset rasterXSize="16" rasterYSize="4"><VRTRasterBand dataType="Byte" band="1" '
+         b'subClass="VRTRawRasterBand"><SourceFilename relativetoVRT="0">/etc/passwd</SourceFilename>'
+         b'<ImageOffset>0</ImageOffset><PixelOffset>1</PixelOffset><LineOffset>16</LineOffset>'
+         b'</VRTRasterBand></VRTDataset>', None),
         ("huge.vrt", "VRT claiming 100000x100000 samples",
          b'<VRTDataset rasterXSize="100000" rasterYSize="100000"><VRTRasterBand dataType="Float32" band="1">'
          b'</VRTRasterBand></VRTDataset>', None),

@@ -457,6 +457,22 @@ TEST(DemImport, ProjectedCrsInUsFeetBecomesMetres) {
   fs::remove_all(dir);
 }
 
+TEST(DemImport, ReadsCloudOptimizedGeoTiff) {
+  const fs::path dir = temp_dir();
+  const std::vector<double> v = rough_terrain(700, 600, 21);
+  TestRaster r = single_band(700, 600, GDT_Int16, v);
+  r.transform = std::array<double, 6>{400000, 5, 0, 5000000, 0, -5};
+  r.epsg = 32632;
+  r.creation_options = {"COMPRESS=DEFLATE", "BLOCKSIZE=256"};
+  write_raster(dir / "cog.tif", "COG", r);
+  auto dem = read_dem_file((dir / "cog.tif").string());
+  ASSERT_TRUE(dem.ok()) << dem.error().describe();
+  EXPECT_EQ(dem->format, "GTiff");
+  EXPECT_DOUBLE_EQ(dem->meters_per_sample, 5.0);
+  EXPECT_EQ(dem->meters, v);
+  fs::remove_all(dir);
+}
+
 TEST(DemImport, ReadsSrtmHgt) {
   const fs::path dir = temp_dir();
   const int n = 1201;
@@ -535,6 +551,31 @@ TEST(DemImport, ReadsVrt) {
   for (int y = 0; y < 10; ++y) {
     for (int x = 0; x < 20; ++x) ASSERT_EQ(dem->meters[size_t(y * 20 + x)], v[size_t((y + 7) * 50 + x + 5)]);
   }
+  fs::remove_all(dir);
+}
+
+// A VRT may not read arbitrary files as raw samples (say /etc/passwd or /dev/zero), nor hide
+// such a VRT inside another.
+TEST(DemImport, VrtRawBandOverAnyFileIsRefused) {
+  const fs::path dir = temp_dir();
+  std::ofstream(dir / "raw.vrt") << R"(<VRTDataset rasterXSize="16" rasterYSize="4">
+  <VRTRasterBand dataType="Byte" band="1" subClass="VRTRawRasterBand">
+    <SourceFilename relativetoVRT="0">/etc/passwd</SourceFilename>
+    <ImageOffset>0</ImageOffset><PixelOffset>1</PixelOffset><LineOffset>16</LineOffset>
+  </VRTRasterBand>
+</VRTDataset>
+)";
+  std::string why = expect_refused(dir / "raw.vrt");
+  EXPECT_NE(why.find("VRTRawRasterBand"), std::string::npos) << why;
+  // Nor a VRT of VRTs, which would hide one.
+  std::ofstream(dir / "outer.vrt") << R"(<VRTDataset rasterXSize="16" rasterYSize="4">
+  <VRTRasterBand dataType="Byte" band="1"><SimpleSource>
+    <SourceFilename relativeToVRT="1">raw.vrt</SourceFilename><SourceBand>1</SourceBand>
+  </SimpleSource></VRTRasterBand>
+</VRTDataset>
+)";
+  why = expect_refused(dir / "outer.vrt");
+  EXPECT_NE(why.find("sources are VRTs"), std::string::npos) << why;
   fs::remove_all(dir);
 }
 
