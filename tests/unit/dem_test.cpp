@@ -841,6 +841,28 @@ TEST(DemImport, CorruptTiffBytesNeverCrashTheReader) {
   fs::remove_all(dir);
 }
 
+// The same for PNG and ESRI ASCII grid bytes, read from memory like the default terrain.
+TEST(DemImport, CorruptPngAndAsciiGridBytesNeverCrashTheReader) {
+  const fs::path dir = temp_dir();
+  write_raster(dir / "good.png", "PNG", single_band(40, 30, GDT_UInt16, rough_terrain(40, 30, 8)));
+  std::ofstream(dir / "good.asc")
+      << "ncols 5\nnrows 4\nxllcorner 0\nyllcorner 0\ncellsize 10\n"
+      << "NODATA_value -9999\n1 2 3 4 5\n6 7 8 9 10\n11 12 13 14 15\n16 17 18 19 20\n";
+  std::mt19937 rng(17);
+  for (const char* name : {"good.png", "good.asc"}) {
+    const auto good = read_bytes(dir / name);
+    ASSERT_TRUE(read_dem_memory(good, name, "").ok()) << name;
+    for (int round = 0; round < 300; ++round) {
+      auto bad = good;
+      const int flips = 1 + int(rng() % 4);
+      for (int i = 0; i < flips; ++i) bad[rng() % bad.size()] = uint8_t(rng());
+      if (round % 5 == 0) bad.resize(1 + rng() % (bad.size() - 1));
+      (void)read_dem_memory(bad, name, "");  // an Error or a raster, never a crash
+    }
+  }
+  fs::remove_all(dir);
+}
+
 TEST(DemImport, NanOnlyFloatTiffIsRefused) {
   const fs::path dir = temp_dir();
   write_raster(dir / "nan.tif", "GTiff", single_band(9, 7, GDT_Float32, std::vector<double>(63, NAN)));
