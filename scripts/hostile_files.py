@@ -10,6 +10,7 @@ under 256 MB peak RSS; the script exits 1 when one does not. With --table it wri
 Markdown table TABLE.md and TABLE.csv. scripts/hostile-files.sh runs it on a release build.
 """
 import argparse
+import concurrent.futures
 import csv
 import io
 import json
@@ -205,6 +206,7 @@ def main():
     # The floor: the same program doing no import at all.
     _, floor_kb, _, _, _ = run_one(args.server, None, ("--version",))
     print("floor: loam-server --version peaks at %.1f MB" % (floor_kb / 1024))
+    made = []
     for name, what, data, sidecar in cases():
         path = os.path.join(args.out, name)
         with open(path, "wb") as f:
@@ -215,7 +217,11 @@ def main():
                 f.write(sidecar)
         elif os.path.exists(side):
             os.remove(side)
-        rc, rss_kb, secs, out, err = run_one(args.server, path)
+        made.append((name, what, data, path))
+    # Imports run a few at a time (each child's peak RSS is its own).
+    with concurrent.futures.ThreadPoolExecutor(max_workers=4) as pool:
+        results = list(pool.map(lambda m: run_one(args.server, m[3]), made))
+    for (name, what, data, path), (rc, rss_kb, secs, out, err) in zip(made, results):
         message = error_line(err)
         # Paths in messages are the generated folder's: show the file name only.
         message = message.replace(path, name).replace(args.out + "/", "")
