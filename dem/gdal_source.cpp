@@ -165,7 +165,7 @@ Status check_vrt(GDALDatasetH ds, const std::string& name) {
     const std::string_view entry(lower.data() + at, close - at);
     if (entry.size() >= 4 && entry.substr(entry.size() - 4) == ".vrt") {
       return make_error(ErrorCode::kUnsupported, name,
-                        "a VRT whose sources are VRTs is not accepted (nest one level)");
+                        "a VRT whose sources are VRTs is not accepted (one level of VRT only)");
     }
   }
   return {};
