@@ -14,11 +14,12 @@
 
 namespace {
 
-loam::ImportedWorld load(const std::string& dem_path, std::optional<double> mps,
-                         std::optional<double> vscale) {
+loam::ImportedWorld load(const std::string& dem_path, std::optional<double> mps, std::optional<double> vscale,
+                         std::optional<int> band) {
   loam::DemScaleOptions scale;
   scale.meters_per_sample = mps;
   scale.vertical_scale = vscale;
+  scale.band = band;
   loam::Result<loam::ImportedWorld> imported = [&]() -> loam::Result<loam::ImportedWorld> {
     if (dem_path.empty()) return loam::load_default_terrain();
     auto dem = loam::read_dem_file(dem_path, scale);
@@ -52,15 +53,22 @@ int main(int argc, char** argv) {
 
   std::string dem_path;
   std::optional<double> mps, vscale;
+  std::optional<int> band;
   auto* summary =
       app.add_subcommand("summary", "Load a terrain (default: the embedded one) and print its summary");
-  summary->add_option("--dem", dem_path, "DEM file (PNG/TIFF/EXR) instead of the embedded default");
+  summary->add_option(
+      "--dem", dem_path,
+      "DEM file (GeoTIFF, PNG, SRTM .hgt, ESRI .asc, VRT, EXR) instead of the embedded default");
+  summary->add_option("--band", band, "The DEM's height band, 1-based (required for multi-band images)")
+      ->check(CLI::Range(1, 65535));
   summary->add_option("--meters-per-sample", mps, "Horizontal spacing (overrides sidecar/GeoTIFF)");
   summary->add_option("--vertical-scale", vscale, "Meters per source unit for integer DEMs");
 
   std::string out_path;
   auto* exp = app.add_subcommand("export", "Write a terrain as 16-bit PNG (+ sidecar) or float EXR");
   exp->add_option("--dem", dem_path, "DEM file instead of the embedded default");
+  exp->add_option("--band", band, "The DEM's height band, 1-based (required for multi-band images)")
+      ->check(CLI::Range(1, 65535));
   exp->add_option("output", out_path, "Output .png or .exr")->required();
 
   try {
@@ -69,7 +77,7 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
   try {
-    const loam::ImportedWorld w = load(dem_path, mps, vscale);
+    const loam::ImportedWorld w = load(dem_path, mps, vscale, band);
     if (*summary) {
       print_summary(w);
     } else if (*exp) {

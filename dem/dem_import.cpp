@@ -7,19 +7,24 @@
 namespace loam {
 
 std::string ImportReport::summary() const {
-  char buf[1024];
+  char apron_buf[64] = "";
+  if (padded) std::snprintf(apron_buf, sizeof apron_buf, ", padded with a flat apron at %.3f m", apron_m);
+  const std::string apron = apron_buf;
+  char buf[1536];
   std::snprintf(buf, sizeof buf,
                 "source            %s (scale from %s)\n"
-                "samples           %lld x %lld -> %d x %d tiles of %d\n"
+                "samples           %lld x %lld -> %d x %d tiles of %d%s\n"
                 "heights           %.3f .. %.3f m, %lld NoData filled with %.3f m\n"
                 "quantization      offset %.6f m, %.6g m/unit, %.6g m/sample%s\n"
                 "headroom          %.1f m below, %.1f m above\n"
                 "error             max %.6g m, rms %.6g m%s\n",
                 source.c_str(), scale_source.c_str(), (long long)width, (long long)height, tiles_x, tiles_y,
-                kTileSize, min_m, max_m, (long long)nodata_count, nodata_fill_m, height_offset,
+                kTileSize, apron.c_str(), min_m, max_m, (long long)nodata_count, nodata_fill_m, height_offset,
                 meters_per_unit, meters_per_sample, anisotropy != 1.0 ? " (source samples not square)" : "",
                 headroom_below_m, headroom_above_m, max_error_m, rms_error_m, exact ? " (exact)" : "");
-  return buf;
+  std::string out = buf;
+  if (!scale_note.empty()) out += "spacing           " + scale_note + "\n";
+  return out;
 }
 
 Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& options) {
@@ -102,22 +107,44 @@ Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& opti
     return make_error(st.error().code, name, "derived world parameters invalid: " + st.error().describe());
   }
 
-  // Quantize, fill NoData with the minimum, pad by repeating the edge samples.
+  // Padding to whole tiles is a flat apron at the data's edge height: the mean of the valid
+  // samples on the imported area's border. (Repeating each edge sample instead drew streaks
+  // across the world for a DEM smaller than a tile.)
+  double edge_sum = 0;
+  int64_t edge_count = 0;
+  auto edge = [&](int64_t x, int64_t y) {
+    const double v = at(x, y);
+    if (!std::isnan(v)) {
+      edge_sum += v;
+      ++edge_count;
+    }
+  };
+  for (int64_t x = crop.x0; x < crop.x1; ++x) {
+    edge(x, crop.y0);
+    edge(x, crop.y1 - 1);
+  }
+  for (int64_t y = crop.y0 + 1; y + 1 < crop.y1; ++y) {
+    edge(crop.x0, y);
+    edge(crop.x1 - 1, y);
+  }
+  const double apron_m = edge_count ? std::clamp(edge_sum / double(edge_count), lo, hi) : lo;
+
+  // Quantize, fill NoData with the minimum, pad with the apron.
   const RectI world = p.sample_rect();
   const int64_t ww = world.width(), wh = world.height();
   std::vector<uint16_t> samples(size_t(ww * wh));
   double max_err = 0, sum_sq = 0;
   int64_t valid = 0;
   const uint16_t fill_q = quantize_height(p, lo);
+  const uint16_t apron_q = quantize_height(p, apron_m);
   for (int64_t y = 0; y < wh; ++y) {
-    const int64_t sy = crop.y0 + std::min(y, crop.height() - 1);
     for (int64_t x = 0; x < ww; ++x) {
-      const int64_t sx = crop.x0 + std::min(x, crop.width() - 1);
-      const double v = at(sx, sy);
-      uint16_t q = fill_q;
-      if (!std::isnan(v)) {
-        q = quantize_height(p, v);
-        if (x < crop.width() && y < crop.height()) {
+      uint16_t q = apron_q;
+      if (x < crop.width() && y < crop.height()) {
+        const double v = at(crop.x0 + x, crop.y0 + y);
+        q = fill_q;
+        if (!std::isnan(v)) {
+          q = quantize_height(p, v);
           const double err = std::fabs(p.height_meters(q) - v);
           max_err = std::max(max_err, err);
           sum_sq += err * err;
@@ -140,6 +167,8 @@ Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& opti
   r.max_m = hi;
   r.nodata_count = nodata;
   r.nodata_fill_m = p.height_meters(fill_q);
+  r.apron_m = p.height_meters(apron_q);
+  r.padded = ww > crop.width() || wh > crop.height();
   r.meters_per_sample = p.meters_per_sample;
   r.meters_per_unit = p.meters_per_unit;
   r.height_offset = p.height_offset;
@@ -150,6 +179,7 @@ Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& opti
   // Exact when every error is within double rounding of the heights themselves.
   r.exact = max_err <= 1e-9 * std::max(1.0, std::max(std::fabs(lo), std::fabs(hi)));
   r.scale_source = dem.scale_source;
+  r.scale_note = dem.scale_note;
   r.anisotropy = dem.anisotropy;
   return ImportedWorld{std::move(*built), r};
 }

@@ -1,6 +1,7 @@
 // Turning a DEM raster into a Loam world: choosing the quantization (offset and meters per
-// unit with headroom above and below the data), padding to whole tiles, filling NoData, and
-// reporting the error that quantization introduced.
+// unit with headroom above and below the data), padding to whole tiles with a flat apron at
+// the data's edge height (the mean of its border samples), filling NoData with the minimum,
+// and reporting the error that quantization introduced.
 #pragma once
 
 #include <optional>
@@ -26,7 +27,9 @@ struct ImportOptions {
 struct ImportReport {
   std::string source;
   int64_t width = 0, height = 0;     // samples imported (after crop)
-  int32_t tiles_x = 0, tiles_y = 0;  // world extent; padding repeats the edge samples
+  int32_t tiles_x = 0, tiles_y = 0;  // world extent in whole tiles
+  bool padded = false;               // the data does not fill the tiles: a flat apron pads it
+  double apron_m = 0;                // the apron's height: the mean of the data's border samples
   double min_m = 0, max_m = 0;       // valid data range
   int64_t nodata_count = 0;
   double nodata_fill_m = 0;  // NoData samples are filled with the data minimum
@@ -35,6 +38,7 @@ struct ImportReport {
   double max_error_m = 0, rms_error_m = 0;  // quantization error over valid samples
   bool exact = false;                       // every valid sample is represented exactly
   std::string scale_source;
+  std::string scale_note;  // how georeferencing gave the spacing, when it did
   double anisotropy = 1.0;
 
   std::string summary() const;  // multi-line human text

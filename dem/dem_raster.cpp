@@ -1,188 +1,148 @@
 #include "dem/dem_raster.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
-#include <nlohmann/json.hpp>
+#include <memory>
 #include <sstream>
 
-#include "dem/tiff_tags.h"
+#include "dem/dem_georef.h"
+#include "dem/dem_sidecar.h"
+#include "dem/exr_source.h"
+#include "dem/gdal_source.h"
+#include "dem/raster_source.h"
 
 namespace loam {
 namespace {
 
-constexpr int64_t kMaxDemSide = int64_t(1) << 20;
-constexpr int64_t kMaxDemSamples = int64_t(1) << 30;
+// Samples per read: 1 Mi doubles (8 MiB) per strip, whatever the raster claims.
+constexpr int64_t kStripSamples = int64_t(1) << 20;
+// Sidecars are small; a bigger one is not a sidecar.
+constexpr std::uintmax_t kMaxSidecarBytes = 1 << 20;
 
 Error fail(ErrorCode code, const std::string& name, const std::string& why) {
   return make_error(code, name, why);
 }
 
-Result<std::vector<uint8_t>> read_whole_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return fail(ErrorCode::kNotFound, path, "cannot open the file");
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  if (size < 0) return fail(ErrorCode::kIo, path, "cannot determine the file size");
-  if (size == 0) return fail(ErrorCode::kInvalidArgument, path, "the file is empty");
-  in.seekg(0);
-  std::vector<uint8_t> bytes(static_cast<size_t>(size));
-  if (!in.read(reinterpret_cast<char*>(bytes.data()), size)) return fail(ErrorCode::kIo, path, "read failed");
-  return bytes;
+std::string lower_extension(const std::string& name) {
+  std::string ext = std::filesystem::path(name).extension().string();
+  if (!ext.empty() && ext[0] == '.') ext.erase(0, 1);
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
 }
 
-struct Sidecar {
-  std::optional<double> meters_per_sample;
-  double anisotropy = 1.0;
-  std::optional<double> vertical_scale;
-  std::optional<double> vertical_offset;
-  std::optional<LoamSidecarWorld> loam_world;
-};
-
-Result<Sidecar> parse_sidecar(const std::string& text, const std::string& name) {
-  Sidecar s;
-  nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded() || !j.is_object())
-    return fail(ErrorCode::kCorrupt, name, "sidecar JSON does not parse");
-  auto number = [&](const nlohmann::json& o, const char* key) -> std::optional<double> {
-    if (!o.contains(key) || !o[key].is_number()) return std::nullopt;
-    const double v = o[key].get<double>();
-    return std::isfinite(v) ? std::optional<double>(v) : std::nullopt;
-  };
-  if (j.contains("meters_per_sample_xy") && j["meters_per_sample_xy"].is_array() &&
-      j["meters_per_sample_xy"].size() == 2 && j["meters_per_sample_xy"][0].is_number() &&
-      j["meters_per_sample_xy"][1].is_number()) {
-    const double x = j["meters_per_sample_xy"][0].get<double>(),
-                 y = j["meters_per_sample_xy"][1].get<double>();
-    if (std::isfinite(x) && std::isfinite(y) && x > 0 && y > 0) {
-      // Loam's samples are square: use the geometric mean and report the anisotropy.
-      s.meters_per_sample = std::sqrt(x * y);
-      s.anisotropy = y / x;
-    }
-  } else if (auto m = number(j, "meters_per_sample")) {
-    s.meters_per_sample = m;
+Status check_extension(const std::string& ext, const std::string& name) {
+  if (ext.empty()) return fail(ErrorCode::kUnsupported, name, "no file extension to tell the format");
+  if (ext != "exr" && !gdal_driver_for_extension(ext)) {
+    return fail(ErrorCode::kUnsupported, name,
+                "unsupported format '" + ext +
+                    "' (use GeoTIFF .tif, PNG, SRTM .hgt, ESRI ASCII grid .asc, "
+                    "VRT or OpenEXR)");
   }
-  s.vertical_scale = number(j, "height_scale_m");
-  s.vertical_offset = number(j, "height_offset_m");
-  if (j.contains("loam_world") && j["loam_world"].is_object()) {
-    const auto& w = j["loam_world"];
-    WorldParams p;
-    auto need = [&](const char* key, double& out) {
-      if (auto v = number(w, key)) {
-        out = *v;
-        return true;
-      }
-      return false;
-    };
-    double dfac = 0, otx = 0, oty = 0, tx = 0, ty = 0;
-    if (need("meters_per_sample", p.meters_per_sample) && need("height_offset", p.height_offset) &&
-        need("meters_per_unit", p.meters_per_unit) && need("detail_factor", dfac) &&
-        need("detail_meters_per_unit", p.detail_meters_per_unit) && need("origin_tile_x", otx) &&
-        need("origin_tile_y", oty) && need("tiles_x", tx) && need("tiles_y", ty)) {
-      p.detail_factor = int32_t(dfac);
-      p.origin_tile_x = int32_t(otx);
-      p.origin_tile_y = int32_t(oty);
-      p.tiles_x = int32_t(tx);
-      p.tiles_y = int32_t(ty);
-      const Status st = p.validate();
-      if (!st.ok()) return fail(ErrorCode::kCorrupt, name, "sidecar loam_world: " + st.error().describe());
-      s.loam_world = LoamSidecarWorld{p};
-    } else {
-      return fail(ErrorCode::kCorrupt, name, "sidecar loam_world lacks a field");
-    }
-  }
-  return s;
+  return {};
 }
 
 std::string sidecar_path(const std::string& path) {
-  const size_t dot = path.find_last_of('.');
-  const size_t slash = path.find_last_of('/');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return path + ".json";
-  return path.substr(0, dot) + ".json";
+  const std::filesystem::path p(path);
+  return (p.parent_path() / (p.stem().string() + ".json")).string();
 }
 
-Result<DemRaster> decode(std::span<const uint8_t> bytes, const std::string& name,
-                         const std::string& sidecar_json, const DemScaleOptions& options) {
-  std::string ext = OIIO::Filesystem::extension(name, false);
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  if (ext.empty()) return fail(ErrorCode::kUnsupported, name, "no file extension to tell the format");
-  if (ext != "png" && ext != "tif" && ext != "tiff" && ext != "exr") {
-    return fail(ErrorCode::kUnsupported, name, "unsupported format '" + ext + "' (use PNG, TIFF or EXR)");
+// Metres per unit of a band's unit type (GDAL's names), 1 for metres or none.
+double band_unit_meters(const std::string& unit) {
+  std::string u;
+  for (char c : unit) u.push_back(char(std::tolower(static_cast<unsigned char>(c))));
+  if (u == "ft" || u == "foot" || u == "feet" || u == "international foot") return 0.3048;
+  if (u == "us-ft" || u == "us survey foot" || u == "ftus") return 1200.0 / 3937.0;
+  if (u == "cm" || u == "centimetre" || u == "centimeter") return 0.01;
+  return 1.0;
+}
+
+// Which band holds the heights: the named one, or the only one when it is not a colour.
+Result<int> choose_band(const RasterSource& src, std::optional<int> named, const std::string& name) {
+  const int count = src.band_count();
+  if (count < 1) return fail(ErrorCode::kCorrupt, name, "the raster has no bands");
+  if (named) {
+    if (*named < 1 || *named > count) {
+      return fail(ErrorCode::kInvalidArgument, name,
+                  "--band " + std::to_string(*named) + " but the raster has " + std::to_string(count) +
+                      (count == 1 ? " band" : " bands"));
+    }
+    return *named;
   }
-  OIIO::Filesystem::IOMemReader proxy(const_cast<uint8_t*>(bytes.data()), bytes.size());
-  OIIO::ImageSpec spec;
-  auto in = OIIO::ImageInput::create(ext);
-  if (!in || !in->set_ioproxy(&proxy) || !in->open(name, spec)) {
-    std::string why = in ? in->geterror() : OIIO::geterror();
-    if (why.empty()) why = "not a readable image";
-    return fail(ErrorCode::kCorrupt, name, "cannot decode: " + why);
+  std::string colors;
+  bool alpha = false;
+  for (int i = 1; i <= count; ++i) {
+    const std::string c = src.band(i).color;
+    alpha = alpha || c == "Alpha";
+    colors += (i > 1 ? ", " : "") + c;
   }
-  spec = in->spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
-    return fail(ErrorCode::kCorrupt, name, "image has no samples");
+  if (count == 1) {
+    if (src.band(1).color == "Palette") {
+      return fail(ErrorCode::kInvalidArgument, name,
+                  "a palette (indexed colour) image is not a DEM; name the band with --band 1 to read its "
+                  "indices as heights");
+    }
+    return 1;
   }
-  if (spec.width < 2 || spec.height < 2) {
-    return fail(ErrorCode::kInvalidArgument, name,
-                "image is " + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
-                    "; a DEM needs at least 2x2 samples");
+  std::string kind = std::to_string(count) + "-band";
+  if (count == 2 && alpha) kind = "gray+alpha";
+  if (count == 3 && colors == "Red, Green, Blue") kind = "RGB";
+  if (count == 4 && colors == "Red, Green, Blue, Alpha") kind = "RGBA";
+  const std::string article = kind[0] == 'R' ? "an " : "a ";
+  return fail(ErrorCode::kInvalidArgument, name,
+              article + kind + " image (bands: " + colors +
+                  ") is not a DEM; name the height band with --band N (1.." + std::to_string(count) + ")");
+}
+
+// Rows per read: whole storage blocks when they fit the strip budget.
+int64_t strip_rows(const RasterSource& src) {
+  const int64_t w = std::max<int64_t>(1, src.width());
+  const int64_t budget = std::max<int64_t>(1, kStripSamples / w);
+  const int64_t block = std::max<int64_t>(1, src.block_rows());
+  if (block <= budget) return budget / block * block;
+  return src.format() == "OpenEXR" ? block : budget;  // OpenEXR tiles are read whole
+}
+
+Result<DemRaster> decode(RasterSource& src, const std::string& name, const std::string& sidecar_json,
+                         const DemScaleOptions& options) {
+  const int64_t w = src.width(), h = src.height();
+  if (w <= 0 || h <= 0) return fail(ErrorCode::kCorrupt, name, "image has no samples");
+  if (w < 2 || h < 2) {
+    return fail(
+        ErrorCode::kInvalidArgument, name,
+        "image is " + std::to_string(w) + "x" + std::to_string(h) + "; a DEM needs at least 2x2 samples");
   }
-  if (spec.width > kMaxDemSide || spec.height > kMaxDemSide ||
-      int64_t(spec.width) * spec.height > kMaxDemSamples) {
-    return fail(ErrorCode::kOversize, name, "image is larger than 2^30 samples");
+  if (w > kMaxDemSide || h > kMaxDemSide || w * h > kMaxDemSamples) {
+    return fail(ErrorCode::kOversize, name,
+                "image claims " + std::to_string(w) + "x" + std::to_string(h) +
+                    " samples; the import cap is 2^28 samples and 2^20 a side (crop or tile it first)");
   }
-  const OIIO::TypeDesc fmt = spec.format;
+  auto band_index = choose_band(src, options.band, name);
+  if (!band_index) return band_index.error();
+  const RasterBandInfo band = src.band(*band_index);
+  if (!band.supported) {
+    return fail(ErrorCode::kUnsupported, name,
+                "unsupported sample type " + band.sample_type + " (use 8/16/32-bit integers or floats)");
+  }
+
   DemRaster dem;
   dem.name = name;
-  dem.width = spec.width;
-  dem.height = spec.height;
-  const auto base = OIIO::TypeDesc::BASETYPE(fmt.basetype);
-  dem.integer_source =
-      base == OIIO::TypeDesc::UINT8 || base == OIIO::TypeDesc::UINT16 || base == OIIO::TypeDesc::INT16;
-  const bool float_source =
-      base == OIIO::TypeDesc::FLOAT || base == OIIO::TypeDesc::HALF || base == OIIO::TypeDesc::DOUBLE;
-  if (!dem.integer_source && !float_source) {
-    return fail(ErrorCode::kUnsupported, name,
-                std::string("unsupported sample type ") + fmt.c_str() + " (use 8/16-bit integer or float)");
-  }
-  // Read the first channel in the source's own type, so integers keep their exact values.
-  const size_t count = size_t(spec.width) * size_t(spec.height);
-  std::vector<double> raw(count);
-  bool ok = false;
-  auto read_as = [&](auto tag, OIIO::TypeDesc type) {
-    std::vector<decltype(tag)> tmp(count);
-    ok = in->read_image(0, 0, 0, 1, type, tmp.data());
-    for (size_t i = 0; i < count; ++i) raw[i] = double(tmp[i]);
-  };
-  if (base == OIIO::TypeDesc::UINT8)
-    read_as(uint8_t{}, OIIO::TypeDesc::UINT8);
-  else if (base == OIIO::TypeDesc::UINT16)
-    read_as(uint16_t{}, OIIO::TypeDesc::UINT16);
-  else if (base == OIIO::TypeDesc::INT16)
-    read_as(int16_t{}, OIIO::TypeDesc::INT16);
-  else
-    read_as(float{}, OIIO::TypeDesc::FLOAT);
-  if (!ok) {
-    std::string why = in->geterror();
-    return fail(ErrorCode::kCorrupt, name,
-                "cannot read the samples: " + (why.empty() ? std::string("decoder error") : why));
-  }
-  in->close();
+  dem.width = w;
+  dem.height = h;
+  dem.integer_source = band.integer;
+  dem.format = src.format();
+  dem.sample_type = band.sample_type;
+  dem.band = *band_index;
 
-  // Scale: explicit > sidecar > GeoTIFF > defaults.
+  // Scale: explicit > sidecar > georeferencing > defaults.
   Sidecar side;
   if (!sidecar_json.empty()) {
     auto parsed = parse_sidecar(sidecar_json, name + " sidecar");
     if (!parsed) return parsed.error();
     side = *parsed;
-  }
-  TiffGeoTags geo;
-  if (ext == "tif" || ext == "tiff") {
-    auto tags = read_tiff_geo_tags(bytes);
-    if (!tags) return fail(ErrorCode::kCorrupt, name, tags.error().describe());
-    geo = *tags;
+    LOAM_TRY(check_sidecar_matches(side, w, h, band.sample_type, name + " sidecar"));
   }
   dem.scale_source = "default";
   if (options.meters_per_sample) {
@@ -192,73 +152,107 @@ Result<DemRaster> decode(std::span<const uint8_t> bytes, const std::string& name
     dem.meters_per_sample = *side.meters_per_sample;
     dem.anisotropy = side.anisotropy;
     dem.scale_source = "sidecar";
-  } else if (geo.pixel_scale_x && geo.pixel_scale_y && *geo.pixel_scale_x > 0 && *geo.pixel_scale_y > 0) {
-    dem.meters_per_sample = std::sqrt(*geo.pixel_scale_x * *geo.pixel_scale_y);
-    dem.anisotropy = *geo.pixel_scale_y / *geo.pixel_scale_x;
-    dem.scale_source = "geotiff";
+  } else {
+    auto geo = spacing_from_georef(src.georef(), w, h, name);
+    if (!geo) return geo.error();
+    if (*geo) {
+      dem.meters_per_sample = std::sqrt((*geo)->x_m * (*geo)->y_m);
+      dem.anisotropy = (*geo)->y_m / (*geo)->x_m;
+      dem.scale_source = "georeferencing";
+      dem.scale_note = (*geo)->note;
+    }
   }
   if (!std::isfinite(dem.meters_per_sample) || dem.meters_per_sample <= 0 || dem.meters_per_sample > 1e5) {
     return fail(ErrorCode::kInvalidArgument, name, "meters per sample must be in (0, 1e5]");
   }
   double scale = 1.0, offset = 0.0;
-  if (dem.integer_source) {
-    if (side.vertical_scale) scale = *side.vertical_scale;
-    if (side.vertical_offset) offset = *side.vertical_offset;
-    if (options.vertical_scale) scale = *options.vertical_scale;
-    if (options.vertical_offset) offset = *options.vertical_offset;
-    if (!std::isfinite(scale) || scale <= 0 || !std::isfinite(offset)) {
-      return fail(ErrorCode::kInvalidArgument, name, "vertical scale must be finite and > 0");
-    }
-    dem.vertical_step = scale;
-  } else if (options.vertical_scale || options.vertical_offset) {
-    scale = options.vertical_scale.value_or(1.0);
-    offset = options.vertical_offset.value_or(0.0);
+  if (band.scale || band.offset) {
+    scale = band.scale.value_or(1.0);
+    offset = band.offset.value_or(0.0);
   }
+  const double unit = band_unit_meters(band.unit);
+  scale *= unit;
+  offset *= unit;
+  if (side.vertical_scale) scale = *side.vertical_scale;
+  if (side.vertical_offset) offset = *side.vertical_offset;
+  if (options.vertical_scale) scale = *options.vertical_scale;
+  if (options.vertical_offset) offset = *options.vertical_offset;
+  if (!std::isfinite(scale) || scale <= 0 || !std::isfinite(offset)) {
+    return fail(ErrorCode::kInvalidArgument, name, "vertical scale must be finite and > 0");
+  }
+  if (dem.integer_source) dem.vertical_step = scale;
   dem.loam_world = side.loam_world;
 
-  dem.meters.resize(count);
-  const std::optional<double> nodata = geo.nodata;
-  for (size_t i = 0; i < count; ++i) {
-    const double v = raw[i];
-    const bool missing =
-        !std::isfinite(v) || (nodata && (v == *nodata || (std::isnan(*nodata) && std::isnan(v))));
-    if (missing) {
-      dem.meters[i] = std::numeric_limits<double>::quiet_NaN();
-      ++dem.nodata_count;
-    } else {
-      dem.meters[i] = offset + scale * v;
+  // Read in strips: the resident output grows with what was decoded, never with the header's
+  // claim.
+  const std::optional<double> nodata = band.nodata;
+  const bool nodata_nan = nodata && std::isnan(*nodata);
+  const int64_t rows_per_strip = strip_rows(src);
+  for (int64_t y = 0; y < h; y += rows_per_strip) {
+    const int64_t rows = std::min(rows_per_strip, h - y);
+    const size_t at = dem.meters.size();
+    dem.meters.resize(at + size_t(rows * w));
+    const std::span<double> strip(dem.meters.data() + at, size_t(rows * w));
+    LOAM_TRY(src.read_rows(*band_index, y, rows, strip));
+    for (double& v : strip) {
+      const bool missing = !std::isfinite(v) || (nodata && !nodata_nan && v == *nodata);
+      if (missing) {
+        v = std::numeric_limits<double>::quiet_NaN();
+        ++dem.nodata_count;
+      } else {
+        v = offset + scale * v;
+      }
     }
+    // Once the first strip decoded, reserve the whole raster: address space only (pages become
+    // resident as strips are written), and no reallocation copies on the way.
+    if (y == 0) dem.meters.reserve(size_t(w * h));
   }
-  if (dem.nodata_count == int64_t(count)) {
+  if (dem.nodata_count == w * h)
     return fail(ErrorCode::kInvalidArgument, name, "every sample is NaN or NoData");
-  }
   return dem;
+}
+
+Result<std::string> read_sidecar_beside(const std::string& path) {
+  const std::string side = sidecar_path(path);
+  std::error_code ec;
+  if (side == path || !std::filesystem::is_regular_file(side, ec)) return std::string();
+  const std::uintmax_t size = std::filesystem::file_size(side, ec);
+  if (ec) return fail(ErrorCode::kIo, side, "cannot read the sidecar");
+  if (size > kMaxSidecarBytes) return fail(ErrorCode::kOversize, side, "sidecar larger than 1 MiB");
+  std::ifstream in(side);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (!in) return fail(ErrorCode::kIo, side, "cannot read the sidecar");
+  return text.str();
 }
 
 }  // namespace
 
 Result<DemRaster> read_dem_file(const std::string& path, const DemScaleOptions& options) {
-  auto bytes = read_whole_file(path);
-  if (!bytes) return bytes.error();
-  std::string sidecar;
-  const std::string side = sidecar_path(path);
-  if (side != path) {
-    std::ifstream in(side);
-    if (in) {
-      std::ostringstream text;
-      text << in.rdbuf();
-      sidecar = text.str();
-    }
-  }
-  auto dem = decode(*bytes, path, sidecar, options);
-  if (!dem) return dem.error();
-  return dem;
+  const std::string ext = lower_extension(path);
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return fail(ErrorCode::kNotFound, path, "cannot open the file");
+  if (!std::filesystem::is_regular_file(path, ec))
+    return fail(ErrorCode::kInvalidArgument, path, "not a regular file");
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (ec) return fail(ErrorCode::kIo, path, "cannot determine the file size");
+  if (size == 0) return fail(ErrorCode::kInvalidArgument, path, "the file is empty");
+  LOAM_TRY(check_extension(ext, path));
+  auto sidecar = read_sidecar_beside(path);
+  if (!sidecar) return sidecar.error();
+  auto src = ext == "exr" ? open_exr_file(path) : open_gdal_file(path, ext);
+  if (!src) return src.error();
+  return decode(**src, path, *sidecar, options);
 }
 
 Result<DemRaster> read_dem_memory(std::span<const uint8_t> bytes, const std::string& name,
                                   const std::string& sidecar_json, const DemScaleOptions& options) {
   if (bytes.empty()) return fail(ErrorCode::kInvalidArgument, name, "the image is empty");
-  return decode(bytes, name, sidecar_json, options);
+  const std::string ext = lower_extension(name);
+  LOAM_TRY(check_extension(ext, name));
+  auto src = ext == "exr" ? open_exr_memory(bytes, name) : open_gdal_memory(bytes, name, ext);
+  if (!src) return src.error();
+  return decode(**src, name, sidecar_json, options);
 }
 
 }  // namespace loam

@@ -1,12 +1,25 @@
-// Reading elevation rasters (DEMs) from image files through OpenImageIO.
+// Reading elevation rasters (DEMs).
 //
-// Accepts 16-bit (and 8-bit) integer PNG/TIFF and float TIFF/EXR, single channel (the first
-// channel of a multi-channel image is used). Heights come out in meters as double, NaN where
-// the source has no data (NaN samples, or TIFF GDAL_NODATA). Scale comes, in order of
-// precedence, from explicit options, a JSON sidecar beside the file (NAME.json, the format of
-// shared/data and of Loam's own exports), GeoTIFF ModelPixelScale, or defaults (1 m per
-// sample; integer sources 1 m per unit, float sources in meters), and the report says which.
-// Every failure is an Error naming the file and the reason; nothing here throws.
+// Formats, by extension: GeoTIFF/COG (.tif, .tiff), PNG (.png), SRTM HGT (.hgt, named like
+// N47E011.hgt), ESRI ASCII grid (.asc) and VRT (.vrt) through GDAL; OpenEXR (.exr, Loam's
+// float exports) through OpenImageIO. Samples may be 8/16/32-bit integers or floats. Heights
+// come out in metres as double, NaN where the source has no data (NaN samples, or the band's
+// NoData value); the band's scale and offset apply.
+//
+// A DEM has one height band. Multi-band images (RGB, RGBA, gray+alpha) and palette images are
+// refused unless the caller names the band (DemScaleOptions::band).
+//
+// Horizontal scale, in order of precedence: explicit options, a JSON sidecar beside the file
+// (NAME.json: dem_sidecar.h), the georeferencing (dem_georef.h: a geographic CRS gives metres
+// at the centre latitude, a projected one its linear unit), or 1 m per sample. Vertical:
+// explicit options, the sidecar, the band's scale/offset (and its unit: feet become metres),
+// or identity. The raster's scale_source and scale_note say which.
+//
+// Safe on untrusted input: the file is read in strips of rows, so memory grows with the data
+// actually decoded and never with the size a header claims; a raster over kMaxDemSamples
+// (2^28 samples) or 2^20 samples a side is refused before any sample is read; truncated or
+// corrupt data, a sidecar that does not match the image, and a NaN/NoData-only raster are
+// Errors naming the file and the reason. Nothing here throws.
 #pragma once
 
 #include <cstdint>
@@ -20,10 +33,15 @@
 
 namespace loam {
 
+// Refused before reading: more samples than this, or more than kMaxDemSide a side.
+inline constexpr int64_t kMaxDemSamples = int64_t(1) << 28;
+inline constexpr int64_t kMaxDemSide = int64_t(1) << 20;
+
 struct DemScaleOptions {
   std::optional<double> meters_per_sample;  // horizontal spacing
-  std::optional<double> vertical_scale;     // meters per source unit (integer sources)
-  std::optional<double> vertical_offset;    // meters at source value 0 (integer sources)
+  std::optional<double> vertical_scale;     // meters per source unit
+  std::optional<double> vertical_offset;    // meters at source value 0
+  std::optional<int> band;                  // the height band (1-based); required for multi-band images
 };
 
 // A Loam world's own quantization, when a sidecar carries it (exports do): importing such
@@ -42,7 +60,11 @@ struct DemRaster {
   bool integer_source = false;
   double vertical_step = 0.0;  // meters per source unit for integer sources, else 0
   int64_t nodata_count = 0;
-  std::string scale_source;                    // "explicit", "sidecar", "geotiff" or "default"
+  std::string scale_source;  // horizontal: "explicit", "sidecar", "georeferencing" or "default"
+  std::string scale_note;    // how georeferencing gave the spacing (CRS, centre latitude), else empty
+  std::string format;        // the reader: "GTiff", "PNG", "SRTMHGT", "AAIGrid", "VRT", "OpenEXR"
+  std::string sample_type;   // the band's: "uint16", "int16", "float32"...
+  int band = 1;              // the band read
   std::optional<LoamSidecarWorld> loam_world;  // set when the sidecar holds Loam's quantization
 };
 

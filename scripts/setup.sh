@@ -9,7 +9,7 @@ BUILD_PACKAGES=(
   # toolchain
   cmake ninja-build ccache g++ pkg-config
   # libraries
-  libasio-dev libglfw3-dev libglm-dev libzstd-dev libopenimageio-dev
+  libasio-dev libglfw3-dev libglm-dev libzstd-dev libopenimageio-dev libgdal-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgl-dev libepoxy-dev
   libgtest-dev libgmock-dev libcli11-dev libxxhash-dev libimgui-dev liblerc-dev nlohmann-json3-dev
 )

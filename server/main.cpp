@@ -9,6 +9,7 @@
 #include <asio.hpp>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <random>
 #include <stdexcept>
 
@@ -45,8 +46,8 @@ int serve(const server::ServerConfig& config) {
   if (!kind) die(kind.error());
   const auto access = server::load_access_tokens(config);
   if (!access) die(access.error());
-  auto opened =
-      server::open_storage(config.data_dir, config.dem_path, config.stamp_limits, config.stamp_images);
+  auto opened = server::open_storage(config.data_dir, config.dem_path, config.stamp_limits,
+                                     config.stamp_images, config.dem_band);
   if (!opened) die(opened.error());
   // Recovery replays on the CPU; the backend then starts from the recovered world.
   auto backend = gpu::make_stamp_backend(*kind, opened->terrain.world(), &opened->terrain.textures(),
@@ -133,7 +134,12 @@ int main(int argc, char** argv) {
   serve_cmd->add_option("--bind", config.bind_address, "Address to listen on")->capture_default_str();
   serve_cmd->add_option("--port", config.port, "TCP port (0: ephemeral)")->capture_default_str();
   serve_cmd->add_option("--port-file", config.port_file, "Write the bound port to this file");
-  serve_cmd->add_option("--dem", config.dem_path, "Initial terrain DEM (default: the embedded terrain)");
+  serve_cmd->add_option("--dem", config.dem_path,
+                        "Initial terrain DEM: GeoTIFF, PNG, SRTM .hgt, ESRI .asc, VRT or EXR (default: the "
+                        "embedded terrain)");
+  serve_cmd->add_option("--dem-band", config.dem_band, "The DEM's height band, 1-based (0: its only band)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 65535));
   serve_cmd->add_option("--data-dir", config.data_dir, "Log and snapshot folder")->capture_default_str();
   serve_cmd->add_option("--stamp-image", config.stamp_images,
                         "Grayscale image (PNG/TIFF/EXR) to register for texture stamps (repeatable)");
@@ -192,7 +198,15 @@ int main(int argc, char** argv) {
 
   std::string dem_in, out_path;
   auto* import_cmd = app.add_subcommand("import", "Import a DEM and report its quantization");
-  import_cmd->add_option("dem", dem_in, "DEM file")->required();
+  import_cmd->add_option("dem", dem_in, "DEM file: GeoTIFF/COG, PNG, SRTM .hgt, ESRI .asc, VRT or EXR")
+      ->required();
+  std::optional<int> import_band;
+  std::optional<double> import_mps, import_vscale, import_voffset;
+  import_cmd->add_option("--band", import_band, "The height band, 1-based (required for multi-band images)")
+      ->check(CLI::Range(1, 65535));
+  import_cmd->add_option("--meters-per-sample", import_mps, "Horizontal spacing (overrides sidecar and CRS)");
+  import_cmd->add_option("--vertical-scale", import_vscale, "Metres per source unit");
+  import_cmd->add_option("--vertical-offset", import_voffset, "Metres at source value 0");
   import_cmd->add_option("--png", out_path, "Also write the imported world as PNG + sidecar");
   auto* export_cmd = app.add_subcommand("export", "Export a data folder's current world");
   std::string export_dir;
@@ -293,7 +307,12 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*import_cmd) {
-      auto dem = read_dem_file(dem_in);
+      DemScaleOptions scale;
+      scale.band = import_band;
+      scale.meters_per_sample = import_mps;
+      scale.vertical_scale = import_vscale;
+      scale.vertical_offset = import_voffset;
+      auto dem = read_dem_file(dem_in, scale);
       if (!dem) die(dem.error());
       auto w = import_dem(*dem);
       if (!w) die(w.error());

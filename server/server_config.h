@@ -16,6 +16,7 @@ struct ServerConfig {
   uint16_t port = 7878;                   // 0: an ephemeral port (see port_file)
   std::string port_file;                  // when set, the bound port is written there once listening
   std::string dem_path;                   // empty: the embedded default terrain
+  int dem_band = 0;                       // the DEM's height band (1-based); 0: its only band
   std::vector<std::string> stamp_images;  // texture-stamp image files to register
   std::string data_dir = "loam-data";
   std::string backend = "cpu";  // auto | gpu | cpu

@@ -119,7 +119,7 @@ struct StorageOpener {
 
   static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path,
                                     const StampLimits& limits, const std::vector<std::string>& stamp_images,
-                                    bool read_only) {
+                                    int dem_band, bool read_only) {
     LOAM_TRY(validate_limits(limits));
     if (read_only) {
       if (list_segments(data_dir).empty())
@@ -140,7 +140,7 @@ struct StorageOpener {
                           "snapshots without a log: refusing to guess the session");
       }
       log::InitialTerrain initial;
-      auto world = load_initial_terrain(dem_path, &initial);
+      auto world = load_initial_terrain(dem_path, &initial, dem_band);
       if (!world) return world.error();
       TerrainState terrain(std::move(*world), 0, limits);
       LOAM_TRY(register_images(terrain, data_dir, stamp_images, report));
@@ -312,12 +312,13 @@ struct StorageOpener {
 };
 
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
-                                   const StampLimits& limits, const std::vector<std::string>& stamp_images) {
-  return StorageOpener::open(data_dir, dem_path, limits, stamp_images, false);
+                                   const StampLimits& limits, const std::vector<std::string>& stamp_images,
+                                   int dem_band) {
+  return StorageOpener::open(data_dir, dem_path, limits, stamp_images, dem_band, false);
 }
 
 Result<OpenedStorage> read_session(const std::string& data_dir) {
-  return StorageOpener::open(data_dir, "", StampLimits{}, {}, true);
+  return StorageOpener::open(data_dir, "", StampLimits{}, {}, 0, true);
 }
 
 Status Storage::resume(uint64_t last_seq) {

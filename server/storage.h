@@ -95,10 +95,11 @@ struct OpenedStorage {
 // `limits` are the options' stamp limits: a fresh session records them; a recovered one replays
 // under the recorded ones and records these for what follows. `stamp_images` are texture-stamp
 // image files to register; they are stored in the folder, and every image stored there (and in
-// the loaded snapshot) is registered before any replay.
+// the loaded snapshot) is registered before any replay. `dem_band` names the DEM's height band
+// (0: its only band).
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
                                    const StampLimits& limits,
-                                   const std::vector<std::string>& stamp_images = {});
+                                   const std::vector<std::string>& stamp_images = {}, int dem_band = 0);
 
 // The session's current world without changing the folder (export, inspection): like a
 // recovery, but a damaged tail is left alone (its records before the damage count), nothing is

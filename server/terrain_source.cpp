@@ -11,12 +11,33 @@ namespace loam::server {
 
 namespace {
 constexpr const char* kDefaultParams = "embedded default terrain";
-}
+constexpr const char* kDemParams = "default import options";
+constexpr const char* kBandPrefix = "default import options, band ";
 
-Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described) {
+// The import parameters a log records for a DEM, and the band they name (0: none).
+std::string dem_params(int band) { return band > 0 ? kBandPrefix + std::to_string(band) : kDemParams; }
+
+Result<int> band_of(const std::string& params) {
+  if (params == kDemParams) return 0;
+  const std::string prefix = kBandPrefix;
+  if (params.rfind(prefix, 0) == 0 && params.size() > prefix.size() && params.size() <= prefix.size() + 4) {
+    int band = 0;
+    for (size_t i = prefix.size(); i < params.size(); ++i) {
+      if (params[i] < '0' || params[i] > '9') band = -1;
+      if (band >= 0) band = band * 10 + (params[i] - '0');
+    }
+    if (band > 0) return band;
+  }
+  return make_error(ErrorCode::kUnsupported, "log.initial", "unknown DEM import parameters '" + params + "'");
+}
+}  // namespace
+
+Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band) {
   Result<ImportedWorld> imported = [&]() -> Result<ImportedWorld> {
     if (dem_path.empty()) return load_default_terrain();
-    auto dem = read_dem_file(dem_path);
+    DemScaleOptions options;
+    if (band > 0) options.band = band;
+    auto dem = read_dem_file(dem_path, options);
     if (!dem) return dem.error();
     return import_dem(*dem);
   }();
@@ -32,7 +53,7 @@ Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerr
       std::error_code ec;
       const auto abs = std::filesystem::absolute(dem_path, ec);
       described->dem_path = ec ? dem_path : abs.string();
-      described->import_params = "default import options";
+      described->import_params = dem_params(band);
     }
   }
   return std::move(imported->world);
@@ -73,7 +94,11 @@ Result<World> load_described_terrain(const log::InitialTerrain& initial, const W
                             "unknown generated terrain '" + initial.import_params + "'");
         }
         return load_initial_terrain("", nullptr);
-      case log::InitialSource::kDem: return load_initial_terrain(initial.dem_path, nullptr);
+      case log::InitialSource::kDem: {
+        auto band = band_of(initial.import_params);
+        if (!band) return band.error();
+        return load_initial_terrain(initial.dem_path, nullptr, *band);
+      }
       case log::InitialSource::kSnapshot: {
         const auto path =
             std::filesystem::path(data_dir) / "snapshots" / snapshot_dir_name(initial.snapshot_id);

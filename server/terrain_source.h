@@ -12,7 +12,8 @@
 namespace loam::server {
 
 // Loads the embedded default terrain (dem_path empty) or a DEM file, and describes it.
-Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described);
+// `band` names the DEM's height band (0: its only band); the description records it.
+Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band = 0);
 
 // Rebuilds the initial terrain a log header describes and checks it against the log: its
 // parameters must equal `logged` (the header's world: a DEM whose sidecar changed since would
