@@ -20,6 +20,11 @@ Status require_finite(const char* field, double v) {
 // approximation, so it is the same everywhere.
 int64_t round_i64(double v) { return int64_t(std::llround(v)); }
 
+// Whether the target height means anything (docs/stamps.md: else it must be 0).
+bool uses_target(StampKind k, BlendMode b) {
+  return k == StampKind::kFlatten || b == BlendMode::kMin || b == BlendMode::kMax;
+}
+
 bool own_combination(StampKind k) {
   return k == StampKind::kFootprint || k == StampKind::kFlatten || k == StampKind::kShockwave;
 }
@@ -124,8 +129,14 @@ Result<QuantizedStamp> validate_stamp(const StampParams& p, const WorldParams& w
     }
   }
 
-  // Target height: used by flatten and by the min / max blends.
-  if (p.kind == StampKind::kFlatten || p.blend == BlendMode::kMin || p.blend == BlendMode::kMax) {
+  // Target height: used by flatten and by the min / max blends, and 0 everywhere else.
+  if (!uses_target(p.kind, p.blend)) {
+    if (p.target != 0.0) {
+      return bad("target", std::string("must be 0: a ") + to_string(p.kind) + " with the " +
+                               to_string(p.blend) +
+                               " blend has no target (only flatten and the min/max blends take one)");
+    }
+  } else {
     const double units =
         p.layer == Layer::kCoarse ? (p.target - world.height_offset) / world.meters_per_unit : p.target / mpu;
     if (!(units >= double(layer_min(p.layer)) - 0.5 && units < double(layer_max(p.layer)) + 0.5)) {
@@ -196,6 +207,9 @@ Status check_quantized(const QuantizedStamp& q, const WorldParams& world, const 
     return bad("intensity", "footprint depth must be >= 0");
   if (q.target < layer_min(q.layer) || q.target > layer_max(q.layer)) {
     return bad("target", "outside the layer's height range");
+  }
+  if (!uses_target(q.kind, q.blend) && q.target != 0) {
+    return bad("target", "must be 0 where neither flatten nor a min/max blend uses it");
   }
   if ((q.flags & kStampFlagVolumeConserving) != 0 &&
       (q.kind != StampKind::kCrater || (q.blend != BlendMode::kAdd && q.blend != BlendMode::kSubtract))) {
