@@ -184,6 +184,36 @@ TEST(StampValidation, QuantizedGaussianWithTargetIsRejected) {
   EXPECT_TRUE(check_quantized(q, w.params()).ok());
 }
 
+// docs/stamps.md: shape belongs to crater, footprint and flatten, damping/speed/steps to the
+// shockwave, texture_id to texture stamps. validate_stamp sets them only there; a quantized
+// stamp from the wire or the log that carries one elsewhere is refused, naming the field.
+TEST(StampValidation, QuantizedFieldsOfOtherKindsAreRejected) {
+  const WorldParams wp = corner_world_params();
+  const QuantizedStamp gaussian = must_validate(make_params(StampKind::kGaussian, 1.0, 2.0, 10.0, 1.0), wp);
+  struct Case {
+    const char* field;
+    void (*mutate)(QuantizedStamp&);
+  };
+  const Case cases[] = {
+      {"stamp.shape", [](QuantizedStamp& q) { q.shape = 100; }},
+      {"stamp.damping", [](QuantizedStamp& q) { q.damping = 100; }},
+      {"stamp.speed", [](QuantizedStamp& q) { q.speed = 100; }},
+      {"stamp.steps", [](QuantizedStamp& q) { q.steps = 3; }},
+      {"stamp.texture_id", [](QuantizedStamp& q) { q.texture_id = 42; }},
+  };
+  for (const Case& c : cases) {
+    QuantizedStamp q = gaussian;
+    c.mutate(q);
+    const Status st = check_quantized(q, wp);
+    ASSERT_FALSE(st.ok()) << c.field;
+    EXPECT_EQ(st.error().field, c.field) << st.error().describe();
+  }
+  // A crater keeps its shape.
+  StampParams crater = make_params(StampKind::kCrater, 1.0, 2.0, 10.0, 1.0);
+  crater.shape = 0.3;
+  EXPECT_TRUE(check_quantized(must_validate(crater, wp), wp).ok());
+}
+
 TEST(StampValidation, AcceptedParametersAreQuantizedToTheDocumentedFixedPoint) {
   const WorldParams wp = corner_world_params();
   StampParams s = make_params(StampKind::kGaussian, 10.25, -3.5, 7.125, 1.0);
