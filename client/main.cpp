@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
+#include "app/cli_checks.h"
 #include "client/bot.h"
 #include "client/probe.h"
 #include "client/token_options.h"
@@ -33,27 +34,31 @@ int main(int argc, char** argv) {
                                         std::to_string(wire::kProtocolMajor) + "." +
                                         std::to_string(wire::kProtocolMinor) + ")");
   client::TokenSource token_src;
+  // Every number is range-checked as it is parsed (app/cli_checks.h), naming the option.
+  using cli::Bound;
 
   client::BotOptions bo;
   auto* bot = app.add_subcommand("bot", "Join a session and deform it with random stamps");
   bot->add_option("--host", bo.host)->capture_default_str();
-  bot->add_option("--port", bo.port)->capture_default_str();
+  bot->add_option("--port", bo.port)->capture_default_str()->check(cli::IntRange(1, 65535));
   bot->add_option("--name", bo.name)->capture_default_str();
-  bot->add_option("--stamps", bo.stamps, "How many stamps to send")->capture_default_str();
+  bot->add_option("--stamps", bo.stamps, "How many stamps to send")
+      ->capture_default_str()
+      ->check(cli::IntRange(0, 1000000000));
   bot->add_option("--rate", bo.rate, "Stamps per second")
       ->capture_default_str()
-      ->check(CLI::Range(0.1, 1000.0));
-  bot->add_option("--seed", bo.seed)->capture_default_str();
+      ->check(cli::FiniteRange(0.1, 1000.0));
+  bot->add_option("--seed", bo.seed)->capture_default_str()->check(cli::IntRange(0, UINT32_MAX));
   client::add_token_options(bot, token_src);
 
   client::ProbeOptions po;
   double probe_timeout_s = 5.0;
   auto* probe = app.add_subcommand("probe", "Health check: join as a spectator, print the session's state");
   probe->add_option("--host", po.host)->capture_default_str();
-  probe->add_option("--port", po.port)->capture_default_str();
+  probe->add_option("--port", po.port)->capture_default_str()->check(cli::IntRange(1, 65535));
   probe->add_option("--timeout", probe_timeout_s, "Seconds for connect, handshake and Stats")
       ->capture_default_str()
-      ->check(CLI::Range(0.1, 600.0));
+      ->check(cli::FiniteRange(0.1, 600.0));
   probe->add_flag("--json", po.json, "One JSON object instead of a line of text");
   client::add_token_options(probe, token_src);
 
@@ -68,18 +73,29 @@ int main(int argc, char** argv) {
       render_cmd->add_option("--server", ro.server, "HOST:PORT of a loam-server: render its live session");
   src_dem->excludes(src_snap)->excludes(src_server);
   src_snap->excludes(src_server);
-  render_cmd->add_option("--camera", ro.camera, "Camera position x,y,z (world meters)")->delimiter(',');
-  render_cmd->add_option("--look", ro.look, "Point looked at x,y,z (world meters)")->delimiter(',');
+  render_cmd->add_option("--camera", ro.camera, "Camera position x,y,z (world meters)")
+      ->delimiter(',')
+      ->check(cli::Finite());
+  render_cmd->add_option("--look", ro.look, "Point looked at x,y,z (world meters; not the camera's position)")
+      ->delimiter(',')
+      ->check(cli::Finite());
   render_cmd->add_option("--size", size, "WIDTHxHEIGHT")->capture_default_str();
   render_cmd->add_option("--out", ro.out, "PNG file (a path numbers them: out_0000.png, ...)")
       ->capture_default_str();
   render_cmd->add_option("--path", ro.path, "Camera path file: one 'x y z tx ty tz' line per frame");
   render_cmd->add_flag("!--no-morph", ro.morph, "Disable geomorphing (shows level pops)");
-  render_cmd->add_option("--n", ro.n, "Vertices per clipmap level side (2^k - 1)")->capture_default_str();
+  render_cmd->add_option("--n", ro.n, "Vertices per clipmap level side (2^k - 1)")
+      ->capture_default_str()
+      ->check(cli::IntRange(7, 1023));
   render_cmd->add_option("--levels", ro.levels, "Clipmap levels (0: from --view-distance)")
-      ->capture_default_str();
-  render_cmd->add_option("--view-distance", ro.view_distance, "Meters")->capture_default_str();
-  render_cmd->add_option("--fov", ro.fov_y_degrees, "Vertical field of view, degrees")->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::IntRange(0, 24));
+  render_cmd->add_option("--view-distance", ro.view_distance, "Meters")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 1e7, Bound::kOpen));
+  render_cmd->add_option("--fov", ro.fov_y_degrees, "Vertical field of view, degrees")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 180, Bound::kOpen, Bound::kOpen));
   client::add_token_options(render_cmd, token_src);
 #endif
 
@@ -88,20 +104,25 @@ int main(int argc, char** argv) {
   std::string view_size = "1280x720";
   auto* view_cmd = app.add_subcommand("view", "View a live session: a window, or --headless (EGL)");
   view_cmd->add_option("--host", vo.host)->capture_default_str();
-  view_cmd->add_option("--port", vo.port)->capture_default_str();
+  view_cmd->add_option("--port", vo.port)->capture_default_str()->check(cli::IntRange(1, 65535));
   view_cmd->add_option("--name", vo.name)->capture_default_str();
   view_cmd->add_option("--size", view_size, "WIDTHxHEIGHT")->capture_default_str();
   view_cmd->add_flag("--headless", vo.headless, "No window: orbit the world, stamp now and then, write PNGs");
-  view_cmd->add_option("--seconds", vo.seconds,
-                       "Stop after this long (0: until closed; headless default 30)");
-  view_cmd->add_option("--stamp-every", vo.stamp_every_s,
-                       "Headless: a stamp at the view's centre this often (s)");
-  view_cmd->add_option("--screenshot-every", vo.screenshot_every_s, "Headless: a PNG this often (s)");
+  view_cmd->add_option("--seconds", vo.seconds, "Stop after this long (0: until closed; headless default 30)")
+      ->check(cli::FiniteRange(0, 1e7));
+  view_cmd
+      ->add_option("--stamp-every", vo.stamp_every_s, "Headless: a stamp at the view's centre this often (s)")
+      ->check(cli::FiniteRange(0, 1e7));
+  view_cmd->add_option("--screenshot-every", vo.screenshot_every_s, "Headless: a PNG this often (s)")
+      ->check(cli::FiniteRange(0, 1e7));
   view_cmd->add_option("--screenshot", vo.screenshot, "PNG file (numbered when several)")
       ->capture_default_str();
   view_cmd->add_option("--n", vo.renderer.n, "Vertices per clipmap level side (2^k - 1)")
-      ->capture_default_str();
-  view_cmd->add_option("--view-distance", vo.renderer.view_distance, "Meters")->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::IntRange(7, 1023));
+  view_cmd->add_option("--view-distance", vo.renderer.view_distance, "Meters")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 1e7, Bound::kOpen));
   view_cmd->add_flag("!--no-vsync", vo.vsync, "Render as fast as possible");
   client::add_token_options(view_cmd, token_src);
 #endif

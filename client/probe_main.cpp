@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 
+#include "app/cli_checks.h"
 #include "client/probe.h"
 #include "client/token_options.h"
 
@@ -18,10 +19,10 @@ int main(int argc, char** argv) {
   client::TokenSource tokens;
   double timeout_s = 5.0;
   app.add_option("--host", po.host)->capture_default_str();
-  app.add_option("--port", po.port)->capture_default_str();
+  app.add_option("--port", po.port)->capture_default_str()->check(cli::IntRange(1, 65535));
   app.add_option("--timeout", timeout_s, "Seconds for connect, handshake and Stats")
       ->capture_default_str()
-      ->check(CLI::Range(0.1, 600.0));
+      ->check(cli::FiniteRange(0.1, 600.0));
   app.add_flag("--json", po.json, "One JSON object instead of a line of text");
   client::add_token_options(&app, tokens);
   CLI11_PARSE(app, argc, argv);

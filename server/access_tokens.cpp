@@ -1,5 +1,12 @@
 #include "server/access_tokens.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -48,6 +55,53 @@ Result<AccessTokens> load_access_tokens(const ServerConfig& config) {
                         "the tokens file holds no token (an empty file would let everyone edit)");
   }
   return out;
+}
+
+std::optional<std::string> tokens_file_exposure(const std::string& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return std::nullopt;
+  if ((st.st_mode & (S_IRWXG | S_IRWXO)) == 0) return std::nullopt;
+  char mode[8];
+  std::snprintf(mode, sizeof mode, "%04o", unsigned(st.st_mode & 07777));
+  return std::string(mode);
+}
+
+Status write_private_file(const std::string& path, const std::string& text, bool overwrite) {
+  // With overwrite the new text goes to a unique name beside the file first, then is renamed.
+  const std::string target = overwrite ? path + ".new-" + std::to_string(::getpid()) : path;
+  const int fd = ::open(target.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0) {
+    const int err = errno;
+    if (err == EEXIST && !overwrite)
+      return make_error(ErrorCode::kIo, path, "already exists; not overwritten (--force replaces it)");
+    return make_error(ErrorCode::kIo, target, std::string("cannot create: ") + std::strerror(err));
+  }
+  size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = errno;
+      ::close(fd);
+      ::unlink(target.c_str());
+      return make_error(ErrorCode::kIo, target, std::string("cannot write: ") + std::strerror(err));
+    }
+    done += size_t(n);
+  }
+  const bool synced = ::fsync(fd) == 0;
+  const int sync_err = errno;
+  const bool closed = ::close(fd) == 0;
+  if (!synced || !closed) {
+    const int err = synced ? errno : sync_err;
+    ::unlink(target.c_str());
+    return make_error(ErrorCode::kIo, target, std::string("cannot write: ") + std::strerror(err));
+  }
+  if (overwrite && std::rename(target.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(target.c_str());
+    return make_error(ErrorCode::kIo, path, std::string("cannot replace: ") + std::strerror(err));
+  }
+  return {};
 }
 
 }  // namespace loam::server

@@ -13,12 +13,14 @@
 #include <random>
 #include <stdexcept>
 
+#include "app/cli_checks.h"
 #include "dem/dem_export.h"
 #include "dem/dem_import.h"
 #include "protocol/log/log_file.h"
 #include "protocol/log/log_json.h"
 #include "protocol/snapshot/snapshot.h"
 #include "protocol/wire/session_token.h"
+#include "server/access_tokens.h"
 #include "server/event_log.h"
 #include "server/replay.h"
 #include "server/server.h"
@@ -41,7 +43,6 @@ std::string hex64(uint64_t v) {
 constexpr int kExitDamaged = 3;
 
 int serve(const server::ServerConfig& config) {
-  if (config.tick_hz < 1 || config.tick_hz > 1000) throw std::runtime_error("--tick-hz must be in 1..1000");
   const auto kind = gpu::parse_backend_kind(config.backend);
   if (!kind) die(kind.error());
   const auto access = server::load_access_tokens(config);
@@ -132,48 +133,75 @@ int main(int argc, char** argv) {
   server::ServerConfig config;
   auto* serve_cmd = app.add_subcommand("serve", "Run a terrain session over TCP");
   serve_cmd->add_option("--bind", config.bind_address, "Address to listen on")->capture_default_str();
-  serve_cmd->add_option("--port", config.port, "TCP port (0: ephemeral)")->capture_default_str();
+  serve_cmd->add_option("--port", config.port, "TCP port (0: ephemeral)")
+      ->capture_default_str()
+      ->check(cli::IntRange(0, 65535));
   serve_cmd->add_option("--port-file", config.port_file, "Write the bound port to this file");
   serve_cmd->add_option("--dem", config.dem_path,
                         "Initial terrain DEM: GeoTIFF, PNG, SRTM .hgt, ESRI .asc, VRT or EXR (default: the "
                         "embedded terrain)");
   serve_cmd->add_option("--dem-band", config.dem_band, "The DEM's height band, 1-based (0: its only band)")
       ->capture_default_str()
-      ->check(CLI::Range(0, 65535));
+      ->check(cli::IntRange(0, 65535));
   serve_cmd->add_option("--data-dir", config.data_dir, "Log and snapshot folder")->capture_default_str();
   serve_cmd->add_option("--stamp-image", config.stamp_images,
                         "Grayscale image (PNG/TIFF/EXR) to register for texture stamps (repeatable)");
   serve_cmd->add_option("--backend", config.backend, "Stamp backend: auto, gpu or cpu")
       ->capture_default_str();
-  serve_cmd->add_option("--tick-hz", config.tick_hz, "Ticks per second")->capture_default_str();
+  serve_cmd->add_option("--tick-hz", config.tick_hz, "Ticks per second")
+      ->capture_default_str()
+      ->check(cli::IntRange(1, 1000));
   serve_cmd->add_option("--editor-token", config.editor_tokens, "Token (32 hex digits) granting editing");
   serve_cmd->add_option("--tokens-file", config.tokens_file,
                         "File of 'editor HEX' / 'viewer HEX' lines (a mounted secret)");
   serve_cmd->add_option("--viewer-token", config.viewer_tokens,
                         "Token (32 hex digits) granting viewing only");
-  serve_cmd->add_option("--max-clients", config.max_clients)->capture_default_str();
-  serve_cmd->add_option("--max-frame-bytes", config.max_frame_bytes)->capture_default_str();
-  serve_cmd->add_option("--max-subscriptions", config.max_subscriptions)->capture_default_str();
+  // Every number is range-checked here, for the flag and the config-file key alike
+  // (app/cli_checks.h); docs/configuration.md lists the same ranges.
+  using cli::Bound;
+  serve_cmd->add_option("--max-clients", config.max_clients)
+      ->capture_default_str()
+      ->check(cli::IntRange(1, 65536));
+  serve_cmd->add_option("--max-frame-bytes", config.max_frame_bytes)
+      ->capture_default_str()
+      ->check(cli::IntRange(1024, int64_t(1) << 28));
+  serve_cmd->add_option("--max-subscriptions", config.max_subscriptions)
+      ->capture_default_str()
+      ->check(cli::IntRange(1, int64_t(1) << 24));
   serve_cmd->add_option("--max-pending-deforms", config.max_pending_deforms, "Per client per tick")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::IntRange(1, 65536));
   serve_cmd->add_option("--deforms-per-second", config.deforms_per_second, "Rate limit per client")
-      ->capture_default_str();
-  serve_cmd->add_option("--deform-burst", config.deform_burst, "Rate limit burst")->capture_default_str();
-  serve_cmd->add_option("--handshake-timeout", config.handshake_timeout_s, "Seconds")->capture_default_str();
-  serve_cmd->add_option("--idle-timeout", config.idle_timeout_s, "Seconds (0: none)")->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 1e6, Bound::kOpen));
+  serve_cmd->add_option("--deform-burst", config.deform_burst, "Rate limit burst")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(1, 1e6));
+  serve_cmd->add_option("--handshake-timeout", config.handshake_timeout_s, "Seconds")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 3600, Bound::kOpen));
+  serve_cmd->add_option("--idle-timeout", config.idle_timeout_s, "Seconds (0: none)")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 604800));
   serve_cmd->add_option("--max-queue-bytes", config.max_queue_bytes, "Per-client send queue bound")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::IntRange(65536, int64_t(1) << 40));
   serve_cmd->add_option("--snapshot-every", config.snapshot_every_stamps, "Stamps between snapshots (0: off)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::IntRange(0, int64_t(1) << 40));
   serve_cmd
       ->add_option("--snapshot-interval", config.snapshot_interval_s, "Seconds between snapshots (0: off)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 1e7));
   serve_cmd->add_option("--hashes-every", config.hashes_every_ticks, "Ticks between TileHashes (0: never)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::IntRange(0, 1000000));
   serve_cmd->add_option("--stats-interval", config.stats_interval_s, "Seconds between stats lines (0: off)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 1e7));
   serve_cmd->add_option("--max-radius", config.stamp_limits.max_radius_samples, "Stamp radius cap in samples")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, kHardMaxRadiusSamples, Bound::kOpen));
 
   std::vector<std::string> logs;
   std::string replay_data, replay_png, replay_exr, replay_snapshot;
@@ -203,10 +231,13 @@ int main(int argc, char** argv) {
   std::optional<int> import_band;
   std::optional<double> import_mps, import_vscale, import_voffset;
   import_cmd->add_option("--band", import_band, "The height band, 1-based (required for multi-band images)")
-      ->check(CLI::Range(1, 65535));
-  import_cmd->add_option("--meters-per-sample", import_mps, "Horizontal spacing (overrides sidecar and CRS)");
-  import_cmd->add_option("--vertical-scale", import_vscale, "Metres per source unit");
-  import_cmd->add_option("--vertical-offset", import_voffset, "Metres at source value 0");
+      ->check(cli::IntRange(1, 65535));
+  import_cmd->add_option("--meters-per-sample", import_mps, "Horizontal spacing (overrides sidecar and CRS)")
+      ->check(cli::FiniteRange(0, 1e7, cli::Bound::kOpen));
+  import_cmd->add_option("--vertical-scale", import_vscale, "Metres per source unit")
+      ->check(cli::FiniteRange(0, 1e6, cli::Bound::kOpen));
+  import_cmd->add_option("--vertical-offset", import_voffset, "Metres at source value 0")
+      ->check(cli::FiniteRange(-1e7, 1e7));
   import_cmd->add_option("--png", out_path, "Also write the imported world as PNG + sidecar");
   auto* export_cmd = app.add_subcommand("export", "Export a data folder's current world");
   std::string export_dir;
@@ -244,14 +275,20 @@ int main(int argc, char** argv) {
   auto* tokens_cmd = app.add_subcommand("tokens", "Access tokens");
   tokens_cmd->require_subcommand(1);
   int new_editors = 1, new_viewers = 1;
-  auto* tokens_new_cmd =
-      tokens_cmd->add_subcommand("new", "Print a tokens file with fresh random tokens (for --tokens-file)");
+  std::string tokens_out;
+  bool tokens_force = false;
+  auto* tokens_new_cmd = tokens_cmd->add_subcommand(
+      "new",
+      "Write a tokens file with fresh random tokens (for --tokens-file): to FILE (mode 0600), or stdout");
+  auto* tokens_file_opt =
+      tokens_new_cmd->add_option("file", tokens_out, "File to create with mode 0600 (default: stdout)");
+  tokens_new_cmd->add_flag("--force", tokens_force, "Replace FILE if it exists")->needs(tokens_file_opt);
   tokens_new_cmd->add_option("--editors", new_editors, "Editor tokens")
       ->capture_default_str()
-      ->check(CLI::Range(0, 1000));
+      ->check(cli::IntRange(0, 1000));
   tokens_new_cmd->add_option("--viewers", new_viewers, "Viewer tokens")
       ->capture_default_str()
-      ->check(CLI::Range(0, 1000));
+      ->check(cli::IntRange(0, 1000));
 
   try {
     app.parse(argc, argv);
@@ -273,11 +310,16 @@ int main(int argc, char** argv) {
         }
         return wire::format_session_token(t);
       };
-      std::printf(
+      std::string text =
           "# loam-server tokens file (--tokens-file): an editor token lets a client deform,\n"
-          "# a viewer token only watch. Keep this file secret (chmod 600).\n");
-      for (int i = 0; i < new_editors; ++i) std::printf("editor %s\n", fresh().c_str());
-      for (int i = 0; i < new_viewers; ++i) std::printf("viewer %s\n", fresh().c_str());
+          "# a viewer token only watch. Keep this file secret (chmod 600).\n";
+      for (int i = 0; i < new_editors; ++i) text += "editor " + fresh() + "\n";
+      for (int i = 0; i < new_viewers; ++i) text += "viewer " + fresh() + "\n";
+      if (tokens_out.empty()) {
+        std::fputs(text.c_str(), stdout);
+      } else if (const Status st = server::write_private_file(tokens_out, text, tokens_force); !st.ok()) {
+        die(st.error());
+      }
       return 0;
     }
     if (*replay_cmd) {

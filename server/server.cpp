@@ -123,6 +123,7 @@ Status Server::start() {
                            "no tokens configured on a non-loopback address: anyone who reaches "
                            "this port can edit (docs/configuration.md, --tokens-file)"}});
   }
+  warn_if_tokens_file_exposed();
   accept();
   next_tick_ = Clock::now();
   schedule_tick();
@@ -144,6 +145,15 @@ void Server::wait_for_reload() {
   });
 }
 
+void Server::warn_if_tokens_file_exposed() {
+  if (config_.tokens_file.empty()) return;
+  if (const auto mode = tokens_file_exposure(config_.tokens_file)) {
+    log_event("warning", {{"tokens_file", config_.tokens_file},
+                          {"mode", *mode},
+                          {"what", "the tokens file is readable by its group or others: chmod 600 it"}});
+  }
+}
+
 void Server::reload_tokens() {
   auto access = load_access_tokens(config_);
   if (!access) {
@@ -152,6 +162,7 @@ void Server::reload_tokens() {
     return;
   }
   access_ = std::move(*access);
+  warn_if_tokens_file_exposed();
   log_event("tokens_reloaded", {{"access", access_.required() ? "tokens" : "open"},
                                 {"editor_tokens", std::to_string(access_.editors.size())},
                                 {"viewer_tokens", std::to_string(access_.viewers.size())}});

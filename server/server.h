@@ -79,6 +79,7 @@ class Server {
   // Writes the queued frames, up to kMaxGatherBuffers of them in one gathered write.
   void wait_for_reload();
   void reload_tokens();
+  void warn_if_tokens_file_exposed();  // a log warning when the tokens file is group/world-readable
   void flush(const SessionPtr& s);
   void violation(const SessionPtr& s, wire::WireErrorCode code, const std::string& field,
                  const std::string& text);

@@ -55,7 +55,7 @@ int run_stamps(const Context& ctx, Report& report) {
       sp.center_y = side / 2 - 0.2;
       sp.radius = r;
       sp.intensity = kind == StampKind::kFlatten ? 0.5 : 2.0;
-      sp.target = 500.0;
+      if (kind == StampKind::kFlatten) sp.target = 500.0;  // the only kind here with a target
       sp.shape = 0.5;
       sp.steps = 64;
       sp.damping = 0.05;

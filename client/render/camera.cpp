@@ -1,6 +1,7 @@
 #include "client/render/camera.h"
 
 #include <algorithm>
+#include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 
 namespace loam::render {
@@ -10,6 +11,19 @@ Camera look_at(double x, double y, double z, double tx, double ty, double tz) {
   c.x = x, c.y = y, c.z = z;
   c.fx = tx - x, c.fy = ty - y, c.fz = tz - z;
   return c;
+}
+
+std::optional<std::string> look_at_problem(double x, double y, double z, double tx, double ty, double tz) {
+  for (const double v : {x, y, z, tx, ty, tz}) {
+    if (!std::isfinite(v)) return "camera and look point must be finite numbers";
+  }
+  const double fx = tx - x, fy = ty - y, fz = tz - z;
+  const double length = std::sqrt(fx * fx + fy * fy + fz * fz);
+  if (!(length >= 1e-3)) return "the camera is at its look point: there is no view direction";
+  // The up vector is +z: the sideways axis is forward x up, which vanishes for a vertical view.
+  if (std::hypot(fx, fy) <= 1e-4 * length)
+    return "the view is straight up or down (parallel to the up vector): move the look point sideways";
+  return std::nullopt;
 }
 
 glm::mat4 view_projection(const Camera& camera, int32_t width, int32_t height) {

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <glm/glm.hpp>
 #include <optional>
+#include <string>
 
 namespace loam::render {
 
@@ -25,6 +26,11 @@ struct Camera {
 
 // The camera from a position and a look-at point (world meters).
 Camera look_at(double x, double y, double z, double tx, double ty, double tz);
+
+// Why look_at(x, y, z, tx, ty, tz) has no view matrix, or nullopt when it has one: a
+// coordinate that is not finite, a camera (within 1 mm of) its look point, or a view straight
+// up or down (parallel to the up vector, which leaves the sideways axis undefined).
+std::optional<std::string> look_at_problem(double x, double y, double z, double tx, double ty, double tz);
 
 // The camera's view-projection in the render frame (camera at the origin, x east, y north =
 // world -y, z up), as render() draws with.

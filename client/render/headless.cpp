@@ -132,12 +132,17 @@ Result<std::vector<std::array<double, 6>>> camera_frames(const RenderCommandOpti
   std::vector<std::array<double, 6>> frames;
   if (o.path.empty()) {
     frames.push_back({o.camera[0], o.camera[1], o.camera[2], o.look[0], o.look[1], o.look[2]});
+    if (const auto why =
+            look_at_problem(o.camera[0], o.camera[1], o.camera[2], o.look[0], o.look[1], o.look[2]))
+      return make_error(ErrorCode::kInvalidArgument, "--camera/--look", *why);
     return frames;
   }
   std::ifstream in(o.path);
   if (!in) return make_error(ErrorCode::kIo, o.path, "cannot read the camera path");
   std::string line;
+  int line_no = 0;
   while (std::getline(in, line)) {
+    ++line_no;
     if (line.empty() || line[0] == '#') continue;
     std::istringstream ls(line);
     std::array<double, 6> f{};
@@ -145,6 +150,8 @@ Result<std::vector<std::array<double, 6>>> camera_frames(const RenderCommandOpti
       return make_error(ErrorCode::kInvalidArgument, o.path,
                         "bad line \"" + line + "\" (want x y z tx ty tz)");
     }
+    if (const auto why = look_at_problem(f[0], f[1], f[2], f[3], f[4], f[5]))
+      return make_error(ErrorCode::kInvalidArgument, o.path + ":" + std::to_string(line_no), *why);
     frames.push_back(f);
   }
   if (frames.empty()) return make_error(ErrorCode::kInvalidArgument, o.path, "no camera in the path");
@@ -154,11 +161,12 @@ Result<std::vector<std::array<double, 6>>> camera_frames(const RenderCommandOpti
 }  // namespace
 
 int run_render_command(const RenderCommandOptions& o) {
+  // The cameras first: a view that has no matrix is refused before any GL is set up.
+  auto frames = camera_frames(o);
+  if (!frames) return fail(frames.error().describe(), 2);
   auto ctx = gpu::EglContext::create();
   if (!ctx) return fail(ctx.error().describe(), 2);
   if (const Status st = ctx->make_current(); !st.ok()) return fail(st.error().describe(), 2);
-  auto frames = camera_frames(o);
-  if (!frames) return fail(frames.error().describe());
   auto camera_of = [&](const std::array<double, 6>& f) {
     Camera cam = look_at(f[0], f[1], f[2], f[3], f[4], f[5]);
     cam.fov_y_degrees = o.fov_y_degrees;

@@ -20,6 +20,16 @@ Status require_finite(const char* field, double v) {
 // approximation, so it is the same everywhere.
 int64_t round_i64(double v) { return int64_t(std::llround(v)); }
 
+// Whether the target height means anything (docs/stamps.md: else it must be 0).
+bool uses_target(StampKind k, BlendMode b) {
+  return k == StampKind::kFlatten || b == BlendMode::kMin || b == BlendMode::kMax;
+}
+
+// Crater rim, footprint and flatten edge softness (docs/stamps.md: else 0).
+bool has_shape(StampKind k) {
+  return k == StampKind::kCrater || k == StampKind::kFootprint || k == StampKind::kFlatten;
+}
+
 bool own_combination(StampKind k) {
   return k == StampKind::kFootprint || k == StampKind::kFlatten || k == StampKind::kShockwave;
 }
@@ -124,8 +134,14 @@ Result<QuantizedStamp> validate_stamp(const StampParams& p, const WorldParams& w
     }
   }
 
-  // Target height: used by flatten and by the min / max blends.
-  if (p.kind == StampKind::kFlatten || p.blend == BlendMode::kMin || p.blend == BlendMode::kMax) {
+  // Target height: used by flatten and by the min / max blends, and 0 everywhere else.
+  if (!uses_target(p.kind, p.blend)) {
+    if (p.target != 0.0) {
+      return bad("target", std::string("must be 0: a ") + to_string(p.kind) + " with the " +
+                               to_string(p.blend) +
+                               " blend has no target (only flatten and the min/max blends take one)");
+    }
+  } else {
     const double units =
         p.layer == Layer::kCoarse ? (p.target - world.height_offset) / world.meters_per_unit : p.target / mpu;
     if (!(units >= double(layer_min(p.layer)) - 0.5 && units < double(layer_max(p.layer)) + 0.5)) {
@@ -135,7 +151,7 @@ Result<QuantizedStamp> validate_stamp(const StampParams& p, const WorldParams& w
   }
 
   // Kind-specific fractions.
-  if (p.kind == StampKind::kCrater || p.kind == StampKind::kFootprint || p.kind == StampKind::kFlatten) {
+  if (has_shape(p.kind)) {
     if (p.shape < 0.0 || p.shape > 1.0) return bad("shape", "must be in [0, 1]");
     q.shape = uint16_t(std::min<int64_t>(65535, round_i64(p.shape * 65536.0)));
   }
@@ -197,6 +213,19 @@ Status check_quantized(const QuantizedStamp& q, const WorldParams& world, const 
   if (q.target < layer_min(q.layer) || q.target > layer_max(q.layer)) {
     return bad("target", "outside the layer's height range");
   }
+  if (!uses_target(q.kind, q.blend) && q.target != 0) {
+    return bad("target", "must be 0 where neither flatten nor a min/max blend uses it");
+  }
+  // The kind-specific fields are 0 on the other kinds (validate_stamp never sets them there).
+  if (!has_shape(q.kind) && q.shape != 0)
+    return bad("shape", "must be 0: only crater, footprint and flatten have one");
+  if (q.kind != StampKind::kShockwave) {
+    if (q.damping != 0) return bad("damping", "must be 0: only a shockwave has one");
+    if (q.speed != 0) return bad("speed", "must be 0: only a shockwave has one");
+    if (q.steps != 0) return bad("steps", "must be 0: only a shockwave has them");
+  }
+  if (q.kind != StampKind::kTexture && q.texture_id != 0)
+    return bad("texture_id", "must be 0: only a texture stamp has one");
   if ((q.flags & kStampFlagVolumeConserving) != 0 &&
       (q.kind != StampKind::kCrater || (q.blend != BlendMode::kAdd && q.blend != BlendMode::kSubtract))) {
     return bad("flags", "volume conservation needs a crater with the add or subtract blend");

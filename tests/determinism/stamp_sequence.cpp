@@ -46,8 +46,11 @@ uint64_t golden_stamp_sequence_hash(std::string* error) {
     if (s.kind == StampKind::kFlatten) s.intensity = double(next(100)) / 100.0;
     if (s.kind == StampKind::kFootprint) s.intensity = std::fabs(s.intensity);
     if (s.kind == StampKind::kCrater) s.volume_conserving = next(2) == 1;
-    s.target = s.layer == Layer::kCoarse ? double(next(900)) + 100.0 : 0.1;
+    const double target = s.layer == Layer::kCoarse ? double(next(900)) + 100.0 : 0.1;
     if (s.kind == StampKind::kGaussian || s.kind == StampKind::kTexture) s.blend = BlendMode(next(4));
+    // Only flatten and the min/max blends take a target (the draw stays, so the sequence does).
+    if (s.kind == StampKind::kFlatten || s.blend == BlendMode::kMin || s.blend == BlendMode::kMax)
+      s.target = target;
     const auto q = validate_stamp(s, w.params(), {}, &reg);
     if (!q.ok()) {
       if (error && error->empty()) *error = "stamp " + std::to_string(seq) + ": " + q.error().describe();

@@ -137,6 +137,11 @@ QuantizedStamp random_stamp(std::mt19937_64& rng, const WorldParams& world, cons
       break;
     default: break;
   }
+  // docs/stamps.md: a field is 0 on the kinds and blends that do not use it (the draws above
+  // stay, so the sequence of stamps is otherwise the same).
+  if (q.kind != StampKind::kFlatten && q.blend != BlendMode::kMin && q.blend != BlendMode::kMax) q.target = 0;
+  if (q.kind != StampKind::kCrater && q.kind != StampKind::kFootprint && q.kind != StampKind::kFlatten)
+    q.shape = 0;
   return q;
 }
 

@@ -176,6 +176,26 @@ TEST_F(BadInput, NonFiniteAndOutOfRangeStampsAreRejectedNamingTheField) {
   EXPECT_NE(c.ack(s2)->field.find("texture"), std::string::npos) << c.ack(s2)->field;
 }
 
+// docs/stamps.md allows a target only on flatten and the min/max blends; a crafted gaussian
+// that carries one is refused by the server, naming the field, and the connection stays.
+TEST_F(BadInput, GaussianWithTargetIsRejectedNamingTheField) {
+  std::mt19937 rng(4);
+  QuantizedStamp bad = random_stamp(rng, good_.welcome().world);
+  bad.kind = StampKind::kGaussian;
+  bad.blend = BlendMode::kAdd;
+  bad.flags = 0;
+  bad.shape = bad.damping = bad.speed = bad.steps = 0;
+  bad.target = 1000;
+  client::TerrainClient c;
+  ASSERT_TRUE(
+      c.connect("127.0.0.1", server_.port(), "targeted", wire::Role::kPlayer, token(kEditorToken)).ok());
+  const uint32_t s = *c.deform(bad);
+  ASSERT_TRUE(c.wait_until([&] { return c.ack(s).has_value(); }, 10s));
+  EXPECT_FALSE(c.ack(s)->accepted);
+  EXPECT_NE(c.ack(s)->field.find("target"), std::string::npos) << c.ack(s)->field;
+  EXPECT_TRUE(c.connection().open());
+}
+
 TEST_F(BadInput, FloodBeyondTheRateLimitIsRejectedWithoutDisconnecting) {
   client::TerrainClient c;
   ASSERT_TRUE(c.connect("127.0.0.1", server_.port(), "flood", wire::Role::kPlayer, token(kEditorToken)).ok());

@@ -270,7 +270,7 @@ TEST(FastStamp, RadiiBeyondEightThousandSamplesWithUnevenReducedStepsMatchTheRef
       StampParams s =
           stamps_test::make_params(kind, 10.3, -200.7, r, kind == StampKind::kFlatten ? 0.8 : 300.0);
       s.shape = 0.4;
-      s.target = 100.0;
+      if (kind == StampKind::kFlatten) s.target = 100.0;  // the others take no target
       auto q = validate_stamp(s, p, limits);
       ASSERT_TRUE(q.ok()) << q.error().describe();
       EXPECT_GT(expect_same_as_reference(base, q.value(), nullptr, "radius " + std::to_string(r), limits), 0);

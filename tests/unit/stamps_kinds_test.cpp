@@ -141,6 +141,79 @@ TEST(StampValidation, EveryInvalidParameterIsRejectedNamingItsFieldAndTheWorldIs
   EXPECT_EQ(w.world_hash(), before);
 }
 
+// docs/stamps.md: the target height belongs to flatten and the min/max blends, "else 0". A
+// gaussian (or crater, footprint, shockwave, texture) with the add or subtract blend and a
+// target used to pass and quietly drop it; now it is refused, naming the field, in both forms.
+TEST(StampValidation, GaussianWithTargetIsRejected) {
+  const WorldParams wp = corner_world_params();
+  StampParams s = make_params(StampKind::kGaussian, 1.0, 2.0, 10.0, 1.0);
+  s.target = 12.5;
+  const auto q = validate_stamp(s, wp);
+  ASSERT_FALSE(q.ok());
+  EXPECT_EQ(q.error().field, "stamp.target");
+  EXPECT_NE(q.error().message.find("gaussian"), std::string::npos) << q.error().describe();
+  s.blend = BlendMode::kSubtract;
+  EXPECT_EQ(validate_stamp(s, wp).error().field, "stamp.target");
+  for (const StampKind kind : {StampKind::kCrater, StampKind::kFootprint, StampKind::kShockwave}) {
+    StampParams k = make_params(kind, 1.0, 2.0, 6.0, 0.5);
+    k.steps = 4;
+    k.target = -3.0;
+    const auto r = validate_stamp(k, wp);
+    ASSERT_FALSE(r.ok()) << to_string(kind);
+    EXPECT_EQ(r.error().field, "stamp.target") << r.error().describe();
+  }
+  // Where a target means something it is still taken.
+  s.blend = BlendMode::kMax;
+  EXPECT_TRUE(validate_stamp(s, wp).ok());
+  StampParams flatten = make_params(StampKind::kFlatten, 1.0, 2.0, 10.0, 0.5);
+  flatten.target = 12.5;
+  EXPECT_TRUE(validate_stamp(flatten, wp).ok());
+}
+
+// The same rule on a quantized stamp from the wire or the log (crafted past validate_stamp).
+TEST(StampValidation, QuantizedGaussianWithTargetIsRejected) {
+  World w(corner_world_params(), kMid);
+  QuantizedStamp q = must_validate(make_params(StampKind::kGaussian, 1.0, 2.0, 10.0, 1.0), w.params());
+  q.target = 100;
+  const Status st = check_quantized(q, w.params());
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().field, "stamp.target");
+  EXPECT_FALSE(apply_stamp(w, q).ok());
+  EXPECT_FALSE(w.has_pending());
+  q.blend = BlendMode::kMin;
+  EXPECT_TRUE(check_quantized(q, w.params()).ok());
+}
+
+// docs/stamps.md: shape belongs to crater, footprint and flatten, damping/speed/steps to the
+// shockwave, texture_id to texture stamps. validate_stamp sets them only there; a quantized
+// stamp from the wire or the log that carries one elsewhere is refused, naming the field.
+TEST(StampValidation, QuantizedFieldsOfOtherKindsAreRejected) {
+  const WorldParams wp = corner_world_params();
+  const QuantizedStamp gaussian = must_validate(make_params(StampKind::kGaussian, 1.0, 2.0, 10.0, 1.0), wp);
+  struct Case {
+    const char* field;
+    void (*mutate)(QuantizedStamp&);
+  };
+  const Case cases[] = {
+      {"stamp.shape", [](QuantizedStamp& q) { q.shape = 100; }},
+      {"stamp.damping", [](QuantizedStamp& q) { q.damping = 100; }},
+      {"stamp.speed", [](QuantizedStamp& q) { q.speed = 100; }},
+      {"stamp.steps", [](QuantizedStamp& q) { q.steps = 3; }},
+      {"stamp.texture_id", [](QuantizedStamp& q) { q.texture_id = 42; }},
+  };
+  for (const Case& c : cases) {
+    QuantizedStamp q = gaussian;
+    c.mutate(q);
+    const Status st = check_quantized(q, wp);
+    ASSERT_FALSE(st.ok()) << c.field;
+    EXPECT_EQ(st.error().field, c.field) << st.error().describe();
+  }
+  // A crater keeps its shape.
+  StampParams crater = make_params(StampKind::kCrater, 1.0, 2.0, 10.0, 1.0);
+  crater.shape = 0.3;
+  EXPECT_TRUE(check_quantized(must_validate(crater, wp), wp).ok());
+}
+
 TEST(StampValidation, AcceptedParametersAreQuantizedToTheDocumentedFixedPoint) {
   const WorldParams wp = corner_world_params();
   StampParams s = make_params(StampKind::kGaussian, 10.25, -3.5, 7.125, 1.0);
@@ -271,6 +344,7 @@ TEST(StampBlend, MinAndMaxCompareWithTargetPlusProfileAndAddSubtractAreExactInve
   s.target = (kMid - 100) / 64.0;
   EXPECT_EQ(coarse_after(s, 0, 0), -36);
   s.blend = BlendMode::kSubtract;
+  s.target = 0.0;  // add and subtract take no target
   EXPECT_EQ(coarse_after(s, 0, 0), -64);
 }
 
@@ -320,7 +394,7 @@ TEST(StampRadialKinds, AreExactlySymmetricUnderQuarterTurnsAndMirrors) {
     for (const double radius : {9.7, 60.0, 230.0}) {  // reduction shift 0, 0 and 2
       StampParams s = make_params(kind, 0.0, 0.0, radius, kind == StampKind::kFlatten ? 1.0 : 5.0);
       s.shape = 0.4;
-      s.target = (kMid + 500) / 64.0;
+      if (kind == StampKind::kFlatten) s.target = (kMid + 500) / 64.0;  // the others take no target
       World w(corner_world_params(), kMid);
       ASSERT_TRUE(apply_stamp(w, must_validate(s, w.params())).ok());
       const int64_t n = std::min<int64_t>(int64_t(radius) + 2, 255);
@@ -454,7 +528,7 @@ TEST(StampSeams, StampAcrossTileBorderMatchesContiguous) {
           make_params(StampKind(k), 0.3, 100.0, 17.0, StampKind(k) == StampKind::kFlatten ? 1.0 : 0.5);
       s.layer = layer;
       s.shape = 0.5;
-      s.target = layer == Layer::kCoarse ? 400.0 : 0.2;
+      if (StampKind(k) == StampKind::kFlatten) s.target = layer == Layer::kCoarse ? 400.0 : 0.2;
       s.rotation = 0.7;
       expect_matches_contiguous(s, "border");
     }
@@ -470,7 +544,7 @@ TEST(StampSeams, StampAcrossFourTileCornerMatchesContiguous) {
         if (StampKind(k) == StampKind::kFootprint) s.intensity = 0.4;
         s.layer = layer;
         s.shape = 0.7;
-        s.target = layer == Layer::kCoarse ? 600.0 : -0.1;
+        if (StampKind(k) == StampKind::kFlatten) s.target = layer == Layer::kCoarse ? 600.0 : -0.1;
         s.rotation = -2.1;
         s.volume_conserving = StampKind(k) == StampKind::kCrater;
         expect_matches_contiguous(s, "corner");
@@ -599,7 +673,7 @@ TEST(StampReach, HoldsEverySampleTheStampChanges) {
     if (p.kind == StampKind::kTexture) p.kind = StampKind::kGaussian;
     p.layer = i % 5 == 0 ? Layer::kDetail : Layer::kCoarse;
     p.shape = 0.3;
-    p.target = 10;
+    if (p.kind == StampKind::kFlatten) p.target = 10;
     if (p.kind == StampKind::kShockwave)
       p.steps = 1 + uint32_t(30 * unit(rng)), p.speed = 0.6, p.damping = 0.1;
     if (p.layer == Layer::kDetail) p.intensity *= 0.1, p.radius *= 0.2;

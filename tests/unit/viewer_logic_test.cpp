@@ -60,6 +60,28 @@ TEST(Picking, UnprojectFindsThePointThatProjectsToThePixel) {
   EXPECT_FALSE(render::unproject(cam, w, h, 10, 10, 1.0f).has_value()) << "depth 1 is the background";
 }
 
+// `loam-client render --camera X --look X` used to draw from a NaN view matrix: a camera on
+// its look point, a non-finite coordinate or a vertical view (parallel to the up vector) has
+// no look-at matrix, and each is named instead.
+TEST(Camera, LookAtProblemNamesACameraAtItsLookPointANonFiniteCoordinateAndAVerticalView) {
+  using render::look_at_problem;
+  EXPECT_FALSE(look_at_problem(1024, 1700, 300, 1024, 800, 60).has_value());
+  const auto same = look_at_problem(10, 20, 30, 10, 20, 30);
+  ASSERT_TRUE(same.has_value());
+  EXPECT_NE(same->find("look point"), std::string::npos) << *same;
+  const auto nan = look_at_problem(std::nan(""), 20, 30, 0, 0, 0);
+  ASSERT_TRUE(nan.has_value());
+  EXPECT_NE(nan->find("finite"), std::string::npos) << *nan;
+  EXPECT_TRUE(look_at_problem(0, 0, 0, INFINITY, 0, 0).has_value());
+  const auto down = look_at_problem(100, 100, 500, 100, 100, 0);
+  ASSERT_TRUE(down.has_value());
+  EXPECT_NE(down->find("straight up or down"), std::string::npos) << *down;
+  // Where the check passes, the view-projection matrix is finite.
+  const glm::mat4 m = render::view_projection(render::look_at(100, 100, 500, 101, 100, 0), 640, 480);
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) EXPECT_TRUE(std::isfinite(m[c][r]));
+}
+
 TEST(StampTool, EveryToolGivesAStampTheWorldValidates) {
   WorldParams w;
   w.meters_per_sample = 2.0;
