@@ -106,16 +106,7 @@ Result<LogWriter> LogWriter::reopen_after_failure(const std::string& path, uint6
                       "shorter (" + std::to_string(st.st_size) + " bytes) than what was made durable (" +
                           std::to_string(durable_bytes) + ")");
   }
-  if (uint64_t(st.st_size) > durable_bytes) {
-    const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
-    if (fd < 0) return io_error(path, "open");
-    if (::ftruncate(fd, off_t(durable_bytes)) != 0 || ::fsync(fd) != 0) {
-      Error e = io_error(path, "truncate to the durable length");
-      ::close(fd);
-      return e;
-    }
-    ::close(fd);
-  }
+  if (uint64_t(st.st_size) > durable_bytes) LOAM_TRY(truncate_segment(path, durable_bytes));
   Result<LogWriter> w = open_append(path);
   if (!w.ok()) return w.error();
   if (w->next_seq() != expected_last_seq + 1) {
