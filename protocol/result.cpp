@@ -15,6 +15,7 @@ const char* to_string(ErrorCode code) {
     case ErrorCode::kIo: return "i/o error";
     case ErrorCode::kNotFound: return "not found";
     case ErrorCode::kUnauthorized: return "unauthorized";
+    case ErrorCode::kBusy: return "busy (retry later)";
   }
   return "unknown error";
 }

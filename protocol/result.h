@@ -25,6 +25,7 @@ enum class ErrorCode : unsigned char {
   kIo,               // the operating system refused a read or write
   kNotFound,         // a file, tile or id does not exist
   kUnauthorized,     // the caller's role does not allow the operation
+  kBusy,             // the peer is at capacity (server full, rate limited, too many pending): retry later
 };
 
 const char* to_string(ErrorCode code);

@@ -16,6 +16,7 @@
 #include "app/cli_checks.h"
 #include "dem/dem_export.h"
 #include "dem/dem_import.h"
+#include "protocol/hex64.h"
 #include "protocol/log/log_file.h"
 #include "protocol/log/log_json.h"
 #include "protocol/snapshot/snapshot.h"
@@ -29,12 +30,6 @@
 namespace {
 
 using namespace loam;
-
-std::string hex64(uint64_t v) {
-  char buf[20];
-  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)v);
-  return buf;
-}
 
 [[noreturn]] void die(const Error& e) { throw std::runtime_error(e.describe()); }
 
@@ -90,10 +85,8 @@ int serve(const server::ServerConfig& config) {
           "(a new log segment records them)"}});
   }
   for (const StampTexture* t : opened->terrain.textures().all()) {
-    char id[20];
-    std::snprintf(id, sizeof id, "%016llx", (unsigned long long)t->id);
-    server::log_event("stamp_image",
-                      {{"id", id}, {"size", std::to_string(t->width) + "x" + std::to_string(t->height)}});
+    server::log_event("stamp_image", {{"id", hex64(t->id)},
+                                      {"size", std::to_string(t->width) + "x" + std::to_string(t->height)}});
   }
   for (const std::string& s : r.skipped) server::log_event("snapshot_skipped", {{"why", s}});
   asio::io_context io;

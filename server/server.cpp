@@ -8,6 +8,7 @@
 #include <set>
 
 #include "protocol/codec/region_codec.h"
+#include "protocol/hex64.h"
 #include "protocol/tile_hash.h"
 #include "server/event_log.h"
 
@@ -23,10 +24,10 @@ constexpr uint64_t kNeedsRegion = ~uint64_t(0);
 
 bool editor_role(wire::Role r) { return r != wire::Role::kSpectator; }
 
-std::string hex64(uint64_t v) {
-  char buf[20];
-  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)v);
-  return buf;
+// The one percentile rule of the stats line and the Stats message (nearest rank below), so
+// the two never disagree on the same ticks. `sorted` ascending; 0 when empty.
+double percentile(const std::vector<double>& sorted, double p) {
+  return sorted.empty() ? 0.0 : sorted[size_t(p * double(sorted.size() - 1))];
 }
 
 }  // namespace
@@ -831,9 +832,8 @@ void Server::report_stats() {
   std::vector<double> t = std::move(tick_ms_);
   tick_ms_.clear();
   std::sort(t.begin(), t.end());
-  auto pct = [&](double p) { return t.empty() ? 0.0 : t[size_t(p * double(t.size() - 1))]; };
-  last_p50_ms_ = pct(0.5);
-  last_p99_ms_ = pct(0.99);
+  last_p50_ms_ = percentile(t, 0.5);
+  last_p99_ms_ = percentile(t, 0.99);
   uint64_t max_queue = 0;
   for (const auto& [id, s] : sessions_) max_queue = std::max(max_queue, s->queued_bytes);
   log_event("stats", {{"clients", std::to_string(sessions_.size())},
@@ -846,8 +846,8 @@ void Server::report_stats() {
                       {"regions_sent", std::to_string(stats_.regions_sent)},
                       {"partial_regions_sent", std::to_string(stats_.partial_regions_sent)},
                       {"max_queue_bytes", std::to_string(max_queue)},
-                      {"tick_p50_ms", std::to_string(pct(0.5))},
-                      {"tick_p99_ms", std::to_string(pct(0.99))},
+                      {"tick_p50_ms", std::to_string(last_p50_ms_)},
+                      {"tick_p99_ms", std::to_string(last_p99_ms_)},
                       {"storage", storage_.writable() ? "ok" : "refusing edits"},
                       {"storage_failures", std::to_string(stats_.storage_failures)}});
   if (stopping_) return;
@@ -874,8 +874,8 @@ wire::Stats Server::stats_message(uint32_t request_id) const {
   if (p50 == 0 && !tick_ms_.empty()) {
     std::vector<double> t = tick_ms_;
     std::sort(t.begin(), t.end());
-    p50 = t[t.size() / 2];
-    p99 = t[size_t(0.99 * double(t.size() - 1))];
+    p50 = percentile(t, 0.5);
+    p99 = percentile(t, 0.99);
   }
   st.tick_p50_us = uint32_t(p50 * 1000.0);
   st.tick_p99_us = uint32_t(p99 * 1000.0);

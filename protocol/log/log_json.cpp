@@ -4,15 +4,14 @@
 #include <cstdio>
 #include <set>
 
+#include "protocol/hex64.h"
+
 namespace loam::log {
 
 namespace {
 
-std::string hex64(uint64_t v) {
-  char buf[24];
-  std::snprintf(buf, sizeof(buf), "\"%016" PRIx64 "\"", v);
-  return buf;
-}
+// JSON numbers lose bits above 2^53: hashes and ids are quoted hex strings.
+std::string json_hex64(uint64_t v) { return "\"" + loam::hex64(v) + "\""; }
 
 // JSON string with every control character and non-ASCII byte escaped, so paths from an
 // untrusted header cannot break the line format.
@@ -64,7 +63,7 @@ std::string stamp_to_json(const QuantizedStamp& q) {
   o += ",\"speed\":" + std::to_string(q.speed);
   o += ",\"steps\":" + std::to_string(q.steps);
   o += ",\"seed\":" + std::to_string(q.seed);
-  o += ",\"texture_id\":" + hex64(q.texture_id);
+  o += ",\"texture_id\":" + json_hex64(q.texture_id);
   return o + "}";
 }
 
@@ -83,15 +82,15 @@ std::string header_to_json(const DecodedHeader& d) {
        ",\"origin_tile_x\":" + std::to_string(w.origin_tile_x) +
        ",\"origin_tile_y\":" + std::to_string(w.origin_tile_y) + ",\"tiles_x\":" + std::to_string(w.tiles_x) +
        ",\"tiles_y\":" + std::to_string(w.tiles_y) + "}";
-  o += ",\"initial\":{\"world_hash\":" + hex64(h.initial.world_hash) + ",\"source\":\"" +
-       source_name(h.initial.source) + "\",\"snapshot_id\":" + hex64(h.initial.snapshot_id) +
+  o += ",\"initial\":{\"world_hash\":" + json_hex64(h.initial.world_hash) + ",\"source\":\"" +
+       source_name(h.initial.source) + "\",\"snapshot_id\":" + json_hex64(h.initial.snapshot_id) +
        ",\"dem_path\":" + quote(h.initial.dem_path) + ",\"import_params\":" + quote(h.initial.import_params) +
        "}";
   o += ",\"base_seq\":" + std::to_string(h.base_seq);
-  o += ",\"base_snapshot_id\":" + hex64(h.base_snapshot_id);
-  o += ",\"base_world_hash\":" + hex64(h.base_world_hash);
-  o += ",\"prev_header_checksum\":" + hex64(h.prev_header_checksum);
-  o += ",\"header_checksum\":" + hex64(d.checksum);
+  o += ",\"base_snapshot_id\":" + json_hex64(h.base_snapshot_id);
+  o += ",\"base_world_hash\":" + json_hex64(h.base_world_hash);
+  o += ",\"prev_header_checksum\":" + json_hex64(h.prev_header_checksum);
+  o += ",\"header_checksum\":" + json_hex64(d.checksum);
   return o + "}";
 }
 

@@ -81,6 +81,7 @@ WireErrorCode to_wire(ErrorCode code) {
     case ErrorCode::kIo: return WireErrorCode::kIo;
     case ErrorCode::kNotFound: return WireErrorCode::kNotFound;
     case ErrorCode::kUnauthorized: return WireErrorCode::kUnauthorized;
+    case ErrorCode::kBusy: return WireErrorCode::kRateLimited;
   }
   return WireErrorCode::kInternal;
 }
@@ -98,9 +99,11 @@ ErrorCode from_wire(WireErrorCode code) {
     case WireErrorCode::kIo: return ErrorCode::kIo;
     case WireErrorCode::kNotFound: return ErrorCode::kNotFound;
     case WireErrorCode::kUnauthorized: return ErrorCode::kUnauthorized;
+    // Capacity refusals are not authorization failures: a client retries these later, while
+    // an unauthorized one must not.
     case WireErrorCode::kRateLimited:
     case WireErrorCode::kServerFull:
-    case WireErrorCode::kTooManyPending: return ErrorCode::kUnauthorized;
+    case WireErrorCode::kTooManyPending: return ErrorCode::kBusy;
     case WireErrorCode::kOutOfWorld: return ErrorCode::kInvalidArgument;
     case WireErrorCode::kInternal: return ErrorCode::kIo;
   }

@@ -239,5 +239,18 @@ TEST_F(BadInput, ClientThatNeverReadsIsDroppedWithABoundedQueue) {
       << server_.log();
 }
 
+TEST(ServerFull, AFullServerRefusesAsBusyNotUnauthorized) {
+  const std::string dir = temp_data_dir("full");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--max-clients", "1"})) << server.log();
+  client::TerrainClient first;
+  ASSERT_TRUE(first.connect("127.0.0.1", server.port(), "first").ok());
+  client::TerrainClient second;
+  const Status st = second.connect("127.0.0.1", server.port(), "second");
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().code, ErrorCode::kBusy) << st.error().describe();
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
 }  // namespace
 }  // namespace loam::test

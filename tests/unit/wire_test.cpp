@@ -495,5 +495,16 @@ TEST(WireRegion, ChunkOutOfOrderDropsThePartialRegion) {
   EXPECT_FALSE(ra.in_progress());
 }
 
+// A full server or a rate limit is not an authorization failure: a client may retry it later,
+// an unauthorized one must not (both used to read as unauthorized).
+TEST(WireErrors, FromWireKeepsCapacityRefusalsApartFromAuthorization) {
+  for (WireErrorCode c :
+       {WireErrorCode::kServerFull, WireErrorCode::kRateLimited, WireErrorCode::kTooManyPending})
+    EXPECT_EQ(from_wire(c), ErrorCode::kBusy) << to_string(c);
+  EXPECT_EQ(from_wire(WireErrorCode::kUnauthorized), ErrorCode::kUnauthorized);
+  EXPECT_TRUE(is_known(to_wire(ErrorCode::kBusy)));
+  EXPECT_EQ(from_wire(to_wire(ErrorCode::kBusy)), ErrorCode::kBusy);
+}
+
 }  // namespace
 }  // namespace loam::wire
