@@ -1,10 +1,15 @@
 #include "client/bot.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <optional>
 #include <random>
 
 #include "client/net/terrain_client.h"
+#include "client/render/clipmap_interest.h"
+#include "client/view/roam_path.h"
 #include "protocol/stamps/stamp_validate.h"
 
 namespace loam::client {
@@ -13,12 +18,18 @@ namespace {
 
 using namespace std::chrono_literals;
 
-QuantizedStamp bot_stamp(std::mt19937& rng, const WorldParams& w) {
+// A random stamp anywhere in the world, or, with `near`, within 150 m of that point.
+QuantizedStamp bot_stamp(std::mt19937& rng, const WorldParams& w,
+                         std::optional<std::pair<double, double>> near = std::nullopt) {
   const RectI r = w.sample_rect();
-  std::uniform_real_distribution<double> ux(double(r.x0) * w.meters_per_sample,
-                                            double(r.x1 - 1) * w.meters_per_sample);
-  std::uniform_real_distribution<double> uy(double(r.y0) * w.meters_per_sample,
-                                            double(r.y1 - 1) * w.meters_per_sample);
+  double x0 = double(r.x0) * w.meters_per_sample, x1 = double(r.x1 - 1) * w.meters_per_sample;
+  double y0 = double(r.y0) * w.meters_per_sample, y1 = double(r.y1 - 1) * w.meters_per_sample;
+  if (near) {
+    x0 = std::max(x0, near->first - 150.0), x1 = std::min(x1, near->first + 150.0);
+    y0 = std::max(y0, near->second - 150.0), y1 = std::min(y1, near->second + 150.0);
+  }
+  std::uniform_real_distribution<double> ux(x0, x1);
+  std::uniform_real_distribution<double> uy(y0, y1);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (;;) {
     StampParams p;
@@ -56,20 +67,48 @@ int run_bot(const BotOptions& o) {
   }
   std::printf("bot %s: joined as client %u at sequence %llu\n", name.c_str(), c.welcome().client_id,
               (unsigned long long)c.welcome().global_sequence);
-  if (!c.subscribe(c.all_coarse_tiles(0)).ok()) return 1;
+  const WorldParams& world = c.welcome().world;
+  const auto started = std::chrono::steady_clock::now();
+  std::optional<render::ClipmapInterest> interest;
+  std::optional<wire::Focus> focus_sent;
+  // A roaming bot follows its position as a viewer follows its camera.
+  const auto follow = [&]() -> Status {
+    const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    const auto [x, y] = roam_position(world, seed, o.roam_mps, t);
+    const render::ClipmapInterest::Delta d = interest->update(x, y);
+    if (!d.unsubscribe.empty()) LOAM_TRY(c.unsubscribe(d.unsubscribe));
+    const double step = 0.25 * kTileSize * world.meters_per_sample;
+    const bool moved = !focus_sent || std::hypot(x - focus_sent->x_m, y - focus_sent->y_m) > step;
+    if (d.subscribe.empty() && !moved) return {};
+    focus_sent = wire::Focus{x, y};
+    return c.subscribe(d.subscribe, focus_sent);
+  };
+  if (o.roam_mps > 0) {
+    interest.emplace(world, render::InterestConfig{});
+    if (!follow().ok()) return 1;
+  } else if (!c.subscribe(c.all_coarse_tiles(0)).ok()) {
+    return 1;
+  }
   std::mt19937 rng(seed);
   std::vector<uint32_t> sent;
   const auto period = std::chrono::duration<double>(1.0 / rate);
   auto next = std::chrono::steady_clock::now();
   for (uint32_t i = 0; i < stamps; ++i) {
-    auto s = c.deform(bot_stamp(rng, c.welcome().world));
+    std::optional<std::pair<double, double>> near;
+    if (interest) {
+      const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      near = roam_position(world, seed, o.roam_mps, t);
+    }
+    auto s = c.deform(bot_stamp(rng, world, near));
     if (!s) break;
     sent.push_back(*s);
     next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
     while (std::chrono::steady_clock::now() < next) {
-      if (!c.pump(std::chrono::duration_cast<std::chrono::milliseconds>(next -
-                                                                        std::chrono::steady_clock::now()) +
-                  1ms)
+      if (interest && !follow().ok()) break;
+      if (!c.pump(std::min<std::chrono::milliseconds>(100ms,
+                                                      std::chrono::duration_cast<std::chrono::milliseconds>(
+                                                          next - std::chrono::steady_clock::now()) +
+                                                          1ms))
                .ok())
         break;
     }

@@ -49,6 +49,12 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::FiniteRange(0.1, 1000.0));
   bot->add_option("--seed", bo.seed)->capture_default_str()->check(cli::IntRange(0, UINT32_MAX));
+  bot->add_option(
+         "--roam", bo.roam_mps,
+         "Walk a loop across the world at this speed (m/s), subscribing by distance as a viewer does "
+         "and stamping near itself (0: stay, subscribed to every mip-0 tile)")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 10000));
   client::add_token_options(bot, token_src);
 
   client::ProbeOptions po;

@@ -85,4 +85,23 @@ uint16_t quantize_height(const WorldParams& p, double meters) {
   return uint16_t(q);
 }
 
+RectI mip_samples_reaching(const WorldParams& p, int32_t mip, const RectI& rect0) {
+  if (rect0.empty()) return {};
+  const RectI world_samples = p.sample_rect();
+  const RectI tiles = p.tile_range(mip);
+  const RectI mip_samples = {tiles.x0 * kTileSize, tiles.y0 * kTileSize, tiles.x1 * kTileSize,
+                             tiles.y1 * kTileSize};
+  const int64_t step = int64_t(1) << mip;
+  // Sample i reads mip-0 position clamp(i * step): inside rect0 from the first multiple of
+  // step at or after x0 to the last one before x1, and everything past an edge rect0 touches.
+  RectI r = {ceil_div(rect0.x0, step), ceil_div(rect0.y0, step), floor_div(rect0.x1 - 1, step) + 1,
+             floor_div(rect0.y1 - 1, step) + 1};
+  if (rect0.x0 <= world_samples.x0) r.x0 = mip_samples.x0;
+  if (rect0.y0 <= world_samples.y0) r.y0 = mip_samples.y0;
+  if (rect0.x1 >= world_samples.x1) r.x1 = mip_samples.x1;
+  if (rect0.y1 >= world_samples.y1) r.y1 = mip_samples.y1;
+  r = r.intersect(mip_samples);
+  return r.empty() ? RectI{} : r;
+}
+
 }  // namespace loam

@@ -131,4 +131,9 @@ struct WorldParams {
 // Nearest-integer height unit for a height in meters, saturated to 0..65535.
 uint16_t quantize_height(const WorldParams& p, double meters);
 
+// The samples of coarse mip `mip` (its global sample grid, inside the mip's tile range) whose
+// values are mip-0 samples in `rect0`: sample i is mip-0 sample clamp(i * 2^m), so a rect
+// touching the world's edge also reaches every mip sample beyond that edge. Empty if none.
+RectI mip_samples_reaching(const WorldParams& p, int32_t mip, const RectI& rect0);
+
 }  // namespace loam

@@ -202,15 +202,7 @@ void World::update_mips(const RectI& dirty0, std::unordered_map<TileCoord, RectI
   for (int32_t m = 1; m < int32_t(mips_.size()); ++m) {
     CoarseMip& mip = mips_[size_t(m)];
     const int64_t step = int64_t(1) << m;
-    const RectI all = {mip.tiles.x0 * kTileSize, mip.tiles.y0 * kTileSize, mip.tiles.x1 * kTileSize,
-                       mip.tiles.y1 * kTileSize};
-    RectI affected = {ceil_div(dirty0.x0, step), ceil_div(dirty0.y0, step),
-                      floor_div(dirty0.x1 - 1, step) + 1, floor_div(dirty0.y1 - 1, step) + 1};
-    if (dirty0.x0 == samples_.x0) affected.x0 = all.x0;
-    if (dirty0.y0 == samples_.y0) affected.y0 = all.y0;
-    if (dirty0.x1 == samples_.x1) affected.x1 = all.x1;
-    if (dirty0.y1 == samples_.y1) affected.y1 = all.y1;
-    affected = affected.intersect(all);
+    const RectI affected = mip_samples_reaching(params_, m, dirty0);
     // No early exit: a coarser mip can have samples beyond the edge that a finer one lacks.
     if (affected.empty()) continue;
     const RectI tiles = tiles_overlapping(affected);

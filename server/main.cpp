@@ -161,7 +161,8 @@ int main(int argc, char** argv) {
   serve_cmd->add_option("--max-subscriptions", config.max_subscriptions)
       ->capture_default_str()
       ->check(cli::IntRange(1, int64_t(1) << 24));
-  serve_cmd->add_option("--max-pending-deforms", config.max_pending_deforms, "Per client per tick")
+  serve_cmd
+      ->add_option("--max-pending-deforms", config.max_pending_deforms, "Unacknowledged deforms per client")
       ->capture_default_str()
       ->check(cli::IntRange(1, 65536));
   serve_cmd->add_option("--deforms-per-second", config.deforms_per_second, "Rate limit per client")
@@ -179,6 +180,21 @@ int main(int argc, char** argv) {
   serve_cmd->add_option("--max-queue-bytes", config.max_queue_bytes, "Per-client send queue bound")
       ->capture_default_str()
       ->check(cli::IntRange(65536, int64_t(1) << 40));
+  serve_cmd
+      ->add_option("--client-budget", config.client_bytes_per_second,
+                   "Bytes per second of regions to each client (0: no limit); acks and events go outside it")
+      ->capture_default_str()
+      ->check(cli::IntRange(0, int64_t(1) << 31));
+  serve_cmd
+      ->add_option("--max-encodes-per-tick", config.max_encodes_per_tick,
+                   "Regions encoded per tick, all clients")
+      ->capture_default_str()
+      ->check(cli::IntRange(1, 1 << 20));
+  serve_cmd
+      ->add_option("--region-cache-bytes", config.region_cache_bytes,
+                   "Encoded regions kept for other clients")
+      ->capture_default_str()
+      ->check(cli::IntRange(0, int64_t(1) << 40));
   serve_cmd->add_option("--snapshot-every", config.snapshot_every_stamps, "Stamps between snapshots (0: off)")
       ->capture_default_str()
       ->check(cli::IntRange(0, int64_t(1) << 40));

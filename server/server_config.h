@@ -30,12 +30,21 @@ struct ServerConfig {
   uint32_t max_clients = 64;
   uint32_t max_frame_bytes = 1u << 20;
   uint32_t max_subscriptions = 4096;
-  uint32_t max_pending_deforms = 64;  // per client per tick
+  uint32_t max_pending_deforms = 64;  // unacknowledged deforms per client
   double deforms_per_second = 60.0;   // token bucket rate per client
   double deform_burst = 120.0;        // token bucket capacity
   double handshake_timeout_s = 5.0;
   double idle_timeout_s = 60.0;
   uint64_t max_queue_bytes = 32u << 20;  // a client whose unsent data exceeds this is dropped
+  // Streaming: each client's bulk (regions) leaves at up to this many bytes per second; acks,
+  // events, pongs and errors go at once, outside it. 0: no limit.
+  uint32_t client_bytes_per_second = 128u << 10;
+  uint32_t max_encodes_per_tick = 32;         // regions encoded per tick, all clients together
+  uint64_t region_cache_bytes = 64ull << 20;  // encoded regions kept for other clients
+  // Resume: the last changes of recently changed tiles, so a client back from a disconnect
+  // gets only the samples changed since the version it holds (~40 bytes a change).
+  uint32_t history_changes_per_tile = 64;
+  uint32_t history_tiles = 16384;
   // Persistence and reporting.
   uint64_t snapshot_every_stamps = 20000;  // 0: only at shutdown
   double snapshot_interval_s = 600.0;      // 0: only by count and at shutdown

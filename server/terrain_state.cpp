@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_at_mip.h"
 #include "protocol/stamps/stamp_kernel.h"
 
 namespace loam::server {
@@ -29,22 +30,16 @@ Result<AppliedStamp> TerrainState::apply(const QuantizedStamp& q, uint64_t seq, 
   out.seq = seq;
   out.client_id = client_id;
   out.stamp = q;
-  // Footprint contact reads every sample under the foot: those tiles are inputs even where
-  // nothing changes, so a client needs them at the same versions to reproduce the stamp.
-  std::vector<wire::TileVersion> read_only;
+  // A footprint's contact is measured here on the mip-0 terrain, the same integers every
+  // backend's pre-pass finds, and travels in the DeformEvent: clients then apply it at any
+  // mip and need not hold every tile under the foot.
   if (q.kind == StampKind::kFootprint) {
     auto baked = bake_stamp(q, world_.params(), textures_.get());
     if (!baked) {
       last_seq_ = seq;
       return baked.error();
     }
-    const RectI tiles = tiles_overlapping(baked->rect);
-    for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
-      for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
-        const TileCoord c{q.layer, 0, int32_t(tx), int32_t(ty)};
-        read_only.push_back({c, world_.tile_state(c).version});
-      }
-    }
+    out.contact = footprint_contact_of(*baked, world_);
   }
   auto changed = backend_ ? backend_->apply(world_, q) : apply_stamp(world_, q, textures_.get(), limits_);
   if (!changed && backend_) {
@@ -64,13 +59,6 @@ Result<AppliedStamp> TerrainState::apply(const QuantizedStamp& q, uint64_t seq, 
   out.changes = world_.commit(seq);
   last_seq_ = seq;
   for (const TileChange& c : out.changes) out.base_versions.push_back({c.coord, c.base_version});
-  for (const wire::TileVersion& r : read_only) {
-    const bool listed = std::any_of(out.base_versions.begin(), out.base_versions.end(),
-                                    [&](const wire::TileVersion& v) { return v.tile == r.tile; });
-    if (!listed) out.base_versions.push_back(r);
-  }
-  std::sort(out.base_versions.begin(), out.base_versions.end(),
-            [](const wire::TileVersion& a, const wire::TileVersion& b) { return a.tile < b.tile; });
   return out;
 }
 

@@ -1,7 +1,7 @@
 // The server's authoritative terrain: the World, registered stamp textures, stamp limits and
 // the global sequence. apply() runs one accepted stamp and reports what a DeformEvent needs:
-// every tile it changed (all layers and mips) with its version before, plus, for footprints,
-// the mip-0 tiles under the foot it read without changing (their contact depends on them).
+// every tile it changed (all layers and mips) with its version before, and a footprint's
+// contact height (so clients apply it at every mip without the samples under the foot).
 // Pure logic over protocol/: no sockets, no files.
 #pragma once
 
@@ -24,9 +24,9 @@ struct AppliedStamp {
   uint64_t seq = 0;
   uint32_t client_id = 0;
   QuantizedStamp stamp;
-  // Tiles whose exact versions a client must hold to apply the stamp itself: every changed
-  // tile and every tile the stamp read (footprint), with the version before the stamp.
+  // Every changed tile (all layers and mips) with its version before the stamp, sorted.
   std::vector<wire::TileVersion> base_versions;
+  FootprintContact contact;         // footprint: measured on the mip-0 terrain before the stamp
   std::vector<TileChange> changes;  // from World::commit, sorted by tile
 };
 

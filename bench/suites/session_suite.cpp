@@ -67,8 +67,17 @@ struct ClientRun {
   std::map<uint64_t, clock_type::time_point> sent_at_global;        // accepted stamps: global seq -> send
   std::vector<std::pair<uint64_t, clock_type::time_point>> events;  // last_event_seq reached, when
   uint64_t bytes_before = 0, bytes_after = 0;
+  uint64_t event_bytes_before = 0, event_bytes_after = 0;    // DeformEvent frames
+  uint64_t region_bytes_before = 0, region_bytes_after = 0;  // RegionUpdate frames
   bool failed = false;
 };
+
+void mark_bytes(ClientRun& r, bool after) {
+  const client::Connection& c = r.c->connection();
+  (after ? r.bytes_after : r.bytes_before) = c.bytes_in();
+  (after ? r.event_bytes_after : r.event_bytes_before) = c.bytes_in_of(wire::MessageType::kDeformEvent);
+  (after ? r.region_bytes_after : r.region_bytes_before) = c.bytes_in_of(wire::MessageType::kRegionUpdate);
+}
 
 void record_events(ClientRun& r) {
   const uint64_t seen = r.c->last_event_seq();
@@ -169,6 +178,16 @@ std::optional<wire::Stats> server_stats(uint16_t port) {
   return std::nullopt;
 }
 
+// Every coarse tile at every mip: a client in sync pays for a stamp at each level it holds.
+std::vector<TileCoord> every_coarse_tile(const client::TerrainClient& c) {
+  std::vector<TileCoord> out;
+  for (int32_t m = 0; m < c.welcome().world.mip_count(); ++m) {
+    const std::vector<TileCoord> level = c.all_coarse_tiles(m);
+    out.insert(out.end(), level.begin(), level.end());
+  }
+  return out;
+}
+
 int run_session(const Context& ctx, Report& report) {
   const std::vector<int> counts = ctx.quick ? std::vector<int>{1, 4} : std::vector<int>{1, 4, 16, 32, 64};
   const double rate = 2.0;  // stamps per second per client, as the bots
@@ -176,8 +195,9 @@ int run_session(const Context& ctx, Report& report) {
   const int tick_hz = 30;
   Table table("session",
               {"clients", "stamps/s offered", "stamps accepted", "ack p50 ms", "ack p99 ms", "fan-out p50 ms",
-               "fan-out p99 ms", "bytes in / client / stamp", "server CPU ms / stamp",
-               "server tick p50 ms (idle ticks too)", "server tick p99 ms", "hash mismatches", "converged"});
+               "fan-out p99 ms", "bytes in / client / stamp", "event B / client / stamp",
+               "region B / client / stamp", "server CPU ms / stamp", "server tick p50 ms (idle ticks too)",
+               "server tick p99 ms", "hash mismatches", "converged"});
   Series ack50{"ack p50", {}}, ack99{"ack p99", {}}, fan50{"fan-out p50", {}}, fan99{"fan-out p99", {}};
   int failures = 0;
   for (const int n : counts) {
@@ -197,18 +217,18 @@ int run_session(const Context& ctx, Report& report) {
       runs[size_t(i)].c = std::make_unique<client::TerrainClient>();
       client::TerrainClient& c = *runs[size_t(i)].c;
       if (!c.connect("127.0.0.1", server.port(), "bench-" + std::to_string(i), wire::Role::kBot).ok() ||
-          !c.subscribe(c.all_coarse_tiles(0)).ok()) {
+          !c.subscribe(every_coarse_tile(c)).ok()) {
         std::fprintf(stderr, "session: client %d could not join\n", i);
         return 1;
       }
-      tiles = c.all_coarse_tiles(0).size();
+      tiles = every_coarse_tile(c).size();
     }
     for (ClientRun& r : runs) {
       if (!r.c->wait_until([&] { return r.c->store().held().size() >= tiles; }, 60s)) {
         std::fprintf(stderr, "session: a client never received its tiles\n");
         return 1;
       }
-      r.bytes_before = r.c->connection().bytes_in();
+      mark_bytes(r, false);
     }
     const double cpu_before = cpu_seconds(server.pid());
     const auto start = clock_type::now() + 50ms;
@@ -237,7 +257,7 @@ int run_session(const Context& ctx, Report& report) {
             30s);
         const size_t hashes = r.c->tile_hash_messages();
         r.c->wait_until([&] { return r.c->tile_hash_messages() > hashes; }, 10s);
-        r.bytes_after = r.c->connection().bytes_in();
+        mark_bytes(r, true);
         converged += got;
       });
     }
@@ -261,11 +281,13 @@ int run_session(const Context& ctx, Report& report) {
         }
       }
     }
-    uint64_t mismatches = 0, bytes = 0;
+    uint64_t mismatches = 0, bytes = 0, event_bytes = 0, region_bytes = 0;
     bool failed = false;
     for (const ClientRun& r : runs) {
       mismatches += r.c->hash_mismatches();
       bytes += r.bytes_after - r.bytes_before;
+      event_bytes += r.event_bytes_after - r.event_bytes_before;
+      region_bytes += r.region_bytes_after - r.region_bytes_before;
       failed |= r.failed;
     }
     const double server_cpu_ms = (cpu_seconds(server.pid()) - cpu_before) * 1e3;
@@ -276,10 +298,15 @@ int run_session(const Context& ctx, Report& report) {
     std::filesystem::remove_all(dir);
     const bool ok = !failed && converged == n && identical && mismatches == 0 && rc == 0;
     failures += !ok;
-    const double per_stamp = accepted ? double(bytes) / double(n) / double(accepted) : 0;
+    const auto per_client_stamp = [&](uint64_t b) {
+      return accepted ? double(b) / double(n) / double(accepted) : 0.0;
+    };
+    const double per_stamp = per_client_stamp(bytes);
     table.add_row({std::to_string(n), ms_text(rate * n), std::to_string(accepted), ms_text(pct(acks, 0.5)),
                    ms_text(pct(acks, 0.99)), n > 1 ? ms_text(pct(fanout, 0.5)) : "-",
                    n > 1 ? ms_text(pct(fanout, 0.99)) : "-", std::to_string(int64_t(per_stamp + 0.5)),
+                   std::to_string(int64_t(per_client_stamp(event_bytes) + 0.5)),
+                   std::to_string(int64_t(per_client_stamp(region_bytes) + 0.5)),
                    accepted ? ms_text(server_cpu_ms / double(accepted)) : "-",
                    stats ? ms_text(stats->tick_p50_us / 1e3) : "n/a",
                    stats ? ms_text(stats->tick_p99_us / 1e3) : "n/a", std::to_string(mismatches),
@@ -300,12 +327,13 @@ int run_session(const Context& ctx, Report& report) {
   report.paragraph(
       "A loam-server process on loopback (" + std::to_string(tick_hz) +
       " Hz ticks, one fsync per tick, CPU stamp backend, the embedded terrain) and C clients in this "
-      "process, each subscribed to every coarse tile and sending gaussians and craters at " +
+      "process, each subscribed to every coarse tile at every mip and sending gaussians and craters at " +
       ms_text(rate) + " stamps/s on average (Poisson arrivals) for " + ms_text(seconds) +
       " s. `ack` is a Deform's send to its Ack at the sender: half a tick on average waiting for the "
       "tick, then the log's fsync and the apply. `fan-out` is the send to the DeformEvent's arrival at "
       "each other client. `bytes in` counts everything a client received during the run (events, "
-      "acks, TileHashes every 15 ticks) per stamp of the session. `converged`: every client reached "
+      "acks, TileHashes every 15 ticks) per stamp of the session; `event B` and `region B` are the "
+      "DeformEvent and RegionUpdate frames among them (headers included). `converged`: every client reached "
       "the last sequence, holds tiles identical to every other client's, and found no mismatch in "
       "the server's TileHashes. `server CPU` is the server process's user + system time during the "
       "run per accepted stamp (from /proc), idle ticks and TileHashes included; the clients' share of "

@@ -2,7 +2,11 @@
 
 #include <algorithm>
 
+#include "protocol/replication/event_rule.h"
 #include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_at_mip.h"
+#include "protocol/stamps/stamp_kernel.h"
+#include "protocol/stamps/stamp_validate.h"
 #include "protocol/tile_hash.h"
 
 namespace loam::client {
@@ -157,42 +161,52 @@ void ConfirmedStore::after_region(uint64_t version) {
 }
 
 bool ConfirmedStore::try_apply(const wire::DeformEvent& e, const TextureRegistry* textures) {
-  if (e.base_versions.empty()) return false;  // the server sends regions instead
-  bool holds_any = false;
+  const auto held = [&](const TileCoord& c) { return version(c); };
+  if (replication::event_fit(e, held) != replication::EventFit::kApply) return false;
+  // The listed tiles this store holds and reproduces from the event (at every mip for a
+  // per-sample stamp), each at its base version by the rule above.
+  std::vector<TileCoord> mine;
+  bool any_mip0 = false, any_mip = false;
   for (const wire::TileVersion& bv : e.base_versions) {
-    if (bv.tile.mip != 0 || bv.tile.layer != e.stamp.layer) continue;
-    const auto it = versions_.find(bv.tile);
-    if (it == versions_.end()) {
-      if (e.stamp.kind == StampKind::kFootprint) return false;
-      continue;
-    }
-    if (it->second != bv.version) return false;
-    holds_any = true;
+    if (!replication::event_reproduces_tile(e.stamp, bv.tile) || !versions_.count(bv.tile)) continue;
+    mine.push_back(bv.tile);
+    (bv.tile.mip == 0 ? any_mip0 : any_mip) = true;
   }
-  if (!holds_any) return true;  // nothing of ours changes: consumed
+  if (mine.empty()) return true;  // nothing of ours changes: consumed
   if (e.stamp.kind == StampKind::kTexture && !(textures && textures->contains(e.stamp.texture_id))) {
     // The server applied it with an image we do not have yet: wait for it (textures_arrived).
     missing_textures_.insert(e.stamp.texture_id);
     return false;
   }
-  auto applied = apply_stamp(mirror_, e.stamp, textures);
-  const auto changes = mirror_.commit(e.global_seq);
-  if (!applied) return true;  // the server's stamp failed the same way: a no-op everywhere
-  if (record_changes_) {
-    StoreChange ch;
-    ch.kind = StoreChange::Kind::kEvent;
-    ch.seq = e.global_seq;
-    ch.layer = e.stamp.layer;
-    ch.rect = *applied;
-    ch.stamp = e.stamp;
-    ch.origin_client_id = e.origin_client_id;
-    changes_.push_back(ch);
+  if (any_mip0) {
+    auto applied = apply_stamp_with_contact(mirror_, e.stamp, e.contact, textures);
+    mirror_.commit(e.global_seq);
+    if (applied && record_changes_) {
+      StoreChange ch;
+      ch.kind = StoreChange::Kind::kEvent;
+      ch.seq = e.global_seq;
+      ch.layer = e.stamp.layer;
+      ch.rect = *applied;
+      ch.stamp = e.stamp;
+      ch.origin_client_id = e.origin_client_id;
+      changes_.push_back(ch);
+    }
   }
-  for (const TileChange& c : changes) {
-    if (c.coord.mip != 0) continue;
-    const auto it = versions_.find(c.coord);
-    if (it != versions_.end()) it->second = e.global_seq;
+  if (any_mip) {
+    // The coarse mips this store holds: the stamp at each mip sample's mip-0 position.
+    const WorldParams& p = mirror_.params();
+    auto baked = bake_stamp(e.stamp, p, textures);
+    if (check_quantized(e.stamp, p, {}, textures).ok() && baked) {
+      set_contact(*baked, e.contact);
+      for (const TileCoord& c : mine) {
+        if (c.mip == 0) continue;
+        const RectI r = apply_to_coarse_tile(*baked, p, c, mip_tiles_.at(c));
+        if (!r.empty()) record_region(c, e.global_seq, r);
+      }
+    }
   }
+  // A stamp that fails here failed the same way on the server: a no-op everywhere.
+  for (const TileCoord& c : mine) versions_[c] = e.global_seq;
   return true;
 }
 

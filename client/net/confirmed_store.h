@@ -1,13 +1,14 @@
 // The client's confirmed store: the tiles it holds, each at a known server version, changed
 // only in sequence order — the state that is hashed and compared with the server's.
 //
-// Rules (ARCHITECTURE.md, Sync): a DeformEvent is applied with the shared CPU stamp code to
-// the held mip-0 tiles of the stamp's layer when every one of them that the event lists is
-// at exactly the listed base version (a footprint also needs every listed tile held, since
-// its contact reads them all); otherwise it is buffered. A RegionUpdate at version v replaces
-// a tile; buffered events at or below v are dropped (the server covers their effect with
-// regions) and the rest are tried again. Mip > 0 tiles change only through regions. Pure
-// logic: no sockets; the stamp arithmetic is protocol/'s.
+// Rules (ARCHITECTURE.md, Sync): a DeformEvent is applied with the shared CPU stamp code when
+// protocol/replication/event_rule.h says it fits: every tile the event reproduces that the
+// store holds is at exactly the listed base version. A per-sample stamp is applied to every
+// held tile of its layer at every mip (mip-m samples evaluated at their mip-0 positions, the
+// footprint with the contact the event carries); a shockwave at mip 0 only. Otherwise the
+// event is buffered. A RegionUpdate at version v replaces a tile; buffered events at or below
+// v are dropped (the server covers their effect with regions) and the rest are tried again.
+// Pure logic: no sockets; the stamp arithmetic is protocol/'s.
 #pragma once
 
 #include <cstdint>
@@ -36,7 +37,8 @@ struct StoreChange {
   TileCoord tile;    // region: the tile replaced
   Layer layer = Layer::kCoarse;
   // Samples that changed, in the layer's global grid at mip `tile.mip` (events: mip 0 of the
-  // stamp's layer; empty when the event changed nothing).
+  // stamp's layer; empty when the event changed nothing). An event's changes to held mip > 0
+  // tiles are recorded as kRegion changes of those tiles (their samples are read from here).
   RectI rect;
   QuantizedStamp stamp;           // event: the stamp applied
   uint32_t origin_client_id = 0;  // event: who sent it

@@ -56,6 +56,11 @@ void Connection::start_read() {
         return;
       }
       if (!m->has_value()) break;
+      // Bytes by message type (what a stamp costs in events against regions): the frame
+      // header plus the payload, measured again rather than threaded out of the assembler.
+      if (const auto size = wire::measure_payload(**m)) {
+        bytes_in_by_type_[size_t(wire::message_type(**m))] += *size + wire::kFrameHeaderBytes;
+      }
       push(std::move(**m));
     }
     if (!paused_) start_read();

@@ -46,6 +46,8 @@ class Connection {
   void close();
   uint64_t bytes_in() const { return bytes_in_; }
   uint64_t bytes_out() const { return bytes_out_; }
+  // Bytes received in frames of one message type (header included).
+  uint64_t bytes_in_of(wire::MessageType type) const { return bytes_in_by_type_[size_t(type)]; }
   // Stops reading from the socket (a test of a client that never reads).
   void pause_reading();
 
@@ -70,6 +72,7 @@ class Connection {
   std::optional<Error> closed_error_;
   bool closed_ = false;
   std::atomic<uint64_t> bytes_in_{0}, bytes_out_{0};
+  std::array<std::atomic<uint64_t>, wire::kLastMessageType + 1> bytes_in_by_type_{};
 };
 
 }  // namespace loam::client

@@ -49,8 +49,10 @@ std::vector<TileCoord> TerrainClient::all_coarse_tiles(int32_t mip) const {
   return out;
 }
 
-Status TerrainClient::subscribe(const std::vector<TileCoord>& tiles) {
+Status TerrainClient::subscribe(const std::vector<TileCoord>& tiles, std::optional<wire::Focus> focus) {
   wire::Subscribe sub;
+  sub.focus = focus;
+  if (tiles.empty() && focus) return connection_->send(sub);  // the focus alone moved
   for (const TileCoord& c : tiles) {
     store_->want(c);
     const auto held = store_->version(c);

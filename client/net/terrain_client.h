@@ -38,8 +38,10 @@ class TerrainClient {
   const wire::Welcome& welcome() const { return welcome_; }
   Connection& connection() { return *connection_; }
 
-  // Subscribes to tiles (held versions from the store, so a reconnect resumes).
-  Status subscribe(const std::vector<TileCoord>& tiles);
+  // Subscribes to tiles (held versions from the store, so a reconnect resumes). `focus`, the
+  // camera's ground position in world meters, orders what the server sends first (coarsest
+  // mip, then nearest); with no tiles it only moves the focus.
+  Status subscribe(const std::vector<TileCoord>& tiles, std::optional<wire::Focus> focus = {});
   // Drops tiles: the server stops sending them and the store forgets them.
   Status unsubscribe(const std::vector<TileCoord>& tiles);
   // Every mip-0 coarse tile of the world.

@@ -1,6 +1,7 @@
 #include "client/render/viewer_session.h"
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace loam::render {
@@ -64,7 +65,14 @@ Status ViewerSession::follow(const Camera& camera) {
   const auto c = camera.lod_center.value_or(std::array<double, 2>{camera.x, camera.y});
   const ClipmapInterest::Delta d = interest_->update(c[0], c[1]);
   if (!d.unsubscribe.empty()) LOAM_TRY(client_.unsubscribe(d.unsubscribe));
-  if (!d.subscribe.empty()) LOAM_TRY(client_.subscribe(d.subscribe));
+  // The focus travels with new subscriptions, and on its own once the camera has moved a
+  // quarter of a mip-0 tile since it was last sent.
+  const double moved = focus_sent_ ? std::hypot(c[0] - focus_sent_->x_m, c[1] - focus_sent_->y_m) : 1e300;
+  const double step = 0.25 * kTileSize * client_.welcome().world.meters_per_sample;
+  std::optional<wire::Focus> focus;
+  if (!d.subscribe.empty() || moved > step) focus = wire::Focus{c[0], c[1]};
+  if (focus) focus_sent_ = focus;
+  if (!d.subscribe.empty() || focus) LOAM_TRY(client_.subscribe(d.subscribe, focus));
   return {};
 }
 

@@ -76,6 +76,7 @@ class ViewerSession {
   std::unique_ptr<DisplayTerrain> display_;
   std::unique_ptr<ClipmapRenderer> renderer_;
   std::unique_ptr<ClipmapInterest> interest_;
+  std::optional<wire::Focus> focus_sent_;  // the focus the server last heard
 };
 
 }  // namespace loam::render

@@ -77,4 +77,13 @@ struct QuantizedStamp {
   friend bool operator==(const QuantizedStamp&, const QuantizedStamp&) = default;
 };
 
+// A footprint's first point of contact, measured on the mip-0 terrain under the foot. It is
+// the one input of a per-sample stamp that is not the stamp itself, so a DeformEvent carries
+// it and a client holding only some tiles (or only coarse mips) applies the footprint exactly.
+struct FootprintContact {
+  bool touches = false;   // some sample lies under the foot (else the footprint changes nothing)
+  int32_t height_q8 = 0;  // layer units, Q8; 0 when !touches
+  friend bool operator==(const FootprintContact&, const FootprintContact&) = default;
+};
+
 }  // namespace loam

@@ -108,6 +108,19 @@ Result<RectI> stamp_reach(const QuantizedStamp& q, const WorldParams& world, con
   return baked.value().rect;
 }
 
+Result<RectI> apply_stamp_with_contact(World& world, const QuantizedStamp& q, const FootprintContact& contact,
+                                       const TextureRegistry* textures, const StampLimits& limits) {
+  if (q.kind != StampKind::kFootprint) return apply_stamp(world, q, textures, limits);
+  LOAM_TRY(check_quantized(q, world.params(), limits, textures));
+  auto baked = bake_stamp(q, world.params(), textures);
+  LOAM_TRY(baked);
+  BakedStamp& b = baked.value();
+  set_contact(b, contact);
+  const FastStamp fast(b, FastIsa::kBest);
+  return walk_tiles(world, b,
+                    [&](auto* tile, int64_t tx, int64_t ty) { return fast.apply_in_tile(tile, tx, ty); });
+}
+
 Result<RectI> apply_stamp(World& world, const QuantizedStamp& q, const TextureRegistry* textures,
                           const StampLimits& limits) {
   return apply_stamp_with(world, q, FastIsa::kBest, textures, limits);

@@ -16,6 +16,7 @@
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 #include "protocol/stamps/stamp.h"
+#include "protocol/stamps/stamp_at_mip.h"
 #include "protocol/stamps/stamp_fast.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/stamps/texture_registry.h"
@@ -40,6 +41,13 @@ Result<RectI> apply_stamp_reference(World& world, const QuantizedStamp& q,
 // applying it: the baked rect, or a shockwave's final box. Errors as check_quantized.
 Result<RectI> stamp_reach(const QuantizedStamp& q, const WorldParams& world,
                           const TextureRegistry* textures = nullptr, const StampLimits& limits = {});
+
+// apply_stamp with a footprint's contact given (a DeformEvent carries the server's) instead
+// of measured on `world`, which then need not hold every sample under the foot. Other kinds
+// ignore `contact`.
+Result<RectI> apply_stamp_with_contact(World& world, const QuantizedStamp& q, const FootprintContact& contact,
+                                       const TextureRegistry* textures = nullptr,
+                                       const StampLimits& limits = {});
 
 // apply_stamp with the fast kernel's instruction set forced (tests compare every choice).
 // An `isa` this CPU lacks falls back to the portable kernel.

@@ -38,6 +38,16 @@ Status WriteStream::boolean(bool& v, const char* field) {
   return bits(raw, field);
 }
 
+Status WriteStream::varint(uint64_t& v, const char*) {
+  uint64_t x = v;
+  while (x >= 0x80) {
+    out_.push_back(uint8_t(x | 0x80));
+    x >>= 7;
+  }
+  out_.push_back(uint8_t(x));
+  return {};
+}
+
 Status WriteStream::bytes(uint8_t* p, size_t n, const char*) {
   out_.insert(out_.end(), p, p + n);
   return {};
@@ -81,6 +91,23 @@ Status ReadStream::boolean(bool& v, const char* field) {
   if (raw > 1) return bad_enum_error(field, raw, 2);
   v = raw == 1;
   return {};
+}
+
+Status ReadStream::varint(uint64_t& v, const char* field) {
+  uint64_t x = 0;
+  for (int i = 0; i < 10; ++i) {
+    if (remaining() == 0) return truncated_error(field, 1, pos_, 0);
+    const uint8_t byte = in_[pos_++];
+    if (i == 9 && byte > 1) return make_error(ErrorCode::kCorrupt, field, "varint exceeds 64 bits");
+    x |= uint64_t(byte & 0x7F) << (7 * i);
+    if ((byte & 0x80) == 0) {
+      if (byte == 0 && i > 0)
+        return make_error(ErrorCode::kCorrupt, field, "varint not in its shortest form");
+      v = x;
+      return {};
+    }
+  }
+  return make_error(ErrorCode::kCorrupt, field, "varint longer than 10 bytes");
 }
 
 Status ReadStream::bytes(uint8_t* p, size_t n, const char* field) {

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <span>
 #include <string>
 #include <type_traits>
@@ -63,6 +64,8 @@ class WriteStream {
   }
   Status f64(double& v, const char* field);
   Status boolean(bool& v, const char* field);
+  // LEB128: 7 bits a byte, low first, the high bit set on every byte but the last (1..10 bytes).
+  Status varint(uint64_t& v, const char* field);
   Status bytes(uint8_t* p, size_t n, const char* field);
   Status string(std::string& s, size_t max_bytes, const char* field);
   Status blob(std::vector<uint8_t>& b, uint32_t max_bytes, const char* field);
@@ -90,6 +93,9 @@ class ReadStream {
   }
   Status f64(double& v, const char* field);
   Status boolean(bool& v, const char* field);
+  // Rejects a varint that runs past the input, past 64 bits, or is not in its shortest form
+  // (one encoding per value keeps golden bytes and hashes of messages canonical).
+  Status varint(uint64_t& v, const char* field);
   Status bytes(uint8_t* p, size_t n, const char* field);
   Status string(std::string& s, size_t max_bytes, const char* field);
   Status blob(std::vector<uint8_t>& b, uint32_t max_bytes, const char* field);
@@ -119,6 +125,14 @@ class MeasureStream {
   }
   Status f64(double& v, const char* field);
   Status boolean(bool& v, const char* field);
+  Status varint(uint64_t& v, const char*) {
+    uint64_t x = v;
+    do {
+      ++bytes_;
+      x >>= 7;
+    } while (x != 0);
+    return {};
+  }
   Status bytes(uint8_t*, size_t n, const char*) {
     bytes_ += n;
     return {};
@@ -152,6 +166,38 @@ Status serialize_range(S& s, T& v, T lo, T hi, const char* field) {
     return make_error(ErrorCode::kInvalidArgument, field,
                       std::to_string(v) + " outside " + std::to_string(lo) + ".." + std::to_string(hi));
   }
+  return {};
+}
+
+// An unsigned integer of any width as a varint; a decoded value that does not fit T (or lies
+// outside [lo, hi]) is an error naming the field.
+template <typename T, typename S>
+Status serialize_uvarint(S& s, T& v, const char* field, T lo = std::numeric_limits<T>::min(),
+                         T hi = std::numeric_limits<T>::max()) {
+  static_assert(std::is_unsigned_v<T>);
+  uint64_t raw = v;
+  LOAM_TRY(s.varint(raw, field));
+  if (raw < lo || raw > hi) {
+    return make_error(ErrorCode::kInvalidArgument, field,
+                      std::to_string(raw) + " outside " + std::to_string(lo) + ".." + std::to_string(hi));
+  }
+  if constexpr (S::kReading) v = static_cast<T>(raw);
+  return {};
+}
+
+// A signed integer as a zigzag varint (0, -1, 1, -2, ... as 0, 1, 2, 3, ...): small
+// magnitudes of either sign take one byte.
+template <typename T, typename S>
+Status serialize_svarint(S& s, T& v, const char* field) {
+  static_assert(std::is_signed_v<T>);
+  const int64_t x = v;
+  uint64_t raw = (uint64_t(x) << 1) ^ uint64_t(x >> 63);
+  LOAM_TRY(s.varint(raw, field));
+  const int64_t decoded = int64_t(raw >> 1) ^ -int64_t(raw & 1);
+  if (decoded < int64_t(std::numeric_limits<T>::min()) || decoded > int64_t(std::numeric_limits<T>::max())) {
+    return make_error(ErrorCode::kInvalidArgument, field, std::to_string(decoded) + " does not fit");
+  }
+  if constexpr (S::kReading) v = static_cast<T>(decoded);
   return {};
 }
 

@@ -14,10 +14,13 @@ namespace loam::wire {
 inline constexpr uint32_t kHelloMagic = 0x4D414F4Cu;
 // A peer with a different major version cannot parse our messages; minor versions only add
 // optional behaviour negotiated in Hello/Welcome, never change a layout.
+// 3.0: DeformEvent is compact (varints; tiles as offsets from the stamp's center tile;
+// base versions as distances below the sequence) and carries a footprint's contact, so a
+// client applies events at every mip of the layer (protocol/replication/event_rule.h).
 // 2.0: Subscribe entries say whether a version is held (version 0, the initial terrain, can be
 // claimed); RegionUpdate patches (the changed samples of a tile over a held version); region
 // codec payloads of format 3. 1.1 had added StatsRequest / Stats.
-inline constexpr uint16_t kProtocolMajor = 2;
+inline constexpr uint16_t kProtocolMajor = 3;
 inline constexpr uint16_t kProtocolMinor = 0;
 
 // Frame header: u32 payload length, u16 message type (little-endian), then the payload.

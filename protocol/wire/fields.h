@@ -96,4 +96,92 @@ Status serialize_stamp(S& s, QuantizedStamp& q) {
   return {};
 }
 
+// The compact stamp of a DeformEvent (protocol 3), 8..40 bytes, typically 12..16:
+//   u8 head: bits 0-2 kind, bit 3 layer, bits 4-5 blend, bit 6 volume-conserving, bit 7 zero;
+//   zigzag varint center_x, center_y; varint radius;
+//   varint presence mask (bit i: field i below is non-zero and follows, in this order):
+//   rotation, intensity (zigzag), target (zigzag), shape, damping, speed, steps, seed,
+//   texture_id. Absent fields are zero. Enumerations and flags are checked as in
+//   serialize_stamp; semantic ranges stay the validator's job.
+template <typename S>
+Status serialize_stamp_compact(S& s, QuantizedStamp& q) {
+  uint8_t head = uint8_t(uint8_t(q.kind) | uint8_t(uint8_t(q.layer) << 3) | uint8_t(uint8_t(q.blend) << 4) |
+                         ((q.flags & kStampFlagVolumeConserving) ? 0x40 : 0));
+  if constexpr (!S::kReading) {
+    if (uint8_t(q.kind) >= kStampKindCount || uint8_t(q.blend) >= kBlendModeCount || uint8_t(q.layer) > 1)
+      return make_error(ErrorCode::kBadEnum, "stamp.head", "kind, layer or blend out of range");
+    if ((q.flags & ~kStampKnownFlags) != 0)
+      return make_error(ErrorCode::kBadEnum, "stamp.flags", "unknown flag bits " + std::to_string(q.flags));
+  }
+  LOAM_TRY(s.bits(head, "stamp.head"));
+  if constexpr (S::kReading) {
+    if ((head & 0x80) != 0) return make_error(ErrorCode::kBadEnum, "stamp.head", "reserved bit 7 set");
+    if ((head & 7) >= kStampKindCount) return bad_enum_error("stamp.kind", head & 7, kStampKindCount);
+    q.kind = StampKind(head & 7);
+    q.layer = Layer((head >> 3) & 1);
+    q.blend = BlendMode((head >> 4) & 3);
+    q.flags = (head & 0x40) ? kStampFlagVolumeConserving : 0;
+  }
+  LOAM_TRY(serialize_svarint(s, q.center_x, "stamp.center_x"));
+  LOAM_TRY(serialize_svarint(s, q.center_y, "stamp.center_y"));
+  LOAM_TRY(serialize_uvarint(s, q.radius, "stamp.radius"));
+  uint32_t mask = (q.rotation ? 1u : 0) | (q.intensity ? 2u : 0) | (q.target ? 4u : 0) | (q.shape ? 8u : 0) |
+                  (q.damping ? 16u : 0) | (q.speed ? 32u : 0) | (q.steps ? 64u : 0) | (q.seed ? 128u : 0) |
+                  (q.texture_id ? 256u : 0);
+  LOAM_TRY(serialize_uvarint<uint32_t>(s, mask, "stamp.fields", 0, 511));
+  // A field listed as present must be non-zero: one encoding per stamp.
+  const auto nonzero = [](auto v, const char* field) -> Status {
+    if (v == 0) return make_error(ErrorCode::kCorrupt, field, "listed as present but zero");
+    return {};
+  };
+  if (mask & 1u) {
+    LOAM_TRY(serialize_uvarint(s, q.rotation, "stamp.rotation"));
+    LOAM_TRY(nonzero(q.rotation, "stamp.rotation"));
+  }
+  if (mask & 2u) {
+    LOAM_TRY(serialize_svarint(s, q.intensity, "stamp.intensity"));
+    LOAM_TRY(nonzero(q.intensity, "stamp.intensity"));
+  }
+  if (mask & 4u) {
+    LOAM_TRY(serialize_svarint(s, q.target, "stamp.target"));
+    LOAM_TRY(nonzero(q.target, "stamp.target"));
+  }
+  if (mask & 8u) {
+    LOAM_TRY(serialize_uvarint(s, q.shape, "stamp.shape"));
+    LOAM_TRY(nonzero(q.shape, "stamp.shape"));
+  }
+  if (mask & 16u) {
+    LOAM_TRY(serialize_uvarint(s, q.damping, "stamp.damping"));
+    LOAM_TRY(nonzero(q.damping, "stamp.damping"));
+  }
+  if (mask & 32u) {
+    LOAM_TRY(serialize_uvarint(s, q.speed, "stamp.speed"));
+    LOAM_TRY(nonzero(q.speed, "stamp.speed"));
+  }
+  if (mask & 64u) {
+    LOAM_TRY(serialize_uvarint(s, q.steps, "stamp.steps"));
+    LOAM_TRY(nonzero(q.steps, "stamp.steps"));
+  }
+  if (mask & 128u) {
+    LOAM_TRY(serialize_uvarint(s, q.seed, "stamp.seed"));
+    LOAM_TRY(nonzero(q.seed, "stamp.seed"));
+  }
+  if (mask & 256u) {
+    LOAM_TRY(serialize_uvarint(s, q.texture_id, "stamp.texture_id"));
+    LOAM_TRY(nonzero(q.texture_id, "stamp.texture_id"));
+  }
+  if constexpr (S::kReading) {
+    if (!(mask & 1u)) q.rotation = 0;
+    if (!(mask & 2u)) q.intensity = 0;
+    if (!(mask & 4u)) q.target = 0;
+    if (!(mask & 8u)) q.shape = 0;
+    if (!(mask & 16u)) q.damping = 0;
+    if (!(mask & 32u)) q.speed = 0;
+    if (!(mask & 64u)) q.steps = 0;
+    if (!(mask & 128u)) q.seed = 0;
+    if (!(mask & 256u)) q.texture_id = 0;
+  }
+  return {};
+}
+
 }  // namespace loam::wire

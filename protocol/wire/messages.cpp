@@ -236,17 +236,29 @@ Status serialize(S& s, Bye& m) {
 
 template <typename S>
 Status serialize(S& s, Subscribe& m) {
-  return serialize_vector(s, m.entries, kMaxSubscribeEntries, kTileCoordBytes + 9, "subscribe.count",
-                          [&](SubscribeEntry& e) -> Status {
-                            LOAM_TRY(serialize_tile(s, e.tile));
-                            LOAM_TRY(s.boolean(e.held, "subscribe.held"));
-                            LOAM_TRY(s.bits(e.held_version, "subscribe.held_version"));
-                            if (!e.held && e.held_version != 0) {
-                              return make_error(ErrorCode::kInvalidArgument, "subscribe.held_version",
-                                                "must be 0 when the tile is not held");
-                            }
-                            return {};
-                          });
+  const Status entries =
+      serialize_vector(s, m.entries, kMaxSubscribeEntries, kTileCoordBytes + 9, "subscribe.count",
+                       [&](SubscribeEntry& e) -> Status {
+                         LOAM_TRY(serialize_tile(s, e.tile));
+                         LOAM_TRY(s.boolean(e.held, "subscribe.held"));
+                         LOAM_TRY(s.bits(e.held_version, "subscribe.held_version"));
+                         if (!e.held && e.held_version != 0) {
+                           return make_error(ErrorCode::kInvalidArgument, "subscribe.held_version",
+                                             "must be 0 when the tile is not held");
+                         }
+                         return {};
+                       });
+  if (!entries.ok()) return entries;
+  bool has_focus = m.focus.has_value();
+  LOAM_TRY(s.boolean(has_focus, "subscribe.has_focus"));
+  if (has_focus) {
+    if constexpr (S::kReading) m.focus.emplace();
+    LOAM_TRY(s.f64(m.focus->x_m, "subscribe.focus_x"));
+    LOAM_TRY(s.f64(m.focus->y_m, "subscribe.focus_y"));
+  } else if constexpr (S::kReading) {
+    m.focus.reset();
+  }
+  return {};
 }
 
 template <typename S>
@@ -277,22 +289,85 @@ Status serialize(S& s, DeformAck& m) {
   return {};
 }
 
+// Compact (protocol 3): a stamp causes one event per client, so its bytes are the price of an
+// edit. Varints throughout; each tile travels as its layer and mip (one byte), its offset
+// from the tile holding the stamp's center at that mip (one byte for all but huge stamps) and
+// the distance of its base version below the event's sequence. docs/protocol.md, "DeformEvent".
 template <typename S>
 Status serialize(S& s, DeformEvent& m) {
-  LOAM_TRY(serialize_range<uint64_t>(s, m.global_seq, 1, UINT64_MAX, "deform_event.global_seq"));
-  LOAM_TRY(s.bits(m.origin_client_id, "deform_event.origin_client_id"));
-  LOAM_TRY(serialize_stamp(s, m.stamp));
-  return serialize_vector(s, m.base_versions, kMaxEventTiles, kTileCoordBytes + 8, "deform_event.tile_count",
-                          [&](TileVersion& t) -> Status {
-                            LOAM_TRY(serialize_tile(s, t.tile));
-                            LOAM_TRY(s.bits(t.version, "deform_event.base_version"));
-                            // A base version at or after the event itself cannot exist.
-                            if (t.version >= m.global_seq) {
-                              return make_error(ErrorCode::kInvalidArgument, "deform_event.base_version",
-                                                "must be < global_seq");
-                            }
-                            return {};
-                          });
+  LOAM_TRY(serialize_uvarint<uint64_t>(s, m.global_seq, "deform_event.global_seq", 1, UINT64_MAX));
+  LOAM_TRY(serialize_uvarint(s, m.origin_client_id, "deform_event.origin_client_id"));
+  LOAM_TRY(serialize_stamp_compact(s, m.stamp));
+  if (m.stamp.kind == StampKind::kFootprint) {
+    LOAM_TRY(s.boolean(m.contact.touches, "deform_event.contact"));
+    if (m.contact.touches) {
+      LOAM_TRY(serialize_svarint(s, m.contact.height_q8, "deform_event.contact_height"));
+    } else if constexpr (S::kReading) {
+      m.contact.height_q8 = 0;
+    }
+  } else if constexpr (S::kReading) {
+    m.contact = {};
+  }
+  uint64_t n = m.base_versions.size();
+  LOAM_TRY(s.varint(n, "deform_event.tile_count"));
+  if (n > kMaxEventTiles) return oversize_error("deform_event.tile_count", n, kMaxEventTiles);
+  if constexpr (S::kReading) {
+    // Each tile takes at least 3 bytes: never allocate for tiles the frame cannot hold.
+    if (n * 3 > s.remaining())
+      return truncated_error("deform_event.tile_count", size_t(n * 3), s.offset(), s.remaining());
+    m.base_versions.resize(n);
+  }
+  const TileVersion* prev = nullptr;
+  for (TileVersion& t : m.base_versions) {
+    uint8_t key = uint8_t(uint8_t(t.tile.layer) << 7 | t.tile.mip);
+    LOAM_TRY(s.bits(key, "deform_event.tile"));
+    if constexpr (S::kReading) {
+      t.tile.layer = Layer(key >> 7);
+      t.tile.mip = uint8_t(key & 0x7F);
+    }
+    if (t.tile.mip >= kMaxMips || (t.tile.layer == Layer::kDetail && t.tile.mip != 0))
+      return make_error(ErrorCode::kInvalidArgument, "deform_event.tile", "no such layer and mip");
+    const int64_t span = int64_t(kTileSize) << (kPositionFracBits + t.tile.mip);
+    const int64_t ax = floor_div(m.stamp.center_x, span), ay = floor_div(m.stamp.center_y, span);
+    int64_t dx = int64_t(t.tile.tx) - ax, dy = int64_t(t.tile.ty) - ay;
+    // One byte for offsets in [-7, 7] (every tile of a stamp up to ~1,800 samples across);
+    // 255 then both as zigzag varints. Codes 225..254 are unused and refused.
+    const bool small = dx >= -7 && dx <= 7 && dy >= -7 && dy <= 7;
+    uint8_t code = small ? uint8_t((dx + 7) * 15 + (dy + 7)) : 255;
+    LOAM_TRY(s.bits(code, "deform_event.tile_offset"));
+    if (code == 255) {
+      LOAM_TRY(serialize_svarint(s, dx, "deform_event.tile_dx"));
+      LOAM_TRY(serialize_svarint(s, dy, "deform_event.tile_dy"));
+      if (dx >= -7 && dx <= 7 && dy >= -7 && dy <= 7)
+        return make_error(ErrorCode::kCorrupt, "deform_event.tile_offset", "small offsets written long");
+    } else if (code >= 225) {
+      return make_error(ErrorCode::kCorrupt, "deform_event.tile_offset", "unused offset code");
+    } else if constexpr (S::kReading) {
+      dx = code / 15 - 7;
+      dy = code % 15 - 7;
+    }
+    if constexpr (S::kReading) {
+      const int64_t tx = ax + dx, ty = ay + dy;
+      if (tx < INT32_MIN || tx > INT32_MAX || ty < INT32_MIN || ty > INT32_MAX)
+        return make_error(ErrorCode::kInvalidArgument, "deform_event.tile_dx",
+                          "tile coordinate out of range");
+      t.tile.tx = int32_t(tx);
+      t.tile.ty = int32_t(ty);
+    }
+    // A base version at or after the event itself cannot exist: the distance is >= 1.
+    if constexpr (!S::kReading) {
+      if (t.version >= m.global_seq)
+        return make_error(ErrorCode::kInvalidArgument, "deform_event.base_version", "must be < global_seq");
+    }
+    uint64_t below = m.global_seq - t.version;
+    LOAM_TRY(serialize_uvarint<uint64_t>(s, below, "deform_event.base_version", 1, m.global_seq));
+    if constexpr (S::kReading) t.version = m.global_seq - below;
+    // Sorted and distinct: one encoding per event, and no tile listed twice.
+    if (prev && !(prev->tile < t.tile))
+      return make_error(ErrorCode::kInvalidArgument, "deform_event.tile", "tiles not in ascending order");
+    prev = &t;
+  }
+  return {};
 }
 
 uint32_t bytes_per_sample(Layer layer) { return layer == Layer::kCoarse ? 2u : 1u; }
@@ -381,7 +456,11 @@ Status serialize(S& s, Stats& m) {
   LOAM_TRY(s.bits(m.tick_overruns, "stats.tick_overruns"));
   LOAM_TRY(s.bits(m.tick_p50_us, "stats.tick_p50_us"));
   LOAM_TRY(s.bits(m.tick_p99_us, "stats.tick_p99_us"));
-  return s.bits(m.uptime_ms, "stats.uptime_ms");
+  LOAM_TRY(s.bits(m.uptime_ms, "stats.uptime_ms"));
+  LOAM_TRY(s.bits(m.region_encodes, "stats.region_encodes"));
+  LOAM_TRY(s.bits(m.region_cache_hits, "stats.region_cache_hits"));
+  LOAM_TRY(s.bits(m.events_sent, "stats.events_sent"));
+  return s.bits(m.regions_sent, "stats.regions_sent");
 }
 
 template <size_t I>

@@ -136,8 +136,17 @@ struct SubscribeEntry {
   friend bool operator==(const SubscribeEntry&, const SubscribeEntry&) = default;
 };
 
+// Where the client looks: its camera's ground position in world meters. The server sends
+// pending regions coarsest mip first, then nearest this point (since 3.0).
+struct Focus {
+  double x_m = 0;
+  double y_m = 0;
+  friend bool operator==(const Focus&, const Focus&) = default;
+};
+
 struct Subscribe {
   std::vector<SubscribeEntry> entries;  // <= kMaxSubscribeEntries
+  std::optional<Focus> focus;           // replaces the focus sent before; absent: unchanged
   friend bool operator==(const Subscribe&, const Subscribe&) = default;
 };
 
@@ -172,8 +181,12 @@ struct DeformEvent {
   uint32_t origin_client_id = 0;
   QuantizedStamp stamp;
   // Every tile (each layer and mip) the stamp changes, with its version before the stamp
-  // (< global_seq). A client applies the event only if it holds all of them at these versions.
+  // (< global_seq), sorted by tile. Which of them a client must hold at these versions to
+  // apply the event is protocol/replication/event_rule.h's rule.
   std::vector<TileVersion> base_versions;  // <= kMaxEventTiles
+  // Footprint only: the contact the server measured on the mip-0 terrain, so every mip (and a
+  // client that holds only some tiles under the foot) applies the footprint exactly.
+  FootprintContact contact;
   friend bool operator==(const DeformEvent&, const DeformEvent&) = default;
 };
 
@@ -239,6 +252,12 @@ struct Stats {
   uint32_t tick_p50_us = 0;
   uint32_t tick_p99_us = 0;
   uint64_t uptime_ms = 0;
+  // Since 3.0: regions encoded and regions served from the encode-once cache; events sent (one
+  // encoding each, whatever the number of clients).
+  uint64_t region_encodes = 0;
+  uint64_t region_cache_hits = 0;
+  uint64_t events_sent = 0;
+  uint64_t regions_sent = 0;
   friend bool operator==(const Stats&, const Stats&) = default;
 };
 

@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -41,6 +42,12 @@ class ServerProcess {
     std::vector<std::string> args = {LOAM_SERVER_BINARY, "serve",    "--port",     "0",
                                      "--port-file",      port_file_, "--data-dir", data_dir,
                                      "--stats-interval", "0"};
+    // Regions stream without a byte budget unless a test sets one (--client-budget): most
+    // tests wait for whole worlds and test other things; the streaming tests set it.
+    if (std::find(extra.begin(), extra.end(), "--client-budget") == extra.end()) {
+      args.push_back("--client-budget");
+      args.push_back("0");
+    }
     args.insert(args.end(), extra.begin(), extra.end());
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());

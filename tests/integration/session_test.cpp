@@ -286,11 +286,11 @@ TEST(Session, ReconnectingClientResumesFromHeldVersionsAndConverges) {
   EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 
-// A client that holds mip tiles (a viewer's far levels) gets a stamp's effect on them as a
-// patch of only the samples that changed, over the version it holds (the initial terrain's 0
-// included); it converges on the server's tiles, and those patches are a fraction of whole
-// tiles on the wire.
-TEST(Session, MipTilesAfterAStampTravelAsTheChangedSamplesOnly) {
+// A client that holds only mip tiles (a viewer's far levels) follows per-sample stamps from
+// their events alone, applying them at its mips (events at every mip); a shockwave's mips,
+// which only mip 0 can simulate, come as patches of the changed samples over the version it
+// holds. It converges on the server's tiles either way.
+TEST(Session, MipTilesFollowStampsFromTheirEventsAndShockwavesAsPatches) {
   const std::string dir = temp_data_dir("partial");
   ServerProcess server;
   ASSERT_TRUE(server.start(dir, {"--tick-hz", "60"})) << server.log();
@@ -303,28 +303,36 @@ TEST(Session, MipTilesAfterAStampTravelAsTheChangedSamplesOnly) {
   ASSERT_TRUE(viewer.subscribe(tiles).ok());
   ASSERT_TRUE(viewer.wait_until([&] { return viewer.store().held().size() == tiles.size(); }, 30s));
   const WorldParams& w = editor.welcome().world;
-  auto stamp = [&](double x, double y, double r) {
+  auto stamp = [&](StampKind kind, double x, double y, double r) {
     StampParams p;
-    p.kind = StampKind::kCrater;
-    p.center_x = x, p.center_y = y, p.radius = r, p.intensity = 3, p.shape = 0.3;
+    p.kind = kind;
+    p.center_x = x, p.center_y = y, p.radius = r, p.intensity = 3;
+    if (kind == StampKind::kCrater) p.shape = 0.3;
+    if (kind == StampKind::kShockwave) p.steps = 30, p.speed = 0.5, p.damping = 0.02, p.intensity = 0.5;
     const uint32_t s = *editor.deform(*validate_stamp(p, w));
     EXPECT_TRUE(editor.wait_until([&] { return editor.ack(s).has_value(); }, 10s));
     return editor.ack(s)->global_seq;
   };
-  const uint64_t bytes_before = viewer.connection().bytes_in();
-  const uint64_t partial_before = viewer.store().counters().regions_partial;
+  const uint64_t region_bytes_before = viewer.connection().bytes_in_of(wire::MessageType::kRegionUpdate);
+  const uint64_t event_bytes_before = viewer.connection().bytes_in_of(wire::MessageType::kDeformEvent);
+  const uint64_t regions_before = viewer.store().counters().regions;
   uint64_t last = 0;
-  for (int i = 0; i < 6; ++i) last = stamp(300.0 + 250 * i, 400.0 + 150 * i, 12.0);
-  const World expected = replayed_world(dir, last);
+  for (int i = 0; i < 6; ++i) last = stamp(StampKind::kCrater, 300.0 + 250 * i, 400.0 + 150 * i, 12.0);
+  World expected = replayed_world(dir, last);
   EXPECT_TRUE(viewer.wait_until([&] { return bool(store_matches(viewer, expected)); }, 30s))
       << store_matches(viewer, expected).message();
-  const uint64_t partial = viewer.store().counters().regions_partial - partial_before;
-  const uint64_t bytes = viewer.connection().bytes_in() - bytes_before;
-  std::printf("6 stamps: %llu partial mip regions, %llu bytes in\n", (unsigned long long)partial,
-              (unsigned long long)bytes);
-  EXPECT_GE(partial, 12u) << "each stamp changes a mip-1 and a mip-2 tile";
-  // Whole fast-coded mip tiles of this terrain are ~20-60 KB each; 12 of them would be far more.
-  EXPECT_LT(bytes, 12u * 8000u);
+  EXPECT_EQ(viewer.store().counters().regions, regions_before) << "craters need no region at any mip";
+  EXPECT_EQ(viewer.connection().bytes_in_of(wire::MessageType::kRegionUpdate), region_bytes_before);
+  const uint64_t event_bytes =
+      viewer.connection().bytes_in_of(wire::MessageType::kDeformEvent) - event_bytes_before;
+  std::printf("6 craters: %llu event bytes at a mip-only viewer\n", (unsigned long long)event_bytes);
+  EXPECT_LE(event_bytes, 6u * 64u);
+
+  last = stamp(StampKind::kShockwave, 900.0, 700.0, 30.0);
+  expected = replayed_world(dir, last);
+  EXPECT_TRUE(viewer.wait_until([&] { return bool(store_matches(viewer, expected)); }, 30s))
+      << store_matches(viewer, expected).message();
+  EXPECT_GE(viewer.store().counters().regions_partial, 1u) << "the shockwave's mips come as patches";
   EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_at_mip.h"
+#include "protocol/stamps/stamp_kernel.h"
 #include "protocol/stamps/stamp_validate.h"
 
 namespace loam::client {
@@ -77,6 +79,75 @@ TEST(ConfirmedStore, RegionForATileNoLongerWantedIsDroppedNotHeld) {
   EXPECT_FALSE(store.holds(t10));
   EXPECT_EQ(store.counters().regions_unwanted, 1u);
   EXPECT_EQ(store.counters().regions, 0u);
+}
+
+// The server's side of one stamp, as its DeformEvent: base versions of every changed tile and
+// a footprint's contact.
+wire::DeformEvent server_apply(World& server, const QuantizedStamp& q, uint64_t seq) {
+  wire::DeformEvent e;
+  e.global_seq = seq;
+  e.stamp = q;
+  if (q.kind == StampKind::kFootprint)
+    e.contact = footprint_contact_of(bake_stamp(q, server.params()).value(), server);
+  EXPECT_TRUE(apply_stamp(server, q).ok());
+  for (const TileChange& c : server.commit(seq)) e.base_versions.push_back({c.coord, c.base_version});
+  return e;
+}
+
+TEST(ConfirmedStore, StoreHoldingOnlyCoarseMipsFollowsEventsAndMatchesTheServersHashes) {
+  // A far viewer: it holds mips 1 and 2 of a 4 x 4-tile world and no mip-0 tile. Every stamp
+  // reaches it as an event it applies at those mips; no region is needed.
+  WorldParams p;
+  p.meters_per_sample = 1.0;
+  p.tiles_x = 4;
+  p.tiles_y = 4;
+  World server(p, 0);
+  std::vector<uint16_t> terrain(size_t(p.sample_rect().area()));
+  for (size_t i = 0; i < terrain.size(); ++i) terrain[i] = uint16_t(20000 + (i * 7919) % 3001);
+  server.write_coarse(p.sample_rect(), terrain);
+  server.commit(0);
+
+  ConfirmedStore store(p);
+  store.record_changes(true);
+  std::vector<TileCoord> held;
+  for (int32_t m = 1; m <= 2; ++m) {
+    const RectI tiles = p.tile_range(m);
+    for (int32_t ty = int32_t(tiles.y0); ty < tiles.y1; ++ty) {
+      for (int32_t tx = int32_t(tiles.x0); tx < tiles.x1; ++tx) {
+        const TileCoord c{Layer::kCoarse, uint8_t(m), tx, ty};
+        store.want(c);
+        ASSERT_TRUE(store.replace_coarse(c, 0, server.coarse_tile(m, tx, ty)).ok());
+        held.push_back(c);
+      }
+    }
+  }
+  (void)store.take_changes();
+  const StampKind kinds[] = {StampKind::kGaussian, StampKind::kCrater, StampKind::kFootprint,
+                             StampKind::kFlatten};
+  uint64_t seq = 0;
+  for (int i = 0; i < 24; ++i) {
+    StampParams s;
+    s.kind = kinds[i % 4];
+    s.center_x = 100.0 + 37.3 * i;  // walks across tile edges and corners
+    s.center_y = 300.0 + 29.1 * i - (i % 3) * 150.0;
+    s.radius = 12.0 + 5.0 * (i % 5);
+    s.intensity = s.kind == StampKind::kFlatten ? 0.7 : 3.0;
+    if (s.kind == StampKind::kFlatten) s.target = 300.0;
+    if (s.kind == StampKind::kCrater) s.shape = 0.4;
+    auto q = validate_stamp(s, p);
+    ASSERT_TRUE(q.ok()) << q.error().describe();
+    const wire::DeformEvent e = server_apply(server, *q, ++seq);
+    EXPECT_EQ(store.on_event(e), EventOutcome::kApplied) << i;
+  }
+  size_t mip_changes = 0;
+  for (const StoreChange& c : store.take_changes())
+    mip_changes += c.kind == StoreChange::Kind::kRegion && c.tile.mip > 0;
+  EXPECT_GT(mip_changes, 10u);
+  for (const TileCoord& c : held) {
+    EXPECT_EQ(store.version(c), server.tile_state(c).version) << to_string(c);
+    EXPECT_EQ(store.hash(c), server.tile_state(c).hash) << to_string(c);
+  }
+  EXPECT_EQ(store.counters().events_buffered, 0u);
 }
 
 }  // namespace

@@ -73,6 +73,7 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   sub.entries.push_back({TileCoord{Layer::kCoarse, 0, -2, -1}, false, 0});
   sub.entries.push_back({TileCoord{Layer::kCoarse, 2, 0, 0}, true, 41});
   sub.entries.push_back({TileCoord{Layer::kDetail, 0, 1, 0}, true, 0});  // held at the initial version
+  sub.focus = Focus{-1234.5, 88.25};                                     // the camera above this point
   v.emplace_back("subscribe", sub);
   Unsubscribe unsub;
   unsub.tiles.push_back(TileCoord{Layer::kCoarse, 1, -1, 0});
@@ -138,7 +139,24 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   st.tick_p50_us = 850;
   st.tick_p99_us = 4100;
   st.uptime_ms = 3600000;
+  st.region_encodes = 5000;
+  st.region_cache_hits = 310000;
+  st.events_sent = 123456 * 3;
+  st.regions_sent = 315000;
   v.emplace_back("stats", st);
+  DeformEvent foot;  // a footprint carries its contact; its tiles one to the side of the center
+  foot.global_seq = 9000001;
+  foot.origin_client_id = 300;
+  foot.stamp = sample_stamp();
+  foot.stamp.kind = StampKind::kFootprint;
+  foot.stamp.blend = BlendMode::kAdd;
+  foot.stamp.flags = 0;
+  foot.stamp.intensity = 40 << 8;
+  foot.contact = {true, -(1234 << 8) - 77};
+  foot.base_versions.push_back({TileCoord{Layer::kCoarse, 0, 3, -8}, 9000000});
+  foot.base_versions.push_back({TileCoord{Layer::kCoarse, 0, 4, -8}, 1});
+  foot.base_versions.push_back({TileCoord{Layer::kCoarse, 2, 0, -2}, 77});
+  v.emplace_back("deform_event_footprint", foot);  // last: tests index the samples above
   return v;
 }
 

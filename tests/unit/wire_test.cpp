@@ -132,7 +132,6 @@ TEST(WireDecode, CountOfTwoToThe32MinusOneIsRejectedBeforeAllocating) {
       {Subscribe{}, 0, "subscribe.count"},
       {Unsubscribe{}, 0, "unsubscribe.count"},
       {TileHashes{}, 0, "tile_hashes.count"},
-      {DeformEvent{1, 0, test::sample_stamp(), {}}, 8 + 4 + 54, "deform_event.tile_count"},
   };
   for (const Case& c : cases) {
     std::vector<uint8_t> payload = payload_of(c.m);
@@ -223,7 +222,7 @@ TEST(WireDecode, EnumerationsOutsideTheirKnownValuesAreBadEnum) {
       {Deform{1, test::sample_stamp()}, 6, kBlendModeCount, "stamp.blend"},
       {Deform{1, test::sample_stamp()}, 7, 0x80, "stamp.flags"},
       {Bye{}, 0, kByeReasonCount, "bye.reason"},
-      {Subscribe{{SubscribeEntry{}}}, 4, 7, "tile.layer"},
+      {Subscribe{{SubscribeEntry{}}, {}}, 4, 7, "tile.layer"},
   };
   for (const Case& c : cases) {
     std::vector<uint8_t> payload = payload_of(c.m);
@@ -247,11 +246,112 @@ TEST(WireDecode, DetailTilesAboveMipZeroAreRejected) {
 }
 
 TEST(WireDecode, DeformEventBaseVersionAtOrAfterItsOwnSequenceIsRejected) {
-  DeformEvent ev{10, 1, test::sample_stamp(), {TileVersion{TileCoord{}, 9}}};
+  // The base version travels as its distance below the sequence (1 = the previous stamp).
+  DeformEvent ev{10, 1, test::sample_stamp(), {TileVersion{TileCoord{}, 9}}, {}};
   std::vector<uint8_t> payload = payload_of(ev);
-  put<uint64_t>(payload, payload.size() - 8, 10);
+  ASSERT_EQ(payload.back(), 1);
+  payload.back() = 0;  // distance 0: the event's own sequence
   expect_error(decode_payload(type_of(ev), payload), ErrorCode::kInvalidArgument,
                "deform_event.base_version");
+  payload.back() = 11;  // below version 0
+  expect_error(decode_payload(type_of(ev), payload), ErrorCode::kInvalidArgument,
+               "deform_event.base_version");
+}
+
+TEST(WireDecode, DeformEventTileCountBeyondItsCapOrItsBytesIsRejectedBeforeAllocating) {
+  DeformEvent ev{1, 0, test::sample_stamp(), {}, {}};
+  std::vector<uint8_t> payload = payload_of(ev);
+  ASSERT_EQ(payload.back(), 0);  // the count, last
+  payload.pop_back();
+  const uint8_t all_ones[] = {0xFF, 0xFF, 0xFF, 0xFF, 0x0F};  // 2^32 - 1
+  payload.insert(payload.end(), std::begin(all_ones), std::end(all_ones));
+  expect_error(decode_payload(type_of(ev), payload), ErrorCode::kOversize, "deform_event.tile_count");
+  payload.erase(payload.end() - 5, payload.end());
+  payload.push_back(0x80);
+  payload.push_back(0x20);  // 4096: within the cap, but no bytes follow
+  expect_error(decode_payload(type_of(ev), payload), ErrorCode::kTruncated, "deform_event.tile_count");
+}
+
+TEST(WireDecode, DeformEventTilesOutOfOrderOrListedTwiceAreRejected) {
+  const TileCoord center_tile{Layer::kCoarse, 0, 3, -8};  // holds the sample stamp's center
+  DeformEvent ev{10, 1, test::sample_stamp(), {TileVersion{center_tile, 9}, TileVersion{center_tile, 8}}, {}};
+  std::vector<uint8_t> payload;
+  ASSERT_FALSE(encode_payload(ev).ok());  // the encoder refuses what the decoder would
+  ev.base_versions.pop_back();
+  payload = payload_of(ev);
+  // Append the same tile again by hand (key, offset code, distance) and bump the count.
+  const std::vector<uint8_t> tile(payload.end() - 3, payload.end());
+  payload.insert(payload.end(), tile.begin(), tile.end());
+  payload[payload.size() - 7] = 2;
+  expect_error(decode_payload(type_of(ev), payload), ErrorCode::kInvalidArgument, "deform_event.tile");
+}
+
+TEST(WireDecode, VarintsMustBeShortestAndFitSixtyFourBits) {
+  const auto read = [](std::vector<uint8_t> bytes) {
+    ReadStream s(bytes);
+    uint64_t v = 0;
+    Status st = s.varint(v, "v");
+    return st.ok() ? Result<uint64_t>(v) : Result<uint64_t>(st.error());
+  };
+  EXPECT_EQ(*read({0x00}), 0u);
+  EXPECT_EQ(*read({0x7F}), 127u);
+  EXPECT_EQ(*read({0x80, 0x01}), 128u);
+  EXPECT_EQ(*read({0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01}), UINT64_MAX);
+  EXPECT_EQ(read({0x80, 0x00}).error().code, ErrorCode::kCorrupt);  // 0 in two bytes
+  EXPECT_EQ(read({0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0x02}).error().code,
+            ErrorCode::kCorrupt);
+  EXPECT_EQ(read({0x80, 0x80}).error().code, ErrorCode::kTruncated);
+  for (uint64_t v : {uint64_t(0), uint64_t(1), uint64_t(127), uint64_t(128), uint64_t(1) << 35, UINT64_MAX}) {
+    std::vector<uint8_t> out;
+    WriteStream w(out);
+    uint64_t x = v;
+    ASSERT_TRUE(w.varint(x, "v").ok());
+    MeasureStream m;
+    ASSERT_TRUE(m.varint(x, "v").ok());
+    EXPECT_EQ(m.offset(), out.size());
+    EXPECT_EQ(*read(out), v);
+  }
+}
+
+TEST(WireMessages, CompactStampKeepsEveryFieldOfEveryKind) {
+  for (int k = 0; k < kStampKindCount; ++k) {
+    QuantizedStamp q = test::sample_stamp(uint32_t(k));
+    q.kind = StampKind(k);
+    q.layer = k % 2 ? Layer::kDetail : Layer::kCoarse;
+    q.blend = BlendMode(k % kBlendModeCount);
+    q.target = -k * 1000;
+    q.damping = uint16_t(k * 17);
+    q.speed = uint16_t(k * 300);
+    q.steps = uint16_t(k);
+    q.texture_id = k == 0 ? 0xFEDCBA9876543210ull : 0;
+    q.center_x = k == 3 ? INT64_MIN : q.center_x;
+    q.radius = k == 4 ? UINT32_MAX : q.radius;
+    DeformEvent ev{5, 1, q, {}, {}};
+    Result<Message> back = decode_payload(type_of(ev), payload_of(ev));
+    ASSERT_TRUE(back.ok()) << back.error().describe();
+    EXPECT_TRUE(std::get<DeformEvent>(*back) == ev) << k;
+  }
+}
+
+TEST(WireMessages, DeformEventOfATypicalStampOnAWideWorldFitsInSixtyFourBytes) {
+  // A radius-24 crater on a 64 x 32-tile world (7 mips) that touches two mip-0 tiles and one
+  // tile at each coarser mip, long after the initial terrain: the frame a client in sync pays.
+  QuantizedStamp q;
+  q.kind = StampKind::kCrater;
+  q.center_x = (int64_t(9000) << 8) + 100;
+  q.center_y = (int64_t(5000) << 8) + 3;
+  q.radius = 24u << 8;
+  q.intensity = 6 << 8;
+  q.shape = 0x4000;
+  DeformEvent ev{250000, 17, q, {}, {}};
+  ev.base_versions.push_back({TileCoord{Layer::kCoarse, 0, 35, 19}, 249990});
+  ev.base_versions.push_back({TileCoord{Layer::kCoarse, 0, 35, 20}, 0});
+  for (uint8_t m = 1; m < 7; ++m) {
+    ev.base_versions.push_back({TileCoord{Layer::kCoarse, m, 9000 >> (8 + m), 5000 >> (8 + m)}, 249000});
+  }
+  Result<std::vector<uint8_t>> frame = encode_frame(ev);
+  ASSERT_TRUE(frame.ok());
+  EXPECT_LE(frame->size(), 64u);
 }
 
 TEST(WireDecode, RegionChunkPastItsTotalOrRawSizeMismatchIsCorrupt) {

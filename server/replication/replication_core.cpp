@@ -1,0 +1,657 @@
+#include "server/replication/replication_core.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "protocol/hex64.h"
+#include "protocol/wire/framing.h"
+#include "server/event_log.h"
+
+namespace loam::server {
+
+namespace {
+
+bool editor_role(wire::Role r) { return r != wire::Role::kSpectator; }
+
+// The one percentile rule of the stats line and the Stats message (nearest rank below), so
+// the two never disagree on the same ticks. `sorted` ascending; 0 when empty.
+double percentile(const std::vector<double>& sorted, double p) {
+  return sorted.empty() ? 0.0 : sorted[size_t(p * double(sorted.size() - 1))];
+}
+
+double seconds(CoreClock::duration d) { return std::chrono::duration<double>(d).count(); }
+CoreClock::duration after(double s) {
+  return std::chrono::duration_cast<CoreClock::duration>(std::chrono::duration<double>(s));
+}
+
+FramePtr encode(const wire::Message& m) {
+  auto frame = wire::encode_frame(m, wire::kAbsoluteMaxFrameBytes);
+  if (!frame) {
+    log_event("encode_error",
+              {{"type", wire::to_string(wire::message_type(m))}, {"error", frame.error().describe()}});
+    return nullptr;
+  }
+  return std::make_shared<const std::vector<uint8_t>>(std::move(*frame));
+}
+
+}  // namespace
+
+ReplicationCore::ReplicationCore(ServerConfig config, OpenedStorage opened, CoreTime now)
+    : config_(std::move(config)),
+      storage_(std::move(opened.storage)),
+      terrain_(std::move(opened.terrain)),
+      frames_(config_.region_cache_bytes),
+      history_(config_.history_changes_per_tile, config_.history_tiles),
+      started_(now),
+      last_snapshot_time_(now) {
+  // Ticks continue the log's: its writer refuses a tick that goes backwards, and a restarted
+  // server must be able to log at once.
+  tick_ = storage_.last_tick();
+  // serve() reports bad tokens before it gets here; a caller that did not is failed closed.
+  auto access = load_access_tokens(config_);
+  if (access)
+    access_ = std::move(*access);
+  else
+    access_.deny_all = true;
+}
+
+const ClientTiles* ReplicationCore::tiles_of(ClientId id) const {
+  const auto it = clients_.find(id);
+  return it == clients_.end() ? nullptr : &it->second.tiles;
+}
+
+bool ReplicationCore::in_handshake(ClientId id) const {
+  const auto it = clients_.find(id);
+  return it != clients_.end() && it->second.state == Client::State::kHandshake;
+}
+
+// --- Output ---
+
+void ReplicationCore::send_frame(ClientId id, FramePtr frame) {
+  if (frame) out_.frames.emplace_back(id, std::move(frame));
+}
+
+void ReplicationCore::send(Client& c, const wire::Message& m) { send_frame(c.id, encode(m)); }
+
+void ReplicationCore::violation(Client& c, wire::WireErrorCode code, const std::string& field,
+                                const std::string& text) {
+  ++stats_.violations;
+  ++c.violations;
+  log_event(
+      "violation",
+      {{"client", std::to_string(c.id)}, {"code", wire::to_string(code)}, {"field", field}, {"text", text}});
+  send(c, wire::ErrorMsg{code, field.substr(0, wire::kMaxFieldNameBytes),
+                         text.substr(0, wire::kMaxErrorTextBytes)});
+}
+
+void ReplicationCore::fatal(Client& c, wire::WireErrorCode code, const std::string& field,
+                            const std::string& text, wire::ByeReason reason) {
+  violation(c, code, field, text);
+  send(c, wire::Bye{reason, text.substr(0, wire::kMaxErrorTextBytes)});
+  close(c.id, text);
+}
+
+// The client leaves the core at once; its queued deforms stay (they were validated and may
+// already be in this tick) and their acks go nowhere.
+void ReplicationCore::close(ClientId id, const std::string& reason) {
+  if (clients_.erase(id) == 0) return;
+  ++stats_.disconnects;
+  log_event("disconnect", {{"client", std::to_string(id)}, {"reason", reason}});
+  out_.closes.emplace_back(id, reason);
+}
+
+void ReplicationCore::disconnected(ClientId id, const std::string& reason) {
+  if (clients_.erase(id) == 0) return;
+  ++stats_.disconnects;
+  log_event("disconnect", {{"client", std::to_string(id)}, {"reason", reason}});
+}
+
+// --- Admission ---
+
+ClientId ReplicationCore::connect(const std::string& peer, CoreTime now) {
+  Client& c = clients_[next_id_];
+  c.id = next_id_++;
+  c.peer = peer;
+  c.tokens = config_.deform_burst;
+  c.refill = now;
+  c.credit_time = now;
+  ++stats_.connects;
+  log_event("connect", {{"client", std::to_string(c.id)}, {"peer", peer}});
+  if (clients_.size() > config_.max_clients) {
+    const ClientId id = c.id;
+    fatal(c, wire::WireErrorCode::kServerFull, "",
+          "server full (" + std::to_string(config_.max_clients) + " clients)", wire::ByeReason::kKicked);
+    return id;
+  }
+  return c.id;
+}
+
+void ReplicationCore::stream_error(ClientId id, const Error& e) {
+  const auto it = clients_.find(id);
+  if (it == clients_.end()) return;
+  // The stream cannot be trusted to be in sync any more: Error, Bye, close.
+  fatal(it->second, wire::to_wire(e.code), e.field, e.describe(), wire::ByeReason::kProtocolError);
+}
+
+void ReplicationCore::timed_out(ClientId id, bool in_handshake) {
+  const auto it = clients_.find(id);
+  if (it == clients_.end()) return;
+  if (in_handshake != (it->second.state == Client::State::kHandshake)) return;  // a stale timer
+  if (in_handshake) {
+    fatal(it->second, wire::WireErrorCode::kInvalidArgument, "hello", "no Hello within the handshake timeout",
+          wire::ByeReason::kTimeout);
+  } else {
+    fatal(it->second, wire::WireErrorCode::kInvalidArgument, "", "idle timeout", wire::ByeReason::kTimeout);
+  }
+}
+
+void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now) {
+  const auto it = clients_.find(id);
+  if (it == clients_.end()) return;
+  Client& c = it->second;
+  const wire::MessageType type = wire::message_type(m);
+  if (c.state == Client::State::kHandshake && type != wire::MessageType::kHello) {
+    fatal(c, wire::WireErrorCode::kInvalidArgument, "hello",
+          std::string("expected Hello, got ") + wire::to_string(type), wire::ByeReason::kProtocolError);
+    return;
+  }
+  switch (type) {
+    case wire::MessageType::kHello:
+      if (c.state != Client::State::kHandshake) {
+        violation(c, wire::WireErrorCode::kInvalidArgument, "hello", "Hello after the handshake");
+        return;
+      }
+      on_hello(c, std::get<wire::Hello>(m));
+      return;
+    case wire::MessageType::kPing: {
+      // The wall clock: Pong's server time is for the client's clock-offset estimate.
+      const auto wall = std::chrono::system_clock::now().time_since_epoch();
+      send(c, wire::Pong{std::get<wire::Ping>(m).client_time_us,
+                         uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(wall).count())});
+      return;
+    }
+    case wire::MessageType::kBye: close(id, "client said bye: " + std::get<wire::Bye>(m).text); return;
+    case wire::MessageType::kSubscribe: on_subscribe(c, std::get<wire::Subscribe>(m)); return;
+    case wire::MessageType::kUnsubscribe:
+      for (const TileCoord& t : std::get<wire::Unsubscribe>(m).tiles) c.tiles.unsubscribe(t);
+      return;
+    case wire::MessageType::kDeform: on_deform(c, std::get<wire::Deform>(m), now); return;
+    case wire::MessageType::kStampImageRequest:
+      on_stamp_image(c, std::get<wire::StampImageRequest>(m));
+      return;
+    case wire::MessageType::kError:
+      log_event("client_error", {{"client", std::to_string(id)}, {"text", std::get<wire::ErrorMsg>(m).text}});
+      return;
+    case wire::MessageType::kPong: return;
+    case wire::MessageType::kStatsRequest:
+      send(c, stats_message(std::get<wire::StatsRequest>(m).request_id, now));
+      return;
+    default:
+      violation(c, wire::WireErrorCode::kUnknownType, "type",
+                std::string(wire::to_string(type)) + " is a server-to-client message");
+      return;
+  }
+}
+
+void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
+  if (h.version_major != wire::kProtocolMajor) {
+    log_event("reject", {{"client", std::to_string(c.id)},
+                         {"reason", "version"},
+                         {"peer_major", std::to_string(h.version_major)}});
+    ++stats_.violations;
+    send(c, wire::version_mismatch(h.version_major, h.version_minor));
+    send(c, wire::Bye{wire::ByeReason::kVersionMismatch, "protocol major version mismatch"});
+    close(c.id, "version mismatch");
+    return;
+  }
+  wire::Role granted = h.requested_role;
+  switch (check_access(access_, h.session_token)) {
+    case Access::kAsRequested: break;
+    case Access::kSpectator: granted = wire::Role::kSpectator; break;
+    case Access::kDenied:
+      fatal(c, wire::WireErrorCode::kUnauthorized, "hello.session_token",
+            h.session_token ? "wrong session token" : "this server requires a session token",
+            wire::ByeReason::kKicked);
+      return;
+  }
+  c.role = granted;
+  c.editor = editor_role(granted);
+  c.name = h.client_name;
+  c.state = Client::State::kReady;
+  wire::Welcome w;
+  w.client_id = c.id;
+  w.granted_role = granted;
+  w.world = terrain_.world().params();
+  w.global_sequence = terrain_.last_seq();
+  w.tick_rate_hz = uint16_t(config_.tick_hz);
+  w.limits.max_frame_bytes = config_.max_frame_bytes;
+  w.limits.max_subscribed_tiles = config_.max_subscriptions;
+  w.limits.max_pending_deforms = config_.max_pending_deforms;
+  w.limits.max_deforms_per_second = uint32_t(config_.deforms_per_second);
+  send(c, w);
+  log_event("hello",
+            {{"client", std::to_string(c.id)}, {"name", c.name}, {"role", wire::to_string(granted)}});
+}
+
+bool ReplicationCore::valid_tile(const TileCoord& t) const {
+  const WorldParams& p = terrain_.world().params();
+  if (t.layer == Layer::kCoarse) return t.mip < p.mip_count() && p.tile_range(t.mip).contains(t.tx, t.ty);
+  return t.mip == 0 && tiles_overlapping(p.detail_sample_rect()).contains(t.tx, t.ty);
+}
+
+void ReplicationCore::on_subscribe(Client& c, const wire::Subscribe& sub) {
+  if (sub.focus) {
+    const double mps = terrain_.world().params().meters_per_sample;
+    c.tiles.set_focus(std::make_pair(sub.focus->x_m / mps, sub.focus->y_m / mps));
+  }
+  for (const wire::SubscribeEntry& e : sub.entries) {
+    if (!valid_tile(e.tile)) {
+      violation(c, wire::WireErrorCode::kOutOfWorld, "subscribe.tile",
+                "tile " + to_string(e.tile) + " is not in the world");
+      continue;
+    }
+    if (!c.tiles.subscribed(e.tile) && c.tiles.size() >= config_.max_subscriptions) {
+      violation(c, wire::WireErrorCode::kOversize, "subscribe.entries",
+                "subscription cap of " + std::to_string(config_.max_subscriptions) + " tiles reached");
+      return;
+    }
+    // A client that already holds the current version (the initial terrain's 0 included)
+    // resumes without a transfer; otherwise the whole tile is due (it leaves under the budget).
+    const std::optional<uint64_t> held = e.held ? std::optional<uint64_t>(e.held_version) : std::nullopt;
+    // Resuming behind: only the samples changed since, when the history reaches back that far.
+    c.tiles.subscribe(e.tile, held, terrain_.world().tile_state(e.tile).version,
+                      held ? history_.changed_since(e.tile, *held) : std::nullopt);
+  }
+}
+
+void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) {
+  auto reject = [&](wire::WireErrorCode code, const std::string& field, const std::string& why) {
+    ++stats_.deforms_rejected;
+    ++stats_.violations;
+    ++c.violations;
+    wire::DeformAck ack;
+    ack.client_seq = d.client_seq;
+    ack.accepted = false;
+    ack.reject_code = code;
+    ack.field = field.substr(0, wire::kMaxFieldNameBytes);
+    send(c, ack);
+    log_event("deform_rejected", {{"client", std::to_string(c.id)},
+                                  {"client_seq", std::to_string(d.client_seq)},
+                                  {"code", wire::to_string(code)},
+                                  {"field", field},
+                                  {"why", why}});
+  };
+  if (!c.editor) {
+    reject(wire::WireErrorCode::kUnauthorized, "role", "viewers cannot deform");
+    return;
+  }
+  if (!storage_.writable()) {
+    // Not the client's fault: refused, not counted as a violation.
+    wire::DeformAck ack;
+    ack.client_seq = d.client_seq;
+    ack.accepted = false;
+    ack.reject_code = wire::WireErrorCode::kIo;
+    ack.field = "storage.unavailable";
+    ++stats_.deforms_rejected;
+    send(c, ack);
+    return;
+  }
+  c.tokens = std::min(config_.deform_burst, c.tokens + seconds(now - c.refill) * config_.deforms_per_second);
+  c.refill = now;
+  if (c.tokens < 1.0) {
+    reject(wire::WireErrorCode::kRateLimited, "deform", "rate limit exceeded");
+    return;
+  }
+  if (c.unacked >= config_.max_pending_deforms) {
+    reject(wire::WireErrorCode::kTooManyPending, "deform",
+           "too many unacknowledged deforms (" + std::to_string(config_.max_pending_deforms) + ")");
+    return;
+  }
+  if (const Status st = terrain_.check(d.stamp); !st.ok()) {
+    reject(wire::to_wire(st.error().code), st.error().field, st.error().describe());
+    return;
+  }
+  c.tokens -= 1.0;
+  ++c.unacked;
+  pending_.push_back({c.id, d.client_seq, d.stamp});
+}
+
+void ReplicationCore::on_stamp_image(Client& c, const wire::StampImageRequest& r) {
+  wire::StampImageResponse resp;
+  resp.image_id = r.image_id;
+  const StampTexture* t = terrain_.textures().find(r.image_id);
+  if (t && t->width <= int32_t(wire::kMaxStampImageSide) && t->height <= int32_t(wire::kMaxStampImageSide)) {
+    resp.found = true;
+    resp.width = uint16_t(t->width);
+    resp.height = uint16_t(t->height);
+    resp.format = wire::StampImageFormat::kGray16;
+    resp.pixels.resize(t->samples.size() * 2);
+    std::memcpy(resp.pixels.data(), t->samples.data(), resp.pixels.size());
+  }
+  send(c, resp);
+}
+
+// --- The tick ---
+
+void ReplicationCore::acknowledge(const PendingDeform& p, std::optional<uint64_t> seq) {
+  const auto it = clients_.find(p.client);
+  if (it == clients_.end()) return;
+  Client& c = it->second;
+  if (c.unacked > 0) --c.unacked;
+  wire::DeformAck ack;
+  ack.client_seq = p.client_seq;
+  ack.accepted = seq.has_value();
+  if (seq) {
+    ack.global_seq = *seq;
+  } else {
+    ack.reject_code = wire::WireErrorCode::kIo;
+    ack.field = "storage.unavailable";
+  }
+  send(c, ack);
+}
+
+void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>& unsent) {
+  if (stopping_ || failed_) return;
+  ++tick_;
+  std::vector<PendingDeform> batch = std::move(pending_);
+  pending_.clear();
+  last_batch_ = batch.size();
+  if (!storage_.writable()) try_resume_storage(now);
+  if (!batch.empty()) commit_batch(std::move(batch), now);
+  if (failed_) return;
+  stream_regions(now, unsent);
+  if (config_.hashes_every_ticks > 0 && tick_ % config_.hashes_every_ticks == 0) {
+    for (auto& [id, c] : clients_) {
+      if (c.state == Client::State::kReady && c.tiles.size() != 0) send_hashes(c);
+    }
+  }
+  maybe_snapshot(now, false);
+}
+
+void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime now) {
+  const auto refuse_all = [&] {
+    for (const PendingDeform& p : batch) {
+      ++stats_.deforms_rejected;
+      acknowledge(p, std::nullopt);
+    }
+  };
+  if (!storage_.writable()) {
+    refuse_all();
+    return;
+  }
+  // 1. Sequence and log the whole tick, then one sync: the durability point.
+  uint64_t seq = terrain_.last_seq();
+  for (const PendingDeform& p : batch) {
+    const Status st = storage_.append({++seq, tick_, p.client, p.stamp});
+    if (!st.ok()) {  // a broken invariant (sequence or tick), not the disk
+      log_event("fatal", {{"error", st.error().describe()}});
+      failed_ = true;
+      shutdown("log append failed", now);
+      return;
+    }
+  }
+  if (const Status st = storage_.sync(); !st.ok()) {
+    // A full disk or an I/O error: nothing of this tick is durable (the writer cut the file
+    // back), so nothing of it is applied or acknowledged. The server keeps serving reads and
+    // hashes, refuses edits, and retries the log with a growing interval.
+    log_event("storage_unavailable",
+              {{"error", st.error().describe()}, {"refused", std::to_string(batch.size())}});
+    ++stats_.storage_failures;
+    resume_backoff_s_ = kResumeBackoffMinS;
+    next_resume_try_ = now + after(resume_backoff_s_);
+    refuse_all();
+    return;
+  }
+  // 2. Apply, acknowledge, fan out events (one encoding for every client), plan regions.
+  for (const PendingDeform& p : batch) {
+    const uint64_t s_seq = terrain_.last_seq() + 1;
+    auto applied = terrain_.apply(p.stamp, s_seq, p.client);
+    for (const Error& e : terrain_.take_backend_failures())
+      log_event("backend_error",
+                {{"seq", std::to_string(s_seq)}, {"error", e.describe()}, {"fallback", "cpu"}});
+    if (!applied)
+      log_event("apply_error", {{"seq", std::to_string(s_seq)}, {"error", applied.error().describe()}});
+    ++stats_.deforms_accepted;
+    acknowledge(p, s_seq);
+    if (!applied) continue;
+    const AppliedStamp& a = *applied;
+    history_.record(a.changes);
+    wire::DeformEvent ev;
+    ev.global_seq = a.seq;
+    ev.origin_client_id = a.client_id;
+    ev.stamp = a.stamp;
+    ev.contact = a.contact;
+    ev.base_versions = a.base_versions;
+    if (ev.base_versions.size() > wire::kMaxEventTiles) ev.base_versions.clear();  // regions only
+    FramePtr frame = encode(ev);
+    if (!frame) ev.base_versions.clear();  // no event then: the plan sends regions
+    for (auto& [id, c] : clients_) {
+      if (c.state != Client::State::kReady) continue;
+      if (!c.tiles.plan_event(ev, a.changes)) continue;
+      if (frame) {
+        send_frame(id, frame);
+        ++stats_.events_sent;
+      }
+    }
+  }
+}
+
+void ReplicationCore::stream_regions(CoreTime now, const std::function<uint64_t(ClientId)>& unsent) {
+  // Every client's turn in a rotating order; within a client, its due tiles in order, while
+  // its byte budget has credit. Encodes (cache misses) are bounded per tick for everyone.
+  std::vector<ClientId> order;
+  for (auto& [id, c] : clients_) {
+    if (c.state == Client::State::kReady) order.push_back(id);
+  }
+  if (order.empty()) return;
+  std::rotate(order.begin(), order.begin() + ptrdiff_t(stream_cursor_ % order.size()), order.end());
+  ++stream_cursor_;
+  const double budget = double(config_.client_bytes_per_second);
+  uint32_t encodes_left = config_.max_encodes_per_tick;
+  for (const ClientId id : order) {
+    Client& c = clients_.at(id);
+    if (budget > 0) {
+      // Credit accrues at the budget, up to one second's worth (a short burst after idling).
+      c.credit = std::min(budget, c.credit + seconds(now - c.credit_time) * budget);
+    }
+    c.credit_time = now;
+    if (c.tiles.due_count() == 0) continue;
+    // A client that does not read gets no more bulk: only what must go.
+    const uint64_t queued = unsent ? unsent(id) : 0;
+    if (budget > 0 && double(queued) > budget) continue;
+    for (const TileCoord& t : c.tiles.due_in_order()) {
+      if (budget > 0 && c.credit <= 0) break;
+      const RegionNeed need = c.tiles.need(t);
+      Frames frames;
+      if (encodes_left == 0) {
+        // Out of encodes this tick: only what the cache already holds may still go.
+        frames = frames_.cached(terrain_.world(), t, need.base, need.rect);
+        if (frames.empty()) break;
+      } else {
+        bool encoded = false;
+        auto got = frames_.get(terrain_.world(), t, need.base, need.rect, &encoded);
+        if (encoded) --encodes_left;
+        if (!got) {
+          log_event("encode_error", {{"tile", to_string(t)}, {"error", got.error().describe()}});
+          c.tiles.unsubscribe(t);  // cannot be served: stop planning it rather than retry forever
+          continue;
+        }
+        frames = std::move(*got);
+      }
+      for (const FramePtr& f : frames) {
+        send_frame(id, f);
+        c.credit -= double(f->size());
+      }
+      c.tiles.mark_sent(t, terrain_.world().tile_state(t).version);
+      ++stats_.regions_sent;
+      if (need.base) ++stats_.partial_regions_sent;
+    }
+  }
+}
+
+void ReplicationCore::send_hashes(Client& c) {
+  wire::TileHashes msg;
+  for (const auto& [t, interest] : c.tiles.tiles()) {
+    const TileState st = terrain_.world().tile_state(t);
+    msg.entries.push_back({t, st.version, st.hash});
+    if (msg.entries.size() == wire::kMaxTileHashEntries) {
+      send(c, msg);
+      msg.entries.clear();
+    }
+  }
+  if (!msg.entries.empty()) send(c, msg);
+}
+
+void ReplicationCore::try_resume_storage(CoreTime now) {
+  if (now < next_resume_try_) return;
+  if (const Status st = storage_.resume(terrain_.last_seq()); !st.ok()) {
+    resume_backoff_s_ = std::min(resume_backoff_s_ * 2.0, kResumeBackoffMaxS);
+    next_resume_try_ = now + after(resume_backoff_s_);
+    log_event("storage_retry",
+              {{"error", st.error().describe()}, {"next_in_s", std::to_string(resume_backoff_s_)}});
+    return;
+  }
+  log_event("storage_resumed", {{"seq", std::to_string(terrain_.last_seq())}});
+}
+
+void ReplicationCore::maybe_snapshot(CoreTime now, bool force) {
+  if (!storage_.writable()) return;  // the log must be writable to start the next segment
+  if (!force && now < snapshot_retry_after_) return;
+  const uint64_t since = terrain_.last_seq() - storage_.last_snapshot_seq();
+  const double age = seconds(now - last_snapshot_time_);
+  const bool due = force || (config_.snapshot_every_stamps > 0 && since >= config_.snapshot_every_stamps) ||
+                   (config_.snapshot_interval_s > 0 && age >= config_.snapshot_interval_s && since > 0);
+  // Nothing new since the last snapshot (or since the initial terrain, which segment 0's
+  // header already describes): a snapshot would add nothing.
+  if (!due || since == 0 || terrain_.last_seq() == 0) return;
+  const auto t0 = CoreClock::now();  // for the log line only
+  auto path = storage_.snapshot(terrain_, tick_);
+  last_snapshot_time_ = now;
+  if (!path) {
+    // Nothing is left behind (write_snapshot removes its partial folder); retrying at once on a
+    // full disk would only churn, so the interval grows.
+    snapshot_backoff_s_ = snapshot_backoff_s_ == 0
+                              ? kSnapshotBackoffMinS
+                              : std::min(snapshot_backoff_s_ * 2.0, kSnapshotBackoffMaxS);
+    snapshot_retry_after_ = now + after(snapshot_backoff_s_);
+    log_event("snapshot_error",
+              {{"error", path.error().describe()}, {"retry_in_s", std::to_string(snapshot_backoff_s_)}});
+    return;
+  }
+  snapshot_backoff_s_ = 0;
+  log_event(
+      "snapshot",
+      {{"path", *path},
+       {"seq", std::to_string(terrain_.last_seq())},
+       {"ms", std::to_string(std::chrono::duration<double, std::milli>(CoreClock::now() - t0).count())}});
+}
+
+void ReplicationCore::record_tick_ms(double ms) {
+  tick_ms_.push_back(ms);
+  if (ms > 1000.0 / config_.tick_hz) {
+    ++stats_.tick_overruns;
+    log_event("tick_overrun", {{"tick", std::to_string(tick_)},
+                               {"ms", std::to_string(ms)},
+                               {"stamps", std::to_string(last_batch_)}});
+  }
+}
+
+void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
+  std::vector<double> t = std::move(tick_ms_);
+  tick_ms_.clear();
+  std::sort(t.begin(), t.end());
+  last_p50_ms_ = percentile(t, 0.5);
+  last_p99_ms_ = percentile(t, 0.99);
+  const RegionFrameCounters& rc = frames_.counters();
+  log_event("stats", {{"clients", std::to_string(clients_.size())},
+                      {"seq", std::to_string(terrain_.last_seq())},
+                      {"deforms_accepted", std::to_string(stats_.deforms_accepted)},
+                      {"deforms_rejected", std::to_string(stats_.deforms_rejected)},
+                      {"violations", std::to_string(stats_.violations)},
+                      {"bytes_in", std::to_string(stats_.bytes_in)},
+                      {"bytes_out", std::to_string(stats_.bytes_out)},
+                      {"events_sent", std::to_string(stats_.events_sent)},
+                      {"regions_sent", std::to_string(stats_.regions_sent)},
+                      {"partial_regions_sent", std::to_string(stats_.partial_regions_sent)},
+                      {"region_encodes", std::to_string(rc.encodes)},
+                      {"region_cache_hits", std::to_string(rc.hits)},
+                      {"max_queue_bytes", std::to_string(max_queue_bytes)},
+                      {"tick_p50_ms", std::to_string(last_p50_ms_)},
+                      {"tick_p99_ms", std::to_string(last_p99_ms_)},
+                      {"storage", storage_.writable() ? "ok" : "refusing edits"},
+                      {"storage_failures", std::to_string(stats_.storage_failures)}});
+}
+
+wire::Stats ReplicationCore::stats_message(uint32_t request_id, CoreTime now) const {
+  wire::Stats st;
+  st.request_id = request_id;
+  st.clients = uint32_t(clients_.size());
+  st.global_sequence = terrain_.last_seq();
+  st.deforms_accepted = stats_.deforms_accepted;
+  st.deforms_rejected = stats_.deforms_rejected;
+  st.violations = stats_.violations;
+  st.bytes_in = stats_.bytes_in;
+  st.bytes_out = stats_.bytes_out;
+  st.tick_overruns = stats_.tick_overruns;
+  // Without a completed stats period yet, report the ticks so far.
+  double p50 = last_p50_ms_, p99 = last_p99_ms_;
+  if (p50 == 0 && !tick_ms_.empty()) {
+    std::vector<double> t = tick_ms_;
+    std::sort(t.begin(), t.end());
+    p50 = percentile(t, 0.5);
+    p99 = percentile(t, 0.99);
+  }
+  st.tick_p50_us = uint32_t(p50 * 1000.0);
+  st.tick_p99_us = uint32_t(p99 * 1000.0);
+  st.uptime_ms = uint64_t(std::chrono::duration_cast<std::chrono::milliseconds>(now - started_).count());
+  st.region_encodes = frames_.counters().encodes;
+  st.region_cache_hits = frames_.counters().hits;
+  st.events_sent = stats_.events_sent;
+  st.regions_sent = stats_.regions_sent;
+  return st;
+}
+
+void ReplicationCore::reload_tokens() {
+  auto access = load_access_tokens(config_);
+  if (!access) {
+    // The tokens in force stay: a half-written secret must not lock everyone out.
+    log_event("tokens_reload_failed", {{"error", access.error().describe()}});
+    return;
+  }
+  access_ = std::move(*access);
+  warn_if_tokens_file_exposed();
+  log_event("tokens_reloaded", {{"access", access_.required() ? "tokens" : "open"},
+                                {"editor_tokens", std::to_string(access_.editors.size())},
+                                {"viewer_tokens", std::to_string(access_.viewers.size())}});
+}
+
+void ReplicationCore::warn_if_tokens_file_exposed() {
+  if (config_.tokens_file.empty()) return;
+  if (const auto mode = tokens_file_exposure(config_.tokens_file)) {
+    log_event("warning", {{"tokens_file", config_.tokens_file},
+                          {"mode", *mode},
+                          {"what", "the tokens file is readable by its group or others: chmod 600 it"}});
+  }
+}
+
+void ReplicationCore::shutdown(const std::string& reason, CoreTime now) {
+  if (stopping_) return;
+  stopping_ = true;
+  log_event("shutdown", {{"reason", reason}});
+  if (!failed_) {
+    // Stamps still queued were never acknowledged: dropping them loses nothing promised.
+    pending_.clear();
+    if (storage_.writable()) {
+      if (const Status st = storage_.sync(); !st.ok()) log_event("fatal", {{"error", st.error().describe()}});
+    }
+    maybe_snapshot(now, true);
+  }
+  std::vector<ClientId> all;
+  for (const auto& [id, c] : clients_) all.push_back(id);
+  for (const ClientId id : all) {
+    send(clients_.at(id), wire::Bye{wire::ByeReason::kShutdown, "server shutting down: " + reason});
+    close(id, "server shutdown");
+  }
+}
+
+}  // namespace loam::server

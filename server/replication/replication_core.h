@@ -1,0 +1,177 @@
+// The replication core: everything the server decides, with no sockets and no clock of its
+// own. A transport (server/server.h, Asio) hands it decoded messages and the time, and takes
+// back the frames to write to each client and the clients to close. Tests drive it directly
+// with a made-up clock (tests/server/replication_core_test.cpp).
+//
+// It owns:
+//  - admission: the handshake, access tokens and roles, the client cap, per-client rate
+//    limits (token bucket) and the per-client cap on unacknowledged deforms;
+//  - the per-tick commit pipeline: sequence the tick's stamps, log them with one sync (the
+//    durability point), apply, acknowledge, fan out DeformEvents (one encoding for all);
+//  - replication planning per client and tile (server/replication/client_tiles.h): the event
+//    alone, or a region due (patch or whole tile);
+//  - bulk streaming: due regions leave under each client's byte budget, coarsest mip first and
+//    then nearest the client's focus, at the tile's newest version, encoded once for every
+//    client needing the same bytes (region_frames.h), with a bound on encodes per tick so a
+//    join storm cannot stall the tick; acks, events, pongs and errors go at once, outside it;
+//  - TileHashes, snapshots, storage back-off after a failed sync, and stats.
+//
+// Single-threaded: call it from one thread (the transport's I/O thread).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "protocol/wire/messages.h"
+#include "server/access_tokens.h"
+#include "server/replication/client_tiles.h"
+#include "server/replication/region_frames.h"
+#include "server/replication/tile_history.h"
+#include "server/server_config.h"
+#include "server/storage.h"
+
+namespace loam::server {
+
+using ClientId = uint32_t;
+using CoreClock = std::chrono::steady_clock;
+using CoreTime = CoreClock::time_point;
+
+struct ServerStats {
+  uint64_t connects = 0, disconnects = 0;
+  uint64_t deforms_accepted = 0, deforms_rejected = 0;
+  uint64_t violations = 0;  // every Error sent for a client's fault
+  uint64_t bytes_in = 0, bytes_out = 0;
+  uint64_t regions_sent = 0, partial_regions_sent = 0, events_sent = 0;
+  uint64_t tick_overruns = 0;
+  uint64_t storage_failures = 0;  // syncs that failed (a full disk): edits refused until resumed
+};
+
+// What the transport must do after a call into the core.
+struct CoreOutput {
+  std::vector<std::pair<ClientId, FramePtr>> frames;     // write, in this order per client
+  std::vector<std::pair<ClientId, std::string>> closes;  // stop reading; close once flushed
+};
+
+class ReplicationCore {
+ public:
+  ReplicationCore(ServerConfig config, OpenedStorage storage, CoreTime now);
+
+  // A new connection. The client must say Hello before the handshake timeout (the transport's
+  // timer calls timed_out).
+  ClientId connect(const std::string& peer, CoreTime now);
+  void receive(ClientId id, const wire::Message& m, CoreTime now);
+  // The transport could not decode the client's stream: Error, Bye, close.
+  void stream_error(ClientId id, const Error& e);
+  // A handshake or idle timer fired.
+  void timed_out(ClientId id, bool in_handshake);
+  // The connection is gone (closed by either side, or dropped by the transport).
+  void disconnected(ClientId id, const std::string& reason);
+  bool in_handshake(ClientId id) const;
+
+  // One tick at `now`. `unsent(id)`: bytes queued for the client and not yet written (bulk
+  // waits while it is over the client's one-second budget: a client that does not read gets
+  // no more regions, only what must go).
+  void tick(CoreTime now, const std::function<uint64_t(ClientId)>& unsent);
+  // Graceful stop: make the log durable, write a snapshot, Bye to every client.
+  void shutdown(const std::string& reason, CoreTime now);
+  bool stopping() const { return stopping_; }
+  // How long the transport measured the last tick to take (stats; overruns are logged).
+  void record_tick_ms(double ms);
+  void reload_tokens();
+  void warn_if_tokens_file_exposed();
+  // The periodic stats line (the transport's timer).
+  void report_stats(CoreTime now, uint64_t max_queue_bytes);
+
+  CoreOutput take_output() { return std::exchange(out_, {}); }
+  const ServerStats& stats() const { return stats_; }
+  ServerStats& mutable_stats() { return stats_; }  // the transport counts bytes in and out
+  const RegionFrameCounters& region_counters() const { return frames_.counters(); }
+  bool failed() const { return failed_; }
+  uint64_t tick_count() const { return tick_; }
+  const TerrainState& terrain() const { return terrain_; }
+  const AccessTokens& access() const { return access_; }
+  const ServerConfig& config() const { return config_; }
+  size_t clients() const { return clients_.size(); }
+  // The core's view of a client's tiles (tests).
+  const ClientTiles* tiles_of(ClientId id) const;
+
+ private:
+  struct Client {
+    enum class State { kHandshake, kReady };
+    ClientId id = 0;
+    State state = State::kHandshake;
+    std::string name, peer;
+    wire::Role role = wire::Role::kPlayer;
+    bool editor = true;
+    double tokens = 0;  // deform token bucket
+    CoreTime refill;
+    uint32_t unacked = 0;  // deforms accepted into the queue, not yet acknowledged
+    uint64_t violations = 0;
+    ClientTiles tiles;
+    double credit = 0;  // bulk byte budget
+    CoreTime credit_time;
+  };
+  struct PendingDeform {
+    ClientId client = 0;
+    uint32_t client_seq = 0;
+    QuantizedStamp stamp;
+  };
+
+  void send(Client& c, const wire::Message& m);
+  void send_frame(ClientId id, FramePtr frame);
+  void violation(Client& c, wire::WireErrorCode code, const std::string& field, const std::string& text);
+  void fatal(Client& c, wire::WireErrorCode code, const std::string& field, const std::string& text,
+             wire::ByeReason reason);
+  void close(ClientId id, const std::string& reason);
+
+  void on_hello(Client& c, const wire::Hello& h);
+  void on_subscribe(Client& c, const wire::Subscribe& sub);
+  void on_deform(Client& c, const wire::Deform& d, CoreTime now);
+  void on_stamp_image(Client& c, const wire::StampImageRequest& r);
+  wire::Stats stats_message(uint32_t request_id, CoreTime now) const;
+  bool valid_tile(const TileCoord& t) const;
+
+  void commit_batch(std::vector<PendingDeform> batch, CoreTime now);
+  void acknowledge(const PendingDeform& p, std::optional<uint64_t> seq);
+  void stream_regions(CoreTime now, const std::function<uint64_t(ClientId)>& unsent);
+  void send_hashes(Client& c);
+  void maybe_snapshot(CoreTime now, bool force);
+  void try_resume_storage(CoreTime now);
+
+  ServerConfig config_;
+  AccessTokens access_;
+  Storage storage_;
+  TerrainState terrain_;
+  RegionFrames frames_;
+  TileHistory history_;
+  std::map<ClientId, Client> clients_;
+  std::vector<PendingDeform> pending_;
+  ClientId next_id_ = 1;
+  uint64_t tick_ = 0;
+  bool stopping_ = false;
+  bool failed_ = false;
+  CoreOutput out_;
+  ServerStats stats_;
+  CoreTime started_;
+  CoreTime last_snapshot_time_;
+  // A failed snapshot is retried after a growing interval (a full disk).
+  static constexpr double kSnapshotBackoffMinS = 5.0, kSnapshotBackoffMaxS = 300.0;
+  double snapshot_backoff_s_ = 0;
+  CoreTime snapshot_retry_after_{};
+  // A failed log sync refuses edits; reopening is retried after a growing interval.
+  static constexpr double kResumeBackoffMinS = 0.25, kResumeBackoffMaxS = 10.0;
+  double resume_backoff_s_ = kResumeBackoffMinS;
+  CoreTime next_resume_try_{};
+  size_t stream_cursor_ = 0;     // bulk turns rotate so no client always goes first
+  size_t last_batch_ = 0;        // stamps in the last tick
+  std::vector<double> tick_ms_;  // since the last stats line
+  double last_p50_ms_ = 0, last_p99_ms_ = 0;
+};
+
+}  // namespace loam::server

@@ -1,0 +1,312 @@
+// The replication core (server/replication/replication_core.h) driven in process with a
+// made-up clock: no sockets, no timers. Frames come back as bytes and are decoded here, so
+// each test states what every client receives, tick by tick.
+#include "server/replication/replication_core.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
+#include <set>
+
+#include "protocol/stamps/stamp_validate.h"
+#include "protocol/wire/framing.h"
+
+namespace loam::server {
+namespace {
+
+using namespace std::chrono_literals;
+
+struct Received {
+  std::vector<wire::Message> messages;
+  uint64_t region_bytes = 0, event_bytes = 0, bytes = 0;
+  template <typename T>
+  std::vector<T> all() const {
+    std::vector<T> out;
+    for (const wire::Message& m : messages) {
+      if (const T* t = std::get_if<T>(&m)) out.push_back(*t);
+    }
+    return out;
+  }
+};
+
+class CoreHarness {
+ public:
+  explicit CoreHarness(ServerConfig config = {}) {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("loam_core_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
+    std::filesystem::remove_all(dir_);
+    config.data_dir = dir_.string();
+    config.snapshot_every_stamps = 0;
+    config.snapshot_interval_s = 0;
+    auto opened = open_storage(config.data_dir, "", config.stamp_limits);
+    EXPECT_TRUE(opened.ok()) << (opened.ok() ? "" : opened.error().describe());
+    core_ = std::make_unique<ReplicationCore>(config, std::move(*opened), now_);
+  }
+  ~CoreHarness() {
+    core_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+
+  ReplicationCore& core() { return *core_; }
+  CoreTime now() const { return now_; }
+
+  ClientId join(const std::string& name, wire::Role role = wire::Role::kPlayer) {
+    const ClientId id = core_->connect("test:" + name, now_);
+    wire::Hello h;
+    h.client_name = name;
+    h.requested_role = role;
+    core_->receive(id, h, now_);
+    collect();
+    return id;
+  }
+  void send(ClientId id, const wire::Message& m) {
+    core_->receive(id, m, now_);
+    collect();
+  }
+  // One tick after `dt`; the transport reports nothing unsent (clients read at once).
+  void tick(CoreClock::duration dt = 33333us) {
+    now_ += dt;
+    core_->tick(now_, [](ClientId) { return uint64_t(0); });
+    collect();
+  }
+  Received& of(ClientId id) { return received_[id]; }
+  void clear() { received_.clear(); }
+
+  // Every coarse tile of every mip, as held at the initial version 0 or not held.
+  wire::Subscribe subscribe_all(bool held) const {
+    wire::Subscribe sub;
+    const WorldParams& p = core_->terrain().world().params();
+    for (int32_t m = 0; m < p.mip_count(); ++m) {
+      const RectI t = p.tile_range(m);
+      for (int32_t ty = int32_t(t.y0); ty < t.y1; ++ty)
+        for (int32_t tx = int32_t(t.x0); tx < t.x1; ++tx)
+          sub.entries.push_back({TileCoord{Layer::kCoarse, uint8_t(m), tx, ty}, held, 0});
+    }
+    return sub;
+  }
+
+  // A stamp at (x, y) with `radius`, all in mip-0 samples.
+  QuantizedStamp stamp(StampKind kind, double x, double y, double radius) const {
+    const double mps = core_->terrain().world().params().meters_per_sample;
+    StampParams s;
+    s.kind = kind;
+    s.center_x = x * mps;
+    s.center_y = y * mps;
+    s.radius = radius * mps;
+    s.intensity = kind == StampKind::kFlatten ? 0.5 : 2.0;
+    if (kind == StampKind::kCrater) s.shape = 0.3;
+    if (kind == StampKind::kFlatten) s.target = 100;
+    if (kind == StampKind::kShockwave) s.steps = 20, s.speed = 0.5, s.damping = 0.05;
+    auto q = validate_stamp(s, core_->terrain().world().params(), core_->terrain().limits());
+    EXPECT_TRUE(q.ok()) << (q.ok() ? "" : q.error().describe());
+    return *q;
+  }
+
+ private:
+  void collect() {
+    CoreOutput out = core_->take_output();
+    for (const auto& [id, frame] : out.frames) {
+      wire::FrameAssembler a(wire::kAbsoluteMaxFrameBytes);
+      a.feed(*frame);
+      auto m = a.next_message();
+      ASSERT_TRUE(m.ok() && m->has_value());
+      Received& r = received_[id];
+      r.bytes += frame->size();
+      if (std::holds_alternative<wire::RegionUpdate>(**m)) r.region_bytes += frame->size();
+      if (std::holds_alternative<wire::DeformEvent>(**m)) r.event_bytes += frame->size();
+      r.messages.push_back(std::move(**m));
+    }
+  }
+
+  static inline int counter_ = 0;
+  std::filesystem::path dir_;
+  CoreTime now_ = CoreTime{} + 1000s;
+  std::unique_ptr<ReplicationCore> core_;
+  std::map<ClientId, Received> received_;
+};
+
+TEST(ReplicationCore, ClientsInSyncAtEveryMipGetTheEventAndNoRegionForPerSampleStamps) {
+  CoreHarness h;
+  const ClientId a = h.join("a"), b = h.join("b");
+  h.send(a, h.subscribe_all(true));
+  h.send(b, h.subscribe_all(true));
+  h.tick();
+  h.clear();
+  const StampKind kinds[] = {StampKind::kGaussian, StampKind::kCrater, StampKind::kFootprint,
+                             StampKind::kFlatten};
+  uint32_t seq = 0;
+  for (const StampKind k : kinds) {
+    // At a four-tile corner, so mip-0 and coarser tiles all change.
+    h.send(a, wire::Deform{++seq, h.stamp(k, 256.0, 256.0, 30.0)});
+  }
+  h.tick();
+  for (const ClientId id : {a, b}) {
+    EXPECT_EQ(h.of(id).all<wire::DeformEvent>().size(), 4u);
+    EXPECT_TRUE(h.of(id).all<wire::RegionUpdate>().empty()) << "client " << id;
+    EXPECT_EQ(h.core().tiles_of(id)->due_count(), 0u);
+  }
+  const auto acks = h.of(a).all<wire::DeformAck>();
+  ASSERT_EQ(acks.size(), 4u);
+  for (const auto& ack : acks) EXPECT_TRUE(ack.accepted);
+  // Each event is a handful of bytes per changed tile.
+  EXPECT_LT(h.of(b).event_bytes / 4, 100u);
+}
+
+TEST(ReplicationCore, ShockwaveMipsTravelAsPatchesOverTheHeldVersion) {
+  CoreHarness h;
+  const ClientId a = h.join("a");
+  h.send(a, h.subscribe_all(true));
+  h.tick();
+  h.clear();
+  h.send(a, wire::Deform{1, h.stamp(StampKind::kShockwave, 300.0, 200.0, 4.0)});
+  h.tick();
+  const auto regions = h.of(a).all<wire::RegionUpdate>();
+  ASSERT_FALSE(regions.empty());
+  for (const auto& r : regions) {
+    EXPECT_GT(r.tile.mip, 0);
+    EXPECT_TRUE(r.patch);
+    EXPECT_EQ(r.base_version, 0u);
+    EXPECT_EQ(r.new_version, 1u);
+  }
+}
+
+TEST(ReplicationCore, RegionsLeaveUnderTheClientsBudgetCoarsestMipFirst) {
+  ServerConfig config;
+  config.client_bytes_per_second = 128 << 10;
+  CoreHarness h(config);
+  const ClientId a = h.join("a");
+  h.send(a, h.subscribe_all(false));
+  const size_t tiles = h.core().tiles_of(a)->due_count();
+  ASSERT_GT(tiles, 4u);
+  int last_mip = 99;
+  uint64_t sent_before = 0;
+  int ticks = 0;
+  while (h.core().tiles_of(a)->due_count() > 0 && ticks < 30 * 60) {
+    h.tick();
+    ++ticks;
+    const uint64_t sent = h.of(a).region_bytes - sent_before;
+    sent_before = h.of(a).region_bytes;
+    // One tick's worth of credit, plus at most the one region that overdraws it.
+    EXPECT_LE(sent, uint64_t(128 << 10) / 30 + 256 * 1024) << "tick " << ticks;
+  }
+  EXPECT_EQ(h.core().tiles_of(a)->due_count(), 0u);
+  for (const auto& r : h.of(a).all<wire::RegionUpdate>()) {
+    EXPECT_LE(r.tile.mip, last_mip);  // never a finer mip before a coarser one
+    last_mip = r.tile.mip;
+  }
+  // The whole world took the time its bytes take at the budget (within a second's burst).
+  const double seconds = ticks / 30.0;
+  EXPECT_GE(seconds + 1.0, double(h.of(a).region_bytes) / double(128 << 10));
+}
+
+TEST(ReplicationCore, AJoinStormEncodesEachTileOnceForAllClients) {
+  ServerConfig config;
+  config.client_bytes_per_second = 0;  // no budget: all at once
+  CoreHarness h(config);
+  std::vector<ClientId> ids;
+  for (int i = 0; i < 8; ++i) ids.push_back(h.join("c" + std::to_string(i)));
+  for (const ClientId id : ids) h.send(id, h.subscribe_all(false));
+  const size_t tiles = h.core().tiles_of(ids[0])->due_count();
+  for (int i = 0; i < 200 && h.core().tiles_of(ids.back())->due_count() > 0; ++i) h.tick();
+  for (const ClientId id : ids) EXPECT_EQ(h.core().tiles_of(id)->due_count(), 0u);
+  EXPECT_EQ(h.core().region_counters().encodes, tiles);
+  EXPECT_EQ(h.core().region_counters().hits, tiles * (ids.size() - 1));
+}
+
+TEST(ReplicationCore, EncodesPerTickAreBoundedSoATickStaysShort) {
+  ServerConfig config;
+  config.client_bytes_per_second = 0;
+  config.max_encodes_per_tick = 3;
+  CoreHarness h(config);
+  const ClientId a = h.join("a");
+  h.send(a, h.subscribe_all(false));
+  h.tick();
+  EXPECT_EQ(h.core().region_counters().encodes, 3u);
+  h.tick();
+  EXPECT_EQ(h.core().region_counters().encodes, 6u);
+}
+
+TEST(ReplicationCore, UnacknowledgedDeformsAreCappedPerClientNotPerTick) {
+  ServerConfig config;
+  config.max_pending_deforms = 3;
+  CoreHarness h(config);
+  const ClientId a = h.join("a");
+  for (uint32_t i = 1; i <= 4; ++i) h.send(a, wire::Deform{i, h.stamp(StampKind::kGaussian, 100, 100, 5)});
+  auto acks = h.of(a).all<wire::DeformAck>();
+  ASSERT_EQ(acks.size(), 1u);  // the fourth, refused at once
+  EXPECT_FALSE(acks[0].accepted);
+  EXPECT_EQ(acks[0].client_seq, 4u);
+  EXPECT_EQ(acks[0].reject_code, wire::WireErrorCode::kTooManyPending);
+  h.tick();  // the three are acknowledged: room again
+  h.send(a, wire::Deform{5, h.stamp(StampKind::kGaussian, 100, 100, 5)});
+  acks = h.of(a).all<wire::DeformAck>();
+  ASSERT_EQ(acks.size(), 4u);
+  for (size_t i = 1; i < 4; ++i) EXPECT_TRUE(acks[i].accepted);
+  h.tick();
+  EXPECT_EQ(h.of(a).all<wire::DeformAck>().size(), 5u);
+  EXPECT_TRUE(h.of(a).all<wire::DeformAck>().back().accepted);
+}
+
+TEST(ReplicationCore, ARegionQueuedBehindTheBudgetLeavesAtTheTilesNewestVersion) {
+  ServerConfig config;
+  config.client_bytes_per_second = 1024;  // far below one tile a second
+  CoreHarness h(config);
+  const ClientId a = h.join("a"), editor = h.join("editor");
+  h.send(a, h.subscribe_all(false));
+  for (uint32_t i = 1; i <= 3; ++i)
+    h.send(editor, wire::Deform{i, h.stamp(StampKind::kCrater, 100, 100, 10)});
+  h.tick();
+  // Nothing goes before credit accrues; then each region carries the version after all three.
+  for (int i = 0; i < 30 * 120 && h.core().tiles_of(a)->due_count() > 0; ++i) h.tick();
+  for (const auto& r : h.of(a).all<wire::RegionUpdate>()) {
+    EXPECT_FALSE(r.patch);
+    EXPECT_EQ(r.new_version, h.core().terrain().world().tile_state(r.tile).version);
+  }
+}
+
+TEST(ReplicationCore, AClientResumingBehindGetsPatchesOfTheSamplesChangedSinceItsVersion) {
+  ServerConfig config;
+  config.client_bytes_per_second = 0;
+  CoreHarness h(config);
+  const ClientId editor = h.join("editor");
+  for (uint32_t i = 1; i <= 5; ++i)
+    h.send(editor, wire::Deform{i, h.stamp(StampKind::kCrater, 100.0 + 20 * i, 100.0, 8)});
+  h.tick();
+  // Back after the five stamps, holding every tile at the initial version.
+  const ClientId back = h.join("back");
+  h.send(back, h.subscribe_all(true));
+  h.tick();
+  const auto regions = h.of(back).all<wire::RegionUpdate>();
+  ASSERT_FALSE(regions.empty());
+  uint64_t samples = 0;
+  for (const auto& r : regions) {
+    EXPECT_TRUE(r.patch) << to_string(r.tile);
+    EXPECT_EQ(r.base_version, 0u);
+    EXPECT_EQ(r.new_version, h.core().terrain().world().tile_state(r.tile).version);
+    samples += uint64_t(r.rect.area());
+  }
+  EXPECT_LT(samples, uint64_t(regions.size()) * kTileSamples / 8);
+}
+
+TEST(TileHistory, ChangedSinceUnitesTheRectsAfterTheHeldVersionOrSaysUnknown) {
+  TileHistory history(3, 2);
+  const TileCoord a{Layer::kCoarse, 0, 0, 0}, b{Layer::kCoarse, 0, 1, 0}, c{Layer::kCoarse, 0, 2, 0};
+  const std::vector<TileChange> changes = {{a, {0, 0, 4, 4}, 0, 3},
+                                           {a, {10, 10, 12, 12}, 3, 7},
+                                           {a, {2, 2, 3, 3}, 7, 9},
+                                           {a, {50, 50, 51, 51}, 9, 11}};
+  history.record(changes);
+  EXPECT_EQ(history.changed_since(a, 11), RectI{});               // current
+  EXPECT_EQ(history.changed_since(a, 7), (RectI{2, 2, 51, 51}));  // two changes since
+  EXPECT_EQ(history.changed_since(a, 3), (RectI{2, 2, 51, 51}));  // three (the oldest kept)
+  EXPECT_EQ(history.changed_since(a, 0), std::nullopt);           // beyond what is kept
+  EXPECT_EQ(history.changed_since(b, 0), std::nullopt);           // never changed here
+  const std::vector<TileChange> more = {{b, {0, 0, 1, 1}, 0, 12}, {c, {0, 0, 1, 1}, 0, 13}};
+  history.record(more);  // two tiles at most: a, the least recently changed, goes
+  EXPECT_EQ(history.changed_since(a, 9), std::nullopt);
+  EXPECT_EQ(history.changed_since(c, 0), (RectI{0, 0, 1, 1}));
+}
+
+}  // namespace
+}  // namespace loam::server
