@@ -1,5 +1,6 @@
 #include "client/net/terrain_client.h"
 
+#include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
 
 namespace loam::client {
@@ -157,7 +158,7 @@ Status TerrainClient::on_stamp_image(const wire::StampImageResponse& r) {
   if (r.format == wire::StampImageFormat::kGray16) {
     if (r.pixels.size() != n * 2)
       return give_up(make_error(ErrorCode::kCorrupt, "stamp_image.pixels", "size"));
-    for (size_t i = 0; i < n; ++i) samples[i] = uint16_t(r.pixels[2 * i] | (r.pixels[2 * i + 1] << 8));
+    for (size_t i = 0; i < n; ++i) samples[i] = load_le<uint16_t>(r.pixels.data() + 2 * i);
   } else {
     if (r.pixels.size() != n) return give_up(make_error(ErrorCode::kCorrupt, "stamp_image.pixels", "size"));
     for (size_t i = 0; i < n; ++i) samples[i] = uint16_t(r.pixels[i] * 257);

@@ -98,7 +98,8 @@ TEST_F(BadInput, TruncatedFrameThenHangUpDisturbsNobody) {
   auto& c = raw_connect();
   auto frame = wire::encode_frame(wire::Ping{42});
   ASSERT_TRUE(frame.ok());
-  frame->resize(frame->size() - 3);
+  frame->erase(frame->end() - 3,
+               frame->end());  // resize() here trips a GCC 12 -Wstringop-overflow false positive
   c.send_raw(*frame);
   c.close();
 }

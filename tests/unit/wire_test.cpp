@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 
+#include "protocol/byte_order.h"
 #include "protocol/wire/byte_stream.h"
 #include "protocol/wire/fields.h"
 #include "protocol/wire/framing.h"
