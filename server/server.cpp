@@ -10,6 +10,7 @@
 #include "protocol/codec/region_codec.h"
 #include "protocol/hex64.h"
 #include "protocol/tile_hash.h"
+#include "protocol/tile_rect.h"
 #include "server/event_log.h"
 
 namespace loam::server {
@@ -565,21 +566,10 @@ void Server::send_region(const SessionPtr& s, const TileCoord& c, std::optional<
     if (c.layer == Layer::kCoarse) {
       const std::span<const uint16_t> tile = w.coarse_tile(c.mip, c.tx, c.ty);
       if (!part) return encode_region(RegionEncoding::kFast, tile, kTileSize, kTileSize);
-      std::vector<uint16_t> samples;
-      for (int64_t y = rect.y0; y < rect.y1; ++y) {
-        samples.insert(samples.end(), tile.begin() + (y * kTileSize + rect.x0),
-                       tile.begin() + (y * kTileSize + rect.x1));
-      }
+      const std::vector<uint16_t> samples = copy_tile_rect(tile, rect);
       return encode_region(RegionEncoding::kFast, std::span<const uint16_t>(samples), rw, rh);
     }
-    const auto tile = w.detail_tile(c.tx, c.ty);
-    std::vector<int8_t> samples(size_t(rect.area()), 0);
-    if (!tile.empty()) {
-      size_t i = 0;
-      for (int64_t y = rect.y0; y < rect.y1; ++y) {
-        for (int64_t x = rect.x0; x < rect.x1; ++x) samples[i++] = tile[size_t(y * kTileSize + x)];
-      }
-    }
+    const std::vector<int8_t> samples = copy_tile_rect(w.detail_tile(c.tx, c.ty), rect);
     return encode_region(RegionEncoding::kFast, std::span<const int8_t>(samples), rw, rh);
   }();
   if (!payload) {
