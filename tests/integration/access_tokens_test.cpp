@@ -9,7 +9,6 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <random>
 #include <thread>
 
 #include "client/net/terrain_client.h"
@@ -128,7 +127,7 @@ TEST(AccessTokens, SighupReadsARotatedTokensFileAndKeepsTheOldOnesWhenTheNewFile
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ErrorCode::kUnauthorized);
   // A client that joined before keeps its role: its stamp is accepted.
-  std::mt19937 rng(3);
+  test::StampRng rng(3);
   const auto sent = before.deform(test::random_stamp(rng, before.welcome().world));
   ASSERT_TRUE(sent.ok());
   ASSERT_TRUE(before.wait_until([&] { return before.ack(*sent).has_value(); }, std::chrono::seconds(30)));
