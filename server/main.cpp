@@ -20,7 +20,7 @@
 #include "protocol/log/log_file.h"
 #include "protocol/log/log_json.h"
 #include "protocol/snapshot/snapshot.h"
-#include "protocol/wire/session_token.h"
+#include "protocol/wire/access_token.h"
 #include "server/access_tokens.h"
 #include "server/event_log.h"
 #include "server/replay.h"
@@ -296,12 +296,12 @@ int main(int argc, char** argv) {
       // 128 bits each from the kernel's generator (std::random_device reads getrandom here).
       std::random_device rd;
       auto fresh = [&] {
-        wire::SessionToken t;
+        wire::AccessToken t;
         for (size_t i = 0; i < t.size(); i += 4) {
           const uint32_t v = rd();
           for (size_t b = 0; b < 4; ++b) t[i + b] = uint8_t(v >> (8 * b));
         }
-        return wire::format_session_token(t);
+        return wire::format_access_token(t);
       };
       std::string text =
           "# loam-server tokens file (--tokens-file): an editor token lets a client deform,\n"

@@ -9,7 +9,7 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   wire::Hello hello;
   hello.client_name = name_;
   hello.requested_role = role_;
-  hello.session_token = token_;
+  hello.access_token = token_;
   auto w = connection_->connect(host, port, hello);
   if (!w) return w.error();
   welcome_ = *w;
@@ -17,7 +17,7 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
 }
 
 Status TerrainClient::connect(const std::string& host, uint16_t port, const std::string& name,
-                              wire::Role role, std::optional<wire::SessionToken> token) {
+                              wire::Role role, std::optional<wire::AccessToken> token) {
   name_ = name;
   role_ = role;
   token_ = token;

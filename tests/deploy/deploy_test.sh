@@ -34,8 +34,8 @@ for p in loam-server loam-client loam-probe loam; do test -x "$bin/$p" || fail "
 test -f "$root/prefix/share/loam/server.ini" || fail "server.ini not installed"
 test -f "$root/prefix/share/loam/loam-server@.service" || fail "the unit not installed"
 test -f "$root/prefix/share/doc/loam/deploy.md" || fail "deploy.md not installed"
-"$bin/loam-server" --version | grep -q "protocol 2\." || fail "loam-server --version"
-"$bin/loam-client" --version | grep -q "protocol 2\." || fail "loam-client --version"
+"$bin/loam-server" --version | grep -q "protocol 3\." || fail "loam-server --version"
+"$bin/loam-client" --version | grep -q "protocol 3\." || fail "loam-client --version"
 
 echo "== 2. the server as the systemd unit runs it"
 unit="$src/deploy/systemd/loam-server@.service"
@@ -89,7 +89,7 @@ echo "$probe" | grep -q "role spectator" || fail "probe with the viewer token wa
 if "$bin/loam-client" probe --port "$port" --timeout 3 2>"$root/refused.txt"; then
   fail "a probe without a token was let in"
 fi
-grep -q "requires a session token" "$root/refused.txt" || fail "refusal without a reason: $(cat "$root/refused.txt")"
+grep -q "requires an access token" "$root/refused.txt" || fail "refusal without a reason: $(cat "$root/refused.txt")"
 "$bin/loam-client" bot --port "$port" --stamps 20 --rate 100 --seed 3 --token-file "$tokens" >"$root/bot.txt" ||
   fail "bot: $(cat "$root/bot.txt")"
 grep -q "20/20 stamps accepted" "$root/bot.txt" || fail "bot: $(cat "$root/bot.txt")"
@@ -106,7 +106,7 @@ LOAM_TOKEN=$(sed -n 's/^viewer //p' "$tokens") "$bin/loam-probe" --port "$port" 
 if "$bin/loam-probe" --port "$port" --token 0123456789abcdef0123456789abcdef --timeout 3 2>"$root/wrong.txt"; then
   fail "a probe with a wrong token was let in"
 fi
-grep -q "wrong session token" "$root/wrong.txt" || fail "refusal without a reason: $(cat "$root/wrong.txt")"
+grep -q "wrong access token" "$root/wrong.txt" || fail "refusal without a reason: $(cat "$root/wrong.txt")"
 stop_server
 
 # A misspelt key is an error at start, not a default kept quietly.

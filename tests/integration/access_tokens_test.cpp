@@ -13,7 +13,7 @@
 
 #include "client/net/terrain_client.h"
 #include "integration_util.h"
-#include "protocol/wire/session_token.h"
+#include "protocol/wire/access_token.h"
 #include "server/server_config.h"
 #include "server_process.h"
 
@@ -23,7 +23,7 @@ namespace {
 constexpr const char* kEditor = "00112233445566778899aabbccddeeff";
 constexpr const char* kViewer = "ffeeddccbbaa99887766554433221100";
 
-wire::SessionToken tok(const char* hex) { return *wire::parse_session_token(hex); }
+wire::AccessToken tok(const char* hex) { return *wire::parse_access_token(hex); }
 
 TEST(AccessTokens, EditorAsRequestedViewerAsSpectatorOthersDenied) {
   AccessTokens open;

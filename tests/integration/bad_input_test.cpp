@@ -15,8 +15,8 @@ using namespace std::chrono_literals;
 constexpr const char* kEditorToken = "00112233445566778899aabbccddeeff";
 constexpr const char* kViewerToken = "ffeeddccbbaa99887766554433221100";
 
-wire::SessionToken token(const char* hex) {
-  wire::SessionToken t{};
+wire::AccessToken token(const char* hex) {
+  wire::AccessToken t{};
   for (size_t i = 0; i < t.size(); ++i) t[i] = uint8_t(std::stoi(std::string(hex + 2 * i, 2), nullptr, 16));
   return t;
 }
@@ -65,7 +65,7 @@ class BadInput : public ::testing::Test {
     raw_ = std::make_unique<client::Connection>();
     wire::Hello h;
     h.client_name = "raw";
-    h.session_token = token(kEditorToken);
+    h.access_token = token(kEditorToken);
     EXPECT_TRUE(raw_->connect("127.0.0.1", server_.port(), h).ok());
     return *raw_;
   }
@@ -108,7 +108,7 @@ TEST_F(BadInput, WrongProtocolVersionIsNamedInTheError) {
   client::Connection c;
   wire::Hello h;
   h.version_major = 9;
-  h.session_token = token(kEditorToken);
+  h.access_token = token(kEditorToken);
   auto w = c.connect("127.0.0.1", server_.port(), h);
   ASSERT_FALSE(w.ok());
   EXPECT_NE(w.error().describe().find("9.0"), std::string::npos) << w.error().describe();
