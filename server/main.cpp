@@ -161,7 +161,9 @@ int main(int argc, char** argv) {
   serve_cmd->add_option("--max-subscriptions", config.max_subscriptions)
       ->capture_default_str()
       ->check(cli::IntRange(1, int64_t(1) << 24));
-  serve_cmd->add_option("--max-pending-deforms", config.max_pending_deforms, "Per client per tick")
+  serve_cmd
+      ->add_option("--max-pending-deforms", config.max_pending_deforms,
+                   "Per client: deforms queued and not yet acknowledged")
       ->capture_default_str()
       ->check(cli::IntRange(1, 65536));
   serve_cmd->add_option("--deforms-per-second", config.deforms_per_second, "Rate limit per client")

@@ -55,7 +55,10 @@ struct Server::Session {
   std::map<TileCoord, uint64_t> subs;  // subscribed tile -> version the client holds
   double tokens = 0;
   Clock::time_point refill;
-  uint32_t pending_this_tick = 0;
+  // Deforms queued in pending_ whose DeformAck has not been sent yet: the
+  // ServerLimits.max_pending_deforms the client was promised counts these, whichever tick
+  // acknowledges them.
+  uint32_t unacked_deforms = 0;
   uint64_t violations = 0;
   bool closed = false;
 };
@@ -408,8 +411,8 @@ void Server::on_deform(const SessionPtr& s, const wire::Deform& d) {
     reject(wire::WireErrorCode::kRateLimited, "deform", "rate limit exceeded");
     return;
   }
-  if (s->pending_this_tick >= config_.max_pending_deforms) {
-    reject(wire::WireErrorCode::kTooManyPending, "deform", "too many deforms in one tick");
+  if (s->unacked_deforms >= config_.max_pending_deforms) {
+    reject(wire::WireErrorCode::kTooManyPending, "deform", "too many unacknowledged deforms");
     return;
   }
   if (const Status st = terrain_.check(d.stamp); !st.ok()) {
@@ -417,7 +420,7 @@ void Server::on_deform(const SessionPtr& s, const wire::Deform& d) {
     return;
   }
   s->tokens -= 1.0;
-  ++s->pending_this_tick;
+  ++s->unacked_deforms;
   pending_.push_back({s, s->id, d.client_seq, d.stamp});
 }
 
@@ -623,7 +626,6 @@ void Server::tick() {
   } flush_at_end{this};
   std::vector<PendingDeform> batch = std::move(pending_);
   pending_.clear();
-  for (auto& [id, s] : sessions_) s->pending_this_tick = 0;
 
   if (!storage_.writable()) try_resume_storage(t0);
   if (!batch.empty() && !storage_.writable()) {
@@ -675,6 +677,7 @@ void Server::tick() {
         log_event("apply_error", {{"seq", std::to_string(s_seq)}, {"error", applied.error().describe()}});
       ++stats_.deforms_accepted;
       if (auto sender = p.session.lock()) {
+        --sender->unacked_deforms;
         wire::DeformAck ack;
         ack.client_seq = p.client_seq;
         ack.accepted = true;
@@ -764,6 +767,7 @@ void Server::refuse_batch(const std::vector<PendingDeform>& batch) {
     ++stats_.deforms_rejected;
     auto sender = p.session.lock();
     if (!sender) continue;
+    --sender->unacked_deforms;
     wire::DeformAck ack;
     ack.client_seq = p.client_seq;
     ack.accepted = false;

@@ -263,5 +263,55 @@ TEST(ServerFull, AFullServerRefusesAsBusyNotUnauthorized) {
   EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 
+// Welcome's limits.max_pending_deforms promises a count of Deforms queued and not yet
+// acknowledged. The server once counted Deforms per tick instead; this pins the promise: a
+// burst beyond the limit is refused as too many pending, and once the acks have come the
+// client may fill the queue again.
+TEST(PendingDeforms, DeformsBeyondTheUnacknowledgedLimitAreRefusedUntilAcksFreeTheirSlots) {
+  const std::string dir = temp_data_dir("pending");
+  ServerProcess server;
+  // One tick a second keeps a burst in one queue; the rate limit stays out of the way.
+  ASSERT_TRUE(server.start(dir, {"--max-pending-deforms", "3", "--tick-hz", "1", "--deforms-per-second",
+                                 "1000", "--deform-burst", "1000"}))
+      << server.log();
+  client::TerrainClient c;
+  ASSERT_TRUE(c.connect("127.0.0.1", server.port(), "eager").ok());
+  EXPECT_EQ(c.welcome().limits.max_pending_deforms, 3u);
+  StampRng rng(5);
+  uint32_t next_seq = 1000;
+  // All Deforms of a burst go in one write, so the server reads them before any tick runs.
+  auto burst = [&](int n) {
+    std::vector<uint32_t> seqs;
+    std::vector<uint8_t> bytes;
+    for (int i = 0; i < n; ++i) {
+      const auto frame = wire::encode_frame(wire::Deform{++next_seq, random_stamp(rng, c.welcome().world)});
+      EXPECT_TRUE(frame.ok());
+      if (frame.ok()) bytes.insert(bytes.end(), frame->begin(), frame->end());
+      seqs.push_back(next_seq);
+    }
+    c.connection().send_raw(std::move(bytes));
+    EXPECT_TRUE(c.wait_until(
+        [&] {
+          for (uint32_t s : seqs)
+            if (!c.ack(s)) return false;
+          return true;
+        },
+        20s))
+        << server.log();
+    int accepted = 0, too_many = 0;
+    for (uint32_t s : seqs) {
+      const auto a = c.ack(s);
+      if (!a) continue;
+      accepted += a->accepted ? 1 : 0;
+      too_many += !a->accepted && a->code == wire::WireErrorCode::kTooManyPending ? 1 : 0;
+    }
+    return std::pair{accepted, too_many};
+  };
+  EXPECT_EQ(burst(5), (std::pair{3, 2})) << "three slots, five deforms";
+  EXPECT_EQ(burst(3), (std::pair{3, 0})) << "the acks of the first burst freed every slot";
+  EXPECT_TRUE(c.connection().open());
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
 }  // namespace
 }  // namespace loam::test
