@@ -24,16 +24,22 @@ inline std::string temp_data_dir(const std::string& tag) {
   return dir.string();
 }
 
-// A random stamp that validates against the world: every kind but texture (no image is
-// registered), all blends, some craters volume conserving, and gaussians on the detail layer.
+// A random stamp that validates against the world and changes it: every kind but texture (no
+// image is registered), some craters volume conserving, and gaussians on the detail layer.
 // Shockwaves stay small (a test server applies them under the sanitizers), and so do
 // footprints: a client holding only some of the tiles a footprint lists buffers its event
 // until a region covers it, and none comes where the footprint changed none of its tiles.
 inline QuantizedStamp random_stamp(StampRng& rng, const WorldParams& w) {
   RandomStampOptions o = random_stamp_options(w);
+  // Every stamp changes the terrain, so every accepted one reaches its subscribers as an event.
+  o.min_radius = 2.0;
   o.max_radius = 30.5;
+  o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
   o.coarse_max_intensity = 2.0;
   o.detail_max_intensity = 0.25;
+  o.coarse_min_intensity = 0.1;
+  o.detail_min_intensity = 0.02;
+  o.min_flatten_strength = 0.2;
   o.detail_kinds = {StampKind::kGaussian};
   o.max_radius_of_kind[size_t(StampKind::kShockwave)] = 6.0;
   o.max_radius_of_kind[size_t(StampKind::kFootprint)] = 3.0;

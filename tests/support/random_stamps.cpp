@@ -56,12 +56,16 @@ StampParams random_stamp_params(StampRng& rng, const RandomStampOptions& o) {
   s.rotation = double(rng.below(1000)) / 100.0;
   s.intensity =
       (double(rng.below(200)) - 100.0) / (100.0 / (coarse ? o.coarse_max_intensity : o.detail_max_intensity));
+  const double min_intensity = coarse ? o.coarse_min_intensity : o.detail_min_intensity;
+  if (std::fabs(s.intensity) < min_intensity)
+    s.intensity = s.intensity < 0.0 ? -min_intensity : min_intensity;
   s.shape = double(rng.below(100)) / 100.0;
   s.texture_id = o.texture_id;
   s.steps = 1 + rng.below(20);
   s.speed = 0.2 + double(rng.below(70)) / 100.0;
   s.damping = double(rng.below(10)) / 100.0;
-  if (s.kind == StampKind::kFlatten) s.intensity = double(rng.below(100)) / 100.0;
+  if (s.kind == StampKind::kFlatten)
+    s.intensity = std::max(double(rng.below(100)) / 100.0, o.min_flatten_strength);
   if (s.kind == StampKind::kFootprint) s.intensity = std::fabs(s.intensity);
   if (s.kind == StampKind::kCrater) s.volume_conserving = rng.below(2) == 1;
   const double target =

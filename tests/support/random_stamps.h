@@ -1,7 +1,8 @@
 // Seeded random stamps for tests, benchmarks and the golden stamp sequence: one generator,
 // so every suite draws the same mix of kinds, layers, blends and parameters, and options
 // (kind set, layer share, center bounds, radius range, intensities, targets) adapt it to a
-// world instead of each suite writing its own.
+// world instead of each suite writing its own. random_edge_case_stamp_params draws the hard
+// cases a kernel compared sample by sample needs from the same generator.
 //
 // The generator is the golden stamp sequence's (tests/determinism/stamp_sequence.cpp): an
 // integer LCG and a fixed order of draws, so with the default options it reproduces that
@@ -61,6 +62,10 @@ struct RandomStampOptions {
   // Largest |intensity| in meters, per layer. Keep 100 / value exact (5, 0.5, 2, 0.25...): the
   // draw divides by it, and the golden sequence depends on that arithmetic.
   double coarse_max_intensity = 5.0, detail_max_intensity = 0.5;
+  // Smallest |intensity| in meters, per layer, and smallest flatten strength: a smaller draw
+  // is raised to it (sign kept). For callers that wait for every stamp's event, which a stamp
+  // that changes nothing never sends. 0: as drawn.
+  double coarse_min_intensity = 0.0, detail_min_intensity = 0.0, min_flatten_strength = 0.0;
   // Flatten, min and max targets: coarse in whole meters in [min, max); detail fixed.
   double coarse_target_min = 100.0, coarse_target_max = 1000.0;
   double detail_target = 0.1;
