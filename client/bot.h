@@ -18,7 +18,7 @@ struct BotOptions {
   std::string host = "127.0.0.1";
   uint16_t port = 7878;
   std::string name = "bot";
-  std::optional<wire::SessionToken> token;  // needed where the server has tokens
+  std::optional<wire::AccessToken> token;  // needed where the server has tokens
   uint32_t stamps = 100;
   double rate = 10.0;  // stamps per second
   uint32_t seed = 1;

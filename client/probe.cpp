@@ -22,7 +22,7 @@ int run_probe(const ProbeOptions& o) {
   wire::Hello hello;
   hello.client_name = "probe";
   hello.requested_role = wire::Role::kSpectator;
-  hello.session_token = o.token;
+  hello.access_token = o.token;
   auto welcome = c.connect(o.host, o.port, hello, o.timeout);
   if (!welcome) return fail(o, welcome.error().describe());
   constexpr uint32_t kRequestId = 1;

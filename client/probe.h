@@ -16,7 +16,7 @@ namespace loam::client {
 struct ProbeOptions {
   std::string host = "127.0.0.1";
   uint16_t port = 7878;
-  std::optional<wire::SessionToken> token;  // needed where the server has tokens
+  std::optional<wire::AccessToken> token;   // needed where the server has tokens
   std::chrono::milliseconds timeout{5000};  // connect + handshake + Stats
   bool json = false;
 };

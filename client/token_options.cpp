@@ -5,28 +5,28 @@
 #include <fstream>
 #include <sstream>
 
-#include "protocol/wire/session_token.h"
+#include "protocol/wire/access_token.h"
 
 namespace loam::client {
 
 void add_token_options(CLI::App* cmd, TokenSource& src) {
-  auto* t = cmd->add_option("--token", src.hex, "Session token (32 hex digits) where the server has tokens")
+  auto* t = cmd->add_option("--token", src.hex, "Access token (32 hex digits) where the server has tokens")
                 ->envname("LOAM_TOKEN");
   cmd->add_option("--token-file", src.file, "File holding the token, or a loam-server tokens file")
       ->envname("LOAM_TOKEN_FILE")
       ->excludes(t);
 }
 
-Result<wire::SessionToken> token_from_file(const std::string& path, bool editing) {
+Result<wire::AccessToken> token_from_file(const std::string& path, bool editing) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return make_error(ErrorCode::kIo, path, "cannot read the token file");
   std::ostringstream text;
   text << in.rdbuf();
   std::string s = text.str();
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
-  if (s.size() == 2 * wire::kSessionTokenBytes && s.find_first_of(" \t\n#") == std::string::npos)
-    return wire::parse_session_token(s, path);
-  wire::SessionTokenList list;
+  if (s.size() == 2 * wire::kAccessTokenBytes && s.find_first_of(" \t\n#") == std::string::npos)
+    return wire::parse_access_token(s, path);
+  wire::AccessTokenList list;
   LOAM_TRY(wire::parse_token_lines(s, path, list));
   const auto& first = editing ? list.editors : list.viewers;
   const auto& second = editing ? list.viewers : list.editors;
@@ -37,10 +37,10 @@ Result<wire::SessionToken> token_from_file(const std::string& path, bool editing
 
 // Resolves the token options; false (after saying why) when the token is unusable.
 bool resolve_token(const char* cmd, const TokenSource& src, bool editing,
-                   std::optional<wire::SessionToken>& out) {
+                   std::optional<wire::AccessToken>& out) {
   if (src.hex.empty() && src.file.empty()) return true;
   auto t =
-      src.file.empty() ? wire::parse_session_token(src.hex, "--token") : token_from_file(src.file, editing);
+      src.file.empty() ? wire::parse_access_token(src.hex, "--token") : token_from_file(src.file, editing);
   if (!t) {
     std::fprintf(stderr, "%s: %s\n", cmd, t.error().describe().c_str());
     return false;

@@ -22,11 +22,11 @@ void add_token_options(CLI::App* cmd, TokenSource& src);
 
 // The token in a file: the file's whole text, or a tokens file's first editor (editing) or
 // viewer (watching) token, falling back to the other role.
-Result<wire::SessionToken> token_from_file(const std::string& path, bool editing);
+Result<wire::AccessToken> token_from_file(const std::string& path, bool editing);
 
 // Resolves the options into `out` (left empty when neither was given); false, after saying
 // why on stderr, when the token is unusable.
 bool resolve_token(const char* cmd, const TokenSource& src, bool editing,
-                   std::optional<wire::SessionToken>& out);
+                   std::optional<wire::AccessToken>& out);
 
 }  // namespace loam::client

@@ -9,7 +9,7 @@
 #include <string>
 #include <string_view>
 
-#include "protocol/wire/session_token.h"
+#include "protocol/wire/access_token.h"
 
 namespace {
 
@@ -23,17 +23,17 @@ namespace {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace loam::wire;
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  SessionTokenList list;
+  AccessTokenList list;
   if (!parse_token_lines(text, "fuzz", list).ok()) return 0;
   std::string printed;
   for (const auto* role : {&list.editors, &list.viewers}) {
-    for (const SessionToken& t : *role) {
-      auto back = parse_session_token(format_session_token(t));
-      if (!back || !session_tokens_equal(*back, t)) fail("a token does not survive print and parse");
-      printed += (role == &list.editors ? "editor " : "viewer ") + format_session_token(t) + "\n";
+    for (const AccessToken& t : *role) {
+      auto back = parse_access_token(format_access_token(t));
+      if (!back || !access_tokens_equal(*back, t)) fail("a token does not survive print and parse");
+      printed += (role == &list.editors ? "editor " : "viewer ") + format_access_token(t) + "\n";
     }
   }
-  SessionTokenList again;
+  AccessTokenList again;
   if (!parse_token_lines(printed, "printed", again).ok()) fail("the printed list does not parse");
   if (again.editors != list.editors || again.viewers != list.viewers) fail("the printed list differs");
   return 0;

@@ -10,21 +10,21 @@
 #include <fstream>
 #include <sstream>
 
-#include "protocol/wire/session_token.h"
+#include "protocol/wire/access_token.h"
 #include "server/server_config.h"
 
 namespace loam::server {
 namespace {
 
-bool contains(const std::vector<wire::SessionToken>& list, const wire::SessionToken& t) {
+bool contains(const std::vector<wire::AccessToken>& list, const wire::AccessToken& t) {
   bool found = false;
-  for (const wire::SessionToken& x : list) found |= wire::session_tokens_equal(x, t);  // no early exit
+  for (const wire::AccessToken& x : list) found |= wire::access_tokens_equal(x, t);  // no early exit
   return found;
 }
 
 }  // namespace
 
-Access check_access(const AccessTokens& tokens, const std::optional<wire::SessionToken>& presented) {
+Access check_access(const AccessTokens& tokens, const std::optional<wire::AccessToken>& presented) {
   if (!tokens.required()) return Access::kAsRequested;
   if (tokens.deny_all || !presented) return Access::kDenied;
   if (contains(tokens.editors, *presented)) return Access::kAsRequested;
@@ -35,12 +35,12 @@ Access check_access(const AccessTokens& tokens, const std::optional<wire::Sessio
 Result<AccessTokens> load_access_tokens(const ServerConfig& config) {
   AccessTokens out;
   for (const std::string& t : config.editor_tokens) {
-    auto token = wire::parse_session_token(t, "--editor-token");
+    auto token = wire::parse_access_token(t, "--editor-token");
     if (!token) return token.error();
     out.editors.push_back(*token);
   }
   for (const std::string& t : config.viewer_tokens) {
-    auto token = wire::parse_session_token(t, "--viewer-token");
+    auto token = wire::parse_access_token(t, "--viewer-token");
     if (!token) return token.error();
     out.viewers.push_back(*token);
   }

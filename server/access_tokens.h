@@ -10,14 +10,14 @@
 #include <vector>
 
 #include "protocol/result.h"
+#include "protocol/wire/access_token.h"
 #include "protocol/wire/messages.h"
-#include "protocol/wire/session_token.h"
 
 namespace loam::server {
 
 struct ServerConfig;
 
-struct AccessTokens : wire::SessionTokenList {
+struct AccessTokens : wire::AccessTokenList {
   bool deny_all = false;  // the configured tokens could not be read: nobody gets in (fail closed)
   bool required() const { return deny_all || !editors.empty() || !viewers.empty(); }
 };
@@ -25,7 +25,7 @@ struct AccessTokens : wire::SessionTokenList {
 enum class Access { kAsRequested, kSpectator, kDenied };
 
 // A Hello's token against the tokens (no tokens configured: everyone as requested).
-Access check_access(const AccessTokens& tokens, const std::optional<wire::SessionToken>& presented);
+Access check_access(const AccessTokens& tokens, const std::optional<wire::AccessToken>& presented);
 
 // The flags' tokens and the tokens file's, all validated.
 Result<AccessTokens> load_access_tokens(const ServerConfig& config);

@@ -20,7 +20,7 @@
 #include "protocol/log/log_file.h"
 #include "protocol/log/log_json.h"
 #include "protocol/snapshot/snapshot.h"
-#include "protocol/wire/session_token.h"
+#include "protocol/wire/access_token.h"
 #include "server/access_tokens.h"
 #include "server/event_log.h"
 #include "server/replay.h"
@@ -162,7 +162,8 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::IntRange(1, int64_t(1) << 24));
   serve_cmd
-      ->add_option("--max-pending-deforms", config.max_pending_deforms, "Unacknowledged deforms per client")
+      ->add_option("--max-pending-deforms", config.max_pending_deforms,
+                   "Per client: deforms queued and not yet acknowledged")
       ->capture_default_str()
       ->check(cli::IntRange(1, 65536));
   serve_cmd->add_option("--deforms-per-second", config.deforms_per_second, "Rate limit per client")
@@ -312,12 +313,12 @@ int main(int argc, char** argv) {
       // 128 bits each from the kernel's generator (std::random_device reads getrandom here).
       std::random_device rd;
       auto fresh = [&] {
-        wire::SessionToken t;
+        wire::AccessToken t;
         for (size_t i = 0; i < t.size(); i += 4) {
           const uint32_t v = rd();
           for (size_t b = 0; b < 4; ++b) t[i + b] = uint8_t(v >> (8 * b));
         }
-        return wire::format_session_token(t);
+        return wire::format_access_token(t);
       };
       std::string text =
           "# loam-server tokens file (--tokens-file): an editor token lets a client deform,\n"

@@ -30,7 +30,7 @@ struct ServerConfig {
   uint32_t max_clients = 64;
   uint32_t max_frame_bytes = 1u << 20;
   uint32_t max_subscriptions = 4096;
-  uint32_t max_pending_deforms = 64;  // unacknowledged deforms per client
+  uint32_t max_pending_deforms = 64;  // per client: queued deforms not yet acknowledged
   double deforms_per_second = 60.0;   // token bucket rate per client
   double deform_burst = 120.0;        // token bucket capacity
   double handshake_timeout_s = 5.0;

@@ -24,9 +24,11 @@
 #include <vector>
 
 #include "bench/harness.h"
+#include "bench/server_stats.h"
 #include "client/net/terrain_client.h"
 #include "protocol/stamps/stamp_validate.h"
-#include "tests/integration/server_process.h"  // the integration tests' child-process server
+#include "tests/integration/server_process.h"
+#include "tests/support/random_stamps.h"  // the integration tests' child-process server
 
 namespace loam::bench {
 namespace {
@@ -34,23 +36,21 @@ namespace {
 using clock_type = std::chrono::steady_clock;
 using namespace std::chrono_literals;
 
-QuantizedStamp session_stamp(std::mt19937& rng, const WorldParams& w) {
-  const RectI r = w.sample_rect();
-  std::uniform_real_distribution<double> ux(double(r.x0 + 40) * w.meters_per_sample,
-                                            double(r.x1 - 40) * w.meters_per_sample);
-  std::uniform_real_distribution<double> uy(double(r.y0 + 40) * w.meters_per_sample,
-                                            double(r.y1 - 40) * w.meters_per_sample);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
+// Gaussians and craters of 3..23 m on the coarse layer, clear of the world's edge. Each one
+// changes the terrain (no min / max blend that may leave it as it was), so every accepted
+// stamp reaches every client as an event, which the convergence check counts on.
+QuantizedStamp session_stamp(test::StampRng& rng, const WorldParams& w) {
+  test::RandomStampOptions o = test::random_stamp_options(w);
+  o.kinds = {StampKind::kGaussian, StampKind::kCrater};
+  o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
+  o.detail_one_in = 0;
+  const double inset = 40.0 * w.meters_per_sample;
+  o.x0 += inset, o.y0 += inset, o.x1 -= inset, o.y1 -= inset;
+  o.min_radius = 3.0;
+  o.max_radius = 23.0;
+  o.coarse_max_intensity = 2.0;
   for (;;) {
-    StampParams p;
-    p.center_x = ux(rng);
-    p.center_y = uy(rng);
-    p.radius = 3.0 + 20.0 * unit(rng);
-    p.intensity = -1.5 + 3.0 * unit(rng);
-    p.kind = rng() % 2 ? StampKind::kGaussian : StampKind::kCrater;
-    if (p.kind == StampKind::kCrater) p.intensity = 0.5 + unit(rng), p.shape = 0.3;
-    auto q = validate_stamp(p, w);
-    if (q) return *q;
+    if (auto q = test::random_valid_stamp(rng, o, w)) return *q;
   }
 }
 
@@ -88,6 +88,7 @@ void record_events(ClientRun& r) {
 void run_sender(ClientRun& r, uint32_t seed, double rate, clock_type::time_point start,
                 clock_type::time_point end) {
   std::mt19937 rng(seed);
+  test::StampRng stamps(seed);
   // Poisson arrivals: a fixed period would lock to the tick's phase and measure one point of it.
   std::exponential_distribution<double> gap(rate);
   auto next_gap = [&] {
@@ -107,7 +108,7 @@ void run_sender(ClientRun& r, uint32_t seed, double rate, clock_type::time_point
   };
   while (clock_type::now() < end) {
     if (clock_type::now() >= next) {
-      auto s = r.c->deform(session_stamp(rng, r.c->welcome().world));
+      auto s = r.c->deform(session_stamp(stamps, r.c->welcome().world));
       if (!s) {
         r.failed = true;
         return;
@@ -159,23 +160,6 @@ double cpu_seconds(pid_t pid) {
     if (i == 15) stime = std::stoull(f);
   }
   return double(utime + stime) / double(sysconf(_SC_CLK_TCK));
-}
-
-std::optional<wire::Stats> server_stats(uint16_t port) {
-  client::Connection c;
-  wire::Hello h;
-  h.client_name = "bench-stats";
-  h.requested_role = wire::Role::kSpectator;
-  if (!c.connect("127.0.0.1", port, h)) return std::nullopt;
-  if (!c.send(wire::StatsRequest{7}).ok()) return std::nullopt;
-  const auto deadline = clock_type::now() + 5s;
-  while (clock_type::now() < deadline) {
-    auto m = c.next(100ms);
-    if (!m) return std::nullopt;
-    if (*m)
-      if (auto* s = std::get_if<wire::Stats>(&**m); s && s->request_id == 7) return *s;
-  }
-  return std::nullopt;
 }
 
 // Every coarse tile at every mip: a client in sync pays for a stamp at each level it holds.

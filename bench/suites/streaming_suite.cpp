@@ -24,12 +24,14 @@
 #include <vector>
 
 #include "bench/harness.h"
+#include "bench/server_stats.h"
 #include "client/net/terrain_client.h"
 #include "client/render/clipmap_interest.h"
 #include "client/view/roam_path.h"
 #include "dem/dem_export.h"
 #include "protocol/stamps/stamp_validate.h"
-#include "tests/integration/server_process.h"  // the integration tests' child-process server
+#include "tests/integration/server_process.h"
+#include "tests/support/random_stamps.h"  // the integration tests' child-process server
 
 namespace loam::bench {
 namespace {
@@ -85,48 +87,22 @@ std::unique_ptr<client::TerrainClient> join(uint16_t port, const std::string& na
   return c;
 }
 
-// The server's Stats, asked on a connection of its own.
-std::optional<wire::Stats> server_stats(uint16_t port) {
-  client::Connection c;
-  wire::Hello h;
-  h.client_name = "bench-stats";
-  h.requested_role = wire::Role::kSpectator;
-  if (!c.connect("127.0.0.1", port, h)) return std::nullopt;
-  if (!c.send(wire::StatsRequest{7}).ok()) return std::nullopt;
-  const auto deadline = clock_type::now() + 5s;
-  while (clock_type::now() < deadline) {
-    auto m = c.next(100ms);
-    if (!m) return std::nullopt;
-    if (*m)
-      if (auto* st = std::get_if<wire::Stats>(&**m); st && st->request_id == 7) return *st;
-  }
-  return std::nullopt;
-}
-
-// A per-sample stamp (gaussian, crater, volume-conserving crater, footprint, flatten) or a
-// shockwave, radius 4..40 samples, somewhere in `area` (samples).
-QuantizedStamp random_stamp(std::mt19937& rng, const WorldParams& w, const RectI& area, bool shockwave) {
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
+// A per-sample stamp (gaussian, crater, footprint, flatten; add and subtract blends) or a
+// shockwave, radius 4..40 samples, somewhere in `area` (samples): the shared test generator.
+QuantizedStamp random_stamp(test::StampRng& rng, const WorldParams& w, const RectI& area, bool shockwave) {
+  test::RandomStampOptions o = test::random_stamp_options(w);
+  const double mps = w.meters_per_sample;
+  o.kinds = shockwave ? std::vector<StampKind>{StampKind::kShockwave}
+                      : std::vector<StampKind>{StampKind::kGaussian, StampKind::kCrater,
+                                               StampKind::kFootprint, StampKind::kFlatten};
+  o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
+  o.detail_one_in = 0;
+  o.x0 = double(area.x0) * mps, o.y0 = double(area.y0) * mps;
+  o.x1 = double(area.x1) * mps, o.y1 = double(area.y1) * mps;
+  o.min_radius = 4.0 * mps, o.max_radius = (shockwave ? 8.0 : 40.0) * mps;
+  o.coarse_min_intensity = 0.5, o.min_flatten_strength = 0.2;
   for (;;) {
-    StampParams p;
-    const double mps = w.meters_per_sample;
-    p.center_x = (double(area.x0) + unit(rng) * double(area.width())) * mps;
-    p.center_y = (double(area.y0) + unit(rng) * double(area.height())) * mps;
-    p.radius = (4.0 + 36.0 * unit(rng)) * mps;
-    p.intensity = 0.5 + 2.0 * unit(rng);
-    const uint32_t pick = uint32_t(rng() % 5);
-    p.kind = pick == 0   ? StampKind::kGaussian
-             : pick <= 2 ? StampKind::kCrater
-             : pick == 3 ? StampKind::kFootprint
-                         : StampKind::kFlatten;
-    p.volume_conserving = pick == 2;
-    if (p.kind == StampKind::kCrater) p.shape = 0.3;
-    if (p.kind == StampKind::kFlatten) p.intensity = 0.6, p.target = 10.0;
-    if (shockwave) {
-      p.kind = StampKind::kShockwave, p.radius = 6.0 * mps, p.intensity = 0.4, p.steps = 40, p.speed = 0.6;
-      p.damping = 0.02, p.volume_conserving = false, p.shape = 0, p.target = 0;
-    }
-    auto q = validate_stamp(p, w);
+    auto q = test::random_valid_stamp(rng, o, w);
     if (q) return *q;
   }
 }
@@ -172,7 +148,7 @@ bool bytes_per_stamp(const Context& ctx, int n, BytesRow& row) {
           cs, [&](client::TerrainClient& c) { return c.store().held().size() >= tiles; }, 120s))
     return false;
   row.clients = n;
-  std::mt19937 rng(uint32_t(7 + n));
+  test::StampRng rng(uint64_t(7 + n));
   const RectI area = w.sample_rect();
   const auto run = [&](int stamps, bool shock, double& bytes_out, double& encodes_out) -> bool {
     const auto before = server_stats(server.process.port());
@@ -406,7 +382,7 @@ bool join_storm(const World& world, uint16_t port, int storm, double phase_s, St
     editors.emplace_back([&, e] {
       auto c = join(port, "editor" + std::to_string(e), wire::Role::kPlayer);
       if (!c) return void(failed = true);
-      std::mt19937 rng(uint32_t(100 + e));
+      test::StampRng rng(uint64_t(100 + e));
       const RectI area{r.x0 + r.width() / 3, r.y0 + r.height() / 3, r.x1 - r.width() / 3,
                        r.y1 - r.height() / 3};
       std::map<uint32_t, std::pair<int, clock_type::time_point>> sent;
@@ -487,7 +463,7 @@ bool resume_after_stamps(const Context& ctx, ResumeResult& out) {
     return false;
   const uint64_t whole_all = away->connection().bytes_in_of(wire::MessageType::kRegionUpdate);
   away->connection().close();
-  std::mt19937 rng(11);
+  test::StampRng rng(11);
   const int stamps = ctx.quick ? 30 : 100;
   uint64_t last = 0;
   for (int i = 0; i < stamps; ++i) {
@@ -533,7 +509,7 @@ bool roam(const World& world, uint16_t port, int n, double seconds, RoamResult& 
         return;
       }
       render::ClipmapInterest interest(w, render::InterestConfig{});
-      std::mt19937 rng(uint32_t(i + 1));
+      test::StampRng rng(uint64_t(i + 1));
       const auto t0 = clock_type::now();
       std::optional<wire::Focus> sent_focus;
       std::vector<uint32_t> stamps;
@@ -629,7 +605,7 @@ int run_streaming(const Context& ctx, Report& report) {
   {
     Server server;
     if (!server.start("wide", {"--dem", dem, "--tick-hz", "30", "--max-clients", "256",
-                               "--deforms-per-second", "100"})) {
+                               "--deforms-per-second", "100", "--client-budget", "131072"})) {
       std::filesystem::remove(dem);
       std::filesystem::remove(dem.substr(0, dem.size() - 4) + ".json");
       return failures + 1;

@@ -8,6 +8,7 @@
 #include "protocol/stamps/stamp_kernel.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/tile_hash.h"
+#include "protocol/tile_rect.h"
 
 namespace loam::client {
 
@@ -130,19 +131,14 @@ Status ConfirmedStore::patch_detail(const TileCoord& c, const RectI& rect, uint6
 }
 
 std::vector<uint16_t> ConfirmedStore::coarse_rect(const TileCoord& c, const RectI& rect) const {
-  std::vector<uint16_t> out;
   const std::span<const uint16_t> tile = coarse_samples(c);
-  if (tile.empty() || !RectI{0, 0, kTileSize, kTileSize}.contains(rect)) return out;
-  for (int64_t y = rect.y0; y < rect.y1; ++y) {
-    out.insert(out.end(), tile.begin() + (y * kTileSize + rect.x0), tile.begin() + (y * kTileSize + rect.x1));
-  }
-  return out;
+  if (tile.empty()) return {};  // not held: no base to decode against
+  return copy_tile_rect(tile, rect);
 }
 
 std::vector<int8_t> ConfirmedStore::detail_rect(const TileCoord& c, const RectI& rect) const {
-  std::vector<int8_t> out(size_t(rect.area()), 0);
-  mirror_.read_detail(rect.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize), out);
-  return out;
+  // An unstored detail tile of the mirror is all zero, which copy_tile_rect gives for it.
+  return copy_tile_rect(mirror_.detail_tile(c.tx, c.ty), rect);
 }
 
 // Events at or below a region's version are already in its tile (the server covers every

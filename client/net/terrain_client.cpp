@@ -1,5 +1,6 @@
 #include "client/net/terrain_client.h"
 
+#include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
 
 namespace loam::client {
@@ -8,7 +9,7 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   wire::Hello hello;
   hello.client_name = name_;
   hello.requested_role = role_;
-  hello.session_token = token_;
+  hello.access_token = token_;
   auto w = connection_->connect(host, port, hello);
   if (!w) return w.error();
   welcome_ = *w;
@@ -16,7 +17,7 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
 }
 
 Status TerrainClient::connect(const std::string& host, uint16_t port, const std::string& name,
-                              wire::Role role, std::optional<wire::SessionToken> token) {
+                              wire::Role role, std::optional<wire::AccessToken> token) {
   name_ = name;
   role_ = role;
   token_ = token;
@@ -159,7 +160,7 @@ Status TerrainClient::on_stamp_image(const wire::StampImageResponse& r) {
   if (r.format == wire::StampImageFormat::kGray16) {
     if (r.pixels.size() != n * 2)
       return give_up(make_error(ErrorCode::kCorrupt, "stamp_image.pixels", "size"));
-    for (size_t i = 0; i < n; ++i) samples[i] = uint16_t(r.pixels[2 * i] | (r.pixels[2 * i + 1] << 8));
+    for (size_t i = 0; i < n; ++i) samples[i] = load_le<uint16_t>(r.pixels.data() + 2 * i);
   } else {
     if (r.pixels.size() != n) return give_up(make_error(ErrorCode::kCorrupt, "stamp_image.pixels", "size"));
     for (size_t i = 0; i < n; ++i) samples[i] = uint16_t(r.pixels[i] * 257);

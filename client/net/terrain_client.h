@@ -31,7 +31,7 @@ class TerrainClient {
   TerrainClient() = default;
 
   Status connect(const std::string& host, uint16_t port, const std::string& name,
-                 wire::Role role = wire::Role::kPlayer, std::optional<wire::SessionToken> token = {});
+                 wire::Role role = wire::Role::kPlayer, std::optional<wire::AccessToken> token = {});
   // Reconnects after a lost connection and resumes: the store is kept, and every tile is
   // subscribed again with the version held, so the server sends only tiles that changed.
   Status reconnect(const std::string& host, uint16_t port);
@@ -82,7 +82,7 @@ class TerrainClient {
   std::unique_ptr<Connection> connection_ = std::make_unique<Connection>();
   std::string name_;
   wire::Role role_ = wire::Role::kPlayer;
-  std::optional<wire::SessionToken> token_;
+  std::optional<wire::AccessToken> token_;
   wire::Welcome welcome_;
   std::unique_ptr<ConfirmedStore> store_;
   std::map<TileCoord, wire::RegionAssembler> assemblers_;

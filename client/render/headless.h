@@ -40,10 +40,10 @@ Status write_png(const std::string& path, int32_t width, int32_t height, const s
                  bool keep_alpha = false);
 
 struct RenderCommandOptions {
-  std::string dem;                          // empty: the embedded default terrain
-  std::string snapshot;                     // a snapshot folder, or a data folder (its newest snapshot)
-  std::string server;                       // host:port: render a live session instead (its confirmed tiles)
-  std::optional<wire::SessionToken> token;  // for --server where it has tokens
+  std::string dem;                         // empty: the embedded default terrain
+  std::string snapshot;                    // a snapshot folder, or a data folder (its newest snapshot)
+  std::string server;                      // host:port: render a live session instead (its confirmed tiles)
+  std::optional<wire::AccessToken> token;  // for --server where it has tokens
   std::array<double, 3> camera{1024.0, 1700.0, 300.0};
   std::array<double, 3> look{1024.0, 800.0, 60.0};
   int32_t width = 1280, height = 720;

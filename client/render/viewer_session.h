@@ -24,7 +24,7 @@ struct ViewerOptions {
   DisplayStamping stamping = DisplayStamping::kGpu;
   wire::Role role = wire::Role::kPlayer;
   std::string name = "viewer";
-  std::optional<wire::SessionToken> token;  // needed where the server has tokens
+  std::optional<wire::AccessToken> token;  // needed where the server has tokens
   std::chrono::milliseconds connect_timeout{10000};
 };
 

@@ -19,7 +19,7 @@ struct ViewerAppOptions {
   std::string host = "127.0.0.1";
   uint16_t port = 7878;
   std::string name = "viewer";
-  std::optional<wire::SessionToken> token;  // needed where the server has tokens
+  std::optional<wire::AccessToken> token;  // needed where the server has tokens
   render::RendererConfig renderer;
   int32_t width = 1280, height = 720;
   bool headless = false;                  // EGL + offscreen instead of a window

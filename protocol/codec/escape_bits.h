@@ -14,25 +14,9 @@
 #include <span>
 #include <vector>
 
-namespace loam::codec {
+#include "protocol/byte_order.h"
 
-inline uint64_t load_le64(const uint8_t* p) {
-  uint64_t v;
-  if constexpr (std::endian::native == std::endian::little) {
-    std::memcpy(&v, p, 8);
-  } else {
-    v = 0;
-    for (int i = 7; i >= 0; --i) v = (v << 8) | p[i];
-  }
-  return v;
-}
-inline void store_le64(uint8_t* p, uint64_t v) {
-  if constexpr (std::endian::native == std::endian::little) {
-    std::memcpy(p, &v, 8);
-  } else {
-    for (int i = 0; i < 8; ++i) p[i] = uint8_t(v >> (8 * i));
-  }
-}
+namespace loam::codec {
 
 // Every put stores eight bytes and keeps the last partial byte pending, so the buffer needs
 // eight bytes of slack after the last byte written.
@@ -42,7 +26,7 @@ class EscapeBitWriter {
   void put(uint64_t value, uint32_t bits) {  // bits <= 56, value < 2^bits
     acc_ |= value << fill_;
     fill_ += bits;
-    store_le64(out_ + pos_, acc_);
+    store_le<uint64_t>(out_ + pos_, acc_);
     const uint32_t bytes = fill_ >> 3;
     pos_ += bytes;
     acc_ = bytes == 8 ? 0 : acc_ >> (8 * bytes);
@@ -87,7 +71,7 @@ class EscapeBitReader {
     return true;
   }
   uint32_t get(uint32_t bits) {  // bits <= 14
-    const uint64_t w = load_le64(data_ + (pos_ >> 3));
+    const uint64_t w = load_le<uint64_t>(data_ + (pos_ >> 3));
     const uint32_t v = uint32_t(w >> (pos_ & 7)) & ((1u << bits) - 1);
     pos_ += bits;
     return v;

@@ -7,6 +7,7 @@
 #include <string>
 #include <type_traits>
 
+#include "protocol/byte_order.h"
 #include "protocol/codec/escape_bits.h"
 #include "protocol/codec/fast_coder_avx2.h"
 #include "protocol/codec/rans.h"
@@ -26,17 +27,6 @@ Error err(ErrorCode code, const char* field, std::string message) {
 
 constexpr uint32_t kSymbolsPerContext = 64;  // sym index = context * 64 + token
 constexpr size_t kStatesBytes = 4 * rans::kLanes;
-
-void put_u16(std::vector<uint8_t>& out, uint32_t v) {
-  out.push_back(uint8_t(v));
-  out.push_back(uint8_t(v >> 8));
-}
-void put_u32(uint8_t* p, uint32_t v) {
-  for (int i = 0; i < 4; ++i) p[i] = uint8_t(v >> (8 * i));
-}
-uint32_t get_u32(const uint8_t* p) {
-  return uint32_t(p[0]) | (uint32_t(p[1]) << 8) | (uint32_t(p[2]) << 16) | (uint32_t(p[3]) << 24);
-}
 
 template <typename U>
 U zigzag(U r) {
@@ -339,7 +329,7 @@ void encode_body(const U* s, uint32_t width, uint32_t height, std::vector<uint8_
     low = s[0] & ((1u << shift) - 1);
   }
   out.push_back(uint8_t(shift));
-  if (shift > 0) put_u16(out, low);
+  if (shift > 0) append_le<uint16_t>(out, uint16_t(low));
 
   // Predictor choice and pass 1.
   grown(sc.residuals, width);
@@ -394,10 +384,10 @@ void encode_body(const U* s, uint32_t width, uint32_t height, std::vector<uint8_
   const size_t at = out.size();
   out.resize(at + 4 + rans_bytes + extras_bytes);
   uint8_t* p = out.data() + at;
-  put_u32(p, uint32_t(rans_bytes));
+  store_le<uint32_t>(p, uint32_t(rans_bytes));
   p += 4;
   for (uint32_t x : st) {
-    put_u32(p, x);
+    store_le<uint32_t>(p, x);
     p += 4;
   }
   if constexpr (std::endian::native == std::endian::little) {
@@ -595,7 +585,7 @@ Result<FastBody> parse_fast_body(std::span<const uint8_t> body, int bits) {
     return err(ErrorCode::kCorrupt, "region.fast", "shift out of range");
   if (fb.shift > 0) {
     if (!need(2)) return err(ErrorCode::kTruncated, "region.fast", "body too short for the low bits");
-    fb.low = uint32_t(body[at]) | (uint32_t(body[at + 1]) << 8);
+    fb.low = load_le<uint16_t>(body.data() + at);
     at += 2;
     if (fb.low >= (1u << fb.shift)) return err(ErrorCode::kCorrupt, "region.fast", "low bits out of range");
   }
@@ -626,7 +616,7 @@ Result<FastBody> parse_fast_body(std::span<const uint8_t> body, int bits) {
     }
   }
   if (!need(4)) return err(ErrorCode::kTruncated, "region.fast.rans", "body ends before the rANS length");
-  const uint32_t rans_bytes = get_u32(body.data() + at);
+  const uint32_t rans_bytes = load_le<uint32_t>(body.data() + at);
   at += 4;
   if (rans_bytes < kStatesBytes || rans_bytes % 2 != 0) {
     return err(ErrorCode::kCorrupt, "region.fast.rans", "rANS length is not 32 + 2 * words");
@@ -634,7 +624,7 @@ Result<FastBody> parse_fast_body(std::span<const uint8_t> body, int bits) {
   if (!need(rans_bytes))
     return err(ErrorCode::kTruncated, "region.fast.rans", "body shorter than the rANS length");
   for (int k = 0; k < rans::kLanes; ++k) {
-    fb.states[size_t(k)] = get_u32(body.data() + at + 4 * size_t(k));
+    fb.states[size_t(k)] = load_le<uint32_t>(body.data() + at + 4 * size_t(k));
     if (fb.states[size_t(k)] < rans::kStateLow) {
       return err(ErrorCode::kCorrupt, "region.fast.rans", "initial state below 2^16");
     }

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "protocol/byte_order.h"
 #include "protocol/codec/predictor.h"
 
 namespace loam::codec {
@@ -64,7 +65,7 @@ Result<FastBodyV2> parse_fast_body_v2(std::span<const uint8_t> body, size_t plan
   size_t at = 1;
   if (fb.shift > 0) {
     if (body.size() < 3) return err(ErrorCode::kTruncated, "region.fast", "body too short for the low bits");
-    fb.low = uint32_t(body[1]) | (uint32_t(body[2]) << 8);
+    fb.low = load_le<uint16_t>(body.data() + 1);
     if (fb.low >= (1u << fb.shift)) return err(ErrorCode::kCorrupt, "region.fast", "low bits out of range");
     at = 3;
   }

@@ -21,6 +21,8 @@
 #include <cstdint>
 #include <span>
 
+#include "protocol/byte_order.h"
+
 namespace loam::codec::rans {
 
 inline constexpr uint32_t kProbBits = 10;
@@ -78,7 +80,7 @@ void fill_unused_decode_table(std::span<uint32_t> table);
 inline uint32_t decode_step(uint32_t& x, const uint8_t*& words, const uint32_t* table) {
   const uint32_t e = table[x & (kProbScale - 1)];
   const uint32_t y = (e >> 18) * (x >> kProbBits) + ((e >> 8) & (kProbScale - 1));
-  const uint32_t w = uint32_t(words[0]) | (uint32_t(words[1]) << 8);
+  const uint32_t w = load_le<uint16_t>(words);
   // Masks, not a condition (see encode_step).
   const uint32_t refill = uint32_t(y < kStateLow);
   const uint32_t mask = 0u - refill;

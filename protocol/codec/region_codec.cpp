@@ -10,6 +10,7 @@
 #include <string>
 #include <type_traits>
 
+#include "protocol/byte_order.h"
 #include "protocol/codec/fast_coder.h"
 #include "protocol/codec/fast_coder_v2.h"
 #include "protocol/codec/field_coder.h"
@@ -40,18 +41,6 @@ constexpr uint8_t kMagic0 = 'L', kMagic1 = 'R';
 // version 1 are rejected as unsupported.
 constexpr uint8_t kFormatVersion = 3;
 constexpr uint8_t kOldestFormatVersion = 2;
-
-void put_u16(uint8_t* p, uint32_t v) {
-  p[0] = uint8_t(v);
-  p[1] = uint8_t(v >> 8);
-}
-void put_u32(uint8_t* p, uint32_t v) {
-  for (int i = 0; i < 4; ++i) p[i] = uint8_t(v >> (8 * i));
-}
-uint32_t get_u16(const uint8_t* p) { return uint32_t(p[0]) | (uint32_t(p[1]) << 8); }
-uint32_t get_u32(const uint8_t* p) {
-  return uint32_t(p[0]) | (uint32_t(p[1]) << 8) | (uint32_t(p[2]) << 16) | (uint32_t(p[3]) << 24);
-}
 
 Error err(ErrorCode code, const char* field, std::string message) {
   return make_error(code, field, std::move(message));
@@ -107,10 +96,10 @@ std::vector<uint8_t> with_header(RegionEncoding enc, SampleType type, uint32_t w
   h[3] = uint8_t(enc);
   h[4] = uint8_t(type);
   h[5] = 0;
-  put_u16(h + 6, width);
-  put_u16(h + 8, height);
-  put_u32(h + 10, uint32_t(body_size));
-  put_u32(h + 14, region_checksum(body_with_room));
+  store_le<uint16_t>(h + 6, uint16_t(width));  // check_dims: at most kMaxRegionSide
+  store_le<uint16_t>(h + 8, uint16_t(height));
+  store_le<uint32_t>(h + 10, uint32_t(body_size));
+  store_le<uint32_t>(h + 14, region_checksum(body_with_room));
   return body_with_room;
 }
 
@@ -120,7 +109,7 @@ std::vector<uint8_t> encode_raw(std::span<const T> s, uint32_t width, uint32_t h
   uint8_t* p = out.data() + kRegionHeaderSize;
   for (size_t i = 0; i < s.size(); ++i) {
     if constexpr (sizeof(T) == 2) {
-      put_u16(p + 2 * i, s[i]);
+      store_le<uint16_t>(p + 2 * i, s[i]);
     } else {
       p[i] = uint8_t(s[i]);
     }
@@ -193,8 +182,8 @@ Result<Reduction> get_reduction(std::span<const uint8_t> body, uint32_t max_u, i
   if (body.size() < kReductionSize) return err(ErrorCode::kTruncated, "region.reduction", "body too short");
   Reduction red;
   red.bits = body[0];
-  red.g = get_u16(body.data() + 1);
-  red.r = get_u16(body.data() + 3);
+  red.g = load_le<uint16_t>(body.data() + 1);
+  red.r = load_le<uint16_t>(body.data() + 3);
   if (red.bits < 1 || red.bits > max_bits || red.g < 1 || red.r >= red.g || red.g > max_u + 1) {
     return err(ErrorCode::kCorrupt, "region.reduction", "bits/step/offset out of range");
   }
@@ -354,7 +343,7 @@ Result<std::vector<T>> decode_any(std::span<const uint8_t> payload, uint32_t wid
     case RegionEncoding::kRaw:
       for (size_t i = 0; i < n; ++i) {
         if constexpr (sizeof(T) == 2) {
-          out[i] = uint16_t(get_u16(body.data() + 2 * i));
+          out[i] = uint16_t(load_le<uint16_t>(body.data() + 2 * i));
         } else {
           out[i] = int8_t(body[i]);
         }
@@ -462,10 +451,10 @@ Result<RegionHeader> read_region_header(std::span<const uint8_t> payload) {
   h.version = p[2];
   h.encoding = RegionEncoding(p[3]);
   h.type = SampleType(p[4]);
-  h.width = get_u16(p + 6);
-  h.height = get_u16(p + 8);
-  h.body_size = get_u32(p + 10);
-  h.body_checksum = get_u32(p + 14);
+  h.width = load_le<uint16_t>(p + 6);
+  h.height = load_le<uint16_t>(p + 8);
+  h.body_size = load_le<uint32_t>(p + 10);
+  h.body_checksum = load_le<uint32_t>(p + 14);
   LOAM_TRY(check_dims(h.width, h.height));
   if (h.body_size != payload.size() - kRegionHeaderSize) {
     return err(h.body_size > payload.size() - kRegionHeaderSize ? ErrorCode::kTruncated : ErrorCode::kCorrupt,

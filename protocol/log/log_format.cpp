@@ -5,13 +5,11 @@
 #include <algorithm>
 #include <cstring>
 
+#include "protocol/byte_order.h"
 #include "protocol/wire/byte_stream.h"
 #include "protocol/wire/fields.h"
 
 namespace loam::log {
-
-using wire::load_le;
-using wire::store_le;
 
 const char* to_string(TailState s) {
   switch (s) {

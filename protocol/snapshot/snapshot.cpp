@@ -12,6 +12,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
 #include "protocol/tile_hash.h"
 
@@ -31,10 +32,6 @@ void put(std::vector<uint8_t>& out, const void* p, size_t n) {
   const auto* b = static_cast<const uint8_t*>(p);
   out.insert(out.end(), b, b + n);
 }
-template <typename T>
-void put_le(std::vector<uint8_t>& out, T v) {
-  put(out, &v, sizeof v);  // little-endian host (static_assert in tile_hash.cpp)
-}
 
 struct Reader {
   std::span<const uint8_t> bytes;
@@ -44,8 +41,7 @@ struct Reader {
   Result<T> get(const char* field) {
     if (bytes.size() - at < sizeof(T))
       return make_error(ErrorCode::kTruncated, path, std::string("truncated at ") + field);
-    T v;
-    std::memcpy(&v, bytes.data() + at, sizeof v);
+    const T v = load_le<T>(bytes.data() + at);
     at += sizeof v;
     return v;
   }
@@ -130,22 +126,22 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
   const WorldParams& p = world.params();
   std::vector<uint8_t> bin;
   put(bin, kMagic, sizeof kMagic);
-  put_le<uint32_t>(bin, kFormat);
+  append_le<uint32_t>(bin, kFormat);
   size_t coarse = 0, detail = 0;
   auto put_tile = [&](const TileCoord& c, std::span<const uint8_t> payload) {
     const TileState st = world.tile_state(c);
-    put_le<uint8_t>(bin, uint8_t(c.layer));
-    put_le<uint8_t>(bin, c.mip);
-    put_le<int32_t>(bin, c.tx);
-    put_le<int32_t>(bin, c.ty);
-    put_le<uint64_t>(bin, st.version);
-    put_le<uint64_t>(bin, st.hash);
-    put_le<uint32_t>(bin, uint32_t(payload.size()));
+    append_le<uint8_t>(bin, uint8_t(c.layer));
+    append_le<uint8_t>(bin, c.mip);
+    append_le<int32_t>(bin, c.tx);
+    append_le<int32_t>(bin, c.ty);
+    append_le<uint64_t>(bin, st.version);
+    append_le<uint64_t>(bin, st.hash);
+    append_le<uint32_t>(bin, uint32_t(payload.size()));
     put(bin, payload.data(), payload.size());
   };
   // Section 1: mip-0 coarse tiles with samples.
   const RectI t0 = p.tile_range(0);
-  put_le<uint32_t>(bin, uint32_t(t0.area()));
+  append_le<uint32_t>(bin, uint32_t(t0.area()));
   for (int64_t ty = t0.y0; ty < t0.y1; ++ty) {
     for (int64_t tx = t0.x0; tx < t0.x1; ++tx) {
       const auto samples = world.coarse_tile(0, int32_t(tx), int32_t(ty));
@@ -157,7 +153,7 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
   }
   // Section 2: stored detail tiles with samples.
   const auto dtiles = world.stored_detail_tiles();
-  put_le<uint32_t>(bin, uint32_t(dtiles.size()));
+  append_le<uint32_t>(bin, uint32_t(dtiles.size()));
   for (const TileCoord& c : dtiles) {
     auto enc = encode_region(RegionEncoding::kFast, world.detail_tile(c.tx, c.ty), kTileSize, kTileSize);
     if (!enc) return enc.error();
@@ -173,18 +169,18 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
         mip_tiles.push_back({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)});
     }
   }
-  put_le<uint32_t>(bin, uint32_t(mip_tiles.size()));
+  append_le<uint32_t>(bin, uint32_t(mip_tiles.size()));
   for (const TileCoord& c : mip_tiles) put_tile(c, {});
   // Section 4: texture-stamp images (content-addressed: the id is recomputed on load).
   const auto images = textures.all();
-  put_le<uint32_t>(bin, uint32_t(images.size()));
+  append_le<uint32_t>(bin, uint32_t(images.size()));
   for (const StampTexture* t : images) {
-    put_le<uint64_t>(bin, t->id);
-    put_le<int32_t>(bin, t->width);
-    put_le<int32_t>(bin, t->height);
+    append_le<uint64_t>(bin, t->id);
+    append_le<int32_t>(bin, t->width);
+    append_le<int32_t>(bin, t->height);
     put(bin, t->samples.data(), t->samples.size() * sizeof(uint16_t));
   }
-  put_le<uint64_t>(bin, XXH3_64bits(bin.data(), bin.size()));
+  append_le<uint64_t>(bin, XXH3_64bits(bin.data(), bin.size()));
 
   const auto now = std::chrono::system_clock::now().time_since_epoch();
   nlohmann::json m = {

@@ -4,7 +4,7 @@
 
 #include <cstring>
 
-#include "protocol/wire/byte_stream.h"
+#include "protocol/byte_order.h"
 
 namespace loam {
 
@@ -18,12 +18,12 @@ constexpr size_t kFixedBytes = sizeof(kMagic) + 4 + 4;
 std::vector<uint8_t> encode_stamp_image(const StampTexture& t) {
   std::vector<uint8_t> out(kFixedBytes + t.samples.size() * 2 + 8);
   std::memcpy(out.data(), kMagic, sizeof kMagic);
-  wire::store_le<uint32_t>(out.data() + 8, uint32_t(t.width));
-  wire::store_le<uint32_t>(out.data() + 12, uint32_t(t.height));
+  store_le<uint32_t>(out.data() + 8, uint32_t(t.width));
+  store_le<uint32_t>(out.data() + 12, uint32_t(t.height));
   for (size_t i = 0; i < t.samples.size(); ++i)
-    wire::store_le<uint16_t>(out.data() + kFixedBytes + 2 * i, t.samples[i]);
+    store_le<uint16_t>(out.data() + kFixedBytes + 2 * i, t.samples[i]);
   const size_t body = out.size() - 8;
-  wire::store_le<uint64_t>(out.data() + body, XXH3_64bits(out.data(), body));
+  store_le<uint64_t>(out.data() + body, XXH3_64bits(out.data(), body));
   return out;
 }
 
@@ -32,8 +32,8 @@ Result<StampTexture> decode_stamp_image(std::span<const uint8_t> bytes, const st
     return make_error(ErrorCode::kTruncated, name, "shorter than its header");
   if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
     return make_error(ErrorCode::kCorrupt, name, "not a Loam stamp image");
-  const uint32_t w = wire::load_le<uint32_t>(bytes.data() + 8);
-  const uint32_t h = wire::load_le<uint32_t>(bytes.data() + 12);
+  const uint32_t w = load_le<uint32_t>(bytes.data() + 8);
+  const uint32_t h = load_le<uint32_t>(bytes.data() + 12);
   if (w == 0 || h == 0 || w > uint32_t(kMaxTextureSide) || h > uint32_t(kMaxTextureSide))
     return make_error(ErrorCode::kCorrupt, name,
                       "size " + std::to_string(w) + "x" + std::to_string(h) + " out of range");
@@ -44,14 +44,14 @@ Result<StampTexture> decode_stamp_image(std::span<const uint8_t> bytes, const st
                           std::to_string(h) + " image needs " + std::to_string(expected));
   }
   const size_t body = expected - 8;
-  if (wire::load_le<uint64_t>(bytes.data() + body) != XXH3_64bits(bytes.data(), body))
+  if (load_le<uint64_t>(bytes.data() + body) != XXH3_64bits(bytes.data(), body))
     return make_error(ErrorCode::kCorrupt, name, "checksum mismatch");
   StampTexture t;
   t.width = int32_t(w);
   t.height = int32_t(h);
   t.samples.resize(size_t(w) * size_t(h));
   for (size_t i = 0; i < t.samples.size(); ++i)
-    t.samples[i] = wire::load_le<uint16_t>(bytes.data() + kFixedBytes + 2 * i);
+    t.samples[i] = load_le<uint16_t>(bytes.data() + kFixedBytes + 2 * i);
   t.id = texture_content_id(t.width, t.height, t.samples);
   return t;
 }

@@ -18,30 +18,10 @@
 #include <type_traits>
 #include <vector>
 
+#include "protocol/byte_order.h"
 #include "protocol/result.h"
 
 namespace loam::wire {
-
-// Little-endian load/store of any integer type, independent of host byte order.
-template <typename T>
-inline void store_le(uint8_t* p, T v) {
-  using U = std::make_unsigned_t<T>;
-  U u = static_cast<U>(v);
-  for (size_t i = 0; i < sizeof(T); ++i) {
-    p[i] = static_cast<uint8_t>(u & 0xFFu);
-    if constexpr (sizeof(T) > 1) u = static_cast<U>(u >> 8);
-  }
-}
-template <typename T>
-inline T load_le(const uint8_t* p) {
-  using U = std::make_unsigned_t<T>;
-  U u = 0;
-  for (size_t i = sizeof(T); i-- > 0;) {
-    if constexpr (sizeof(T) > 1) u = static_cast<U>(u << 8);
-    u = static_cast<U>(u | p[i]);
-  }
-  return static_cast<T>(u);
-}
 
 // Errors shared by the three streams (out of line: they build strings).
 Error truncated_error(const char* field, size_t need, size_t offset, size_t left);

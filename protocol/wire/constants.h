@@ -17,6 +17,7 @@ inline constexpr uint32_t kHelloMagic = 0x4D414F4Cu;
 // 3.0: DeformEvent is compact (varints; tiles as offsets from the stamp's center tile;
 // base versions as distances below the sequence) and carries a footprint's contact, so a
 // client applies events at every mip of the layer (protocol/replication/event_rule.h).
+// Welcome no longer carries a session token; Hello's token is named the access token.
 // 2.0: Subscribe entries say whether a version is held (version 0, the initial terrain, can be
 // claimed); RegionUpdate patches (the changed samples of a tile over a held version); region
 // codec payloads of format 3. 1.1 had added StatsRequest / Stats.
@@ -56,7 +57,7 @@ const char* to_string(MessageType type);
 
 // --- Caps (a decoder never loops or allocates past these) ---
 inline constexpr size_t kMaxClientNameBytes = 64;             // Hello.client_name (UTF-8, not checked)
-inline constexpr size_t kSessionTokenBytes = 16;              // Hello.session_token when present
+inline constexpr size_t kAccessTokenBytes = 16;               // Hello.access_token when present
 inline constexpr size_t kMaxErrorTextBytes = 1024;            // Error.text, Bye.text
 inline constexpr size_t kMaxFieldNameBytes = 64;              // Error.field, DeformAck.field
 inline constexpr uint32_t kMaxSubscribeEntries = 1024;        // per Subscribe / Unsubscribe message

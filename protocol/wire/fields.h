@@ -129,58 +129,29 @@ Status serialize_stamp_compact(S& s, QuantizedStamp& q) {
                   (q.damping ? 16u : 0) | (q.speed ? 32u : 0) | (q.steps ? 64u : 0) | (q.seed ? 128u : 0) |
                   (q.texture_id ? 256u : 0);
   LOAM_TRY(serialize_uvarint<uint32_t>(s, mask, "stamp.fields", 0, 511));
-  // A field listed as present must be non-zero: one encoding per stamp.
-  const auto nonzero = [](auto v, const char* field) -> Status {
-    if (v == 0) return make_error(ErrorCode::kCorrupt, field, "listed as present but zero");
+  // One optional field: present (and then non-zero: one encoding per stamp) or zero.
+  const auto field = [&](uint32_t bit, auto& v, const char* name) -> Status {
+    if (!(mask & bit)) {
+      if constexpr (S::kReading) v = 0;
+      return {};
+    }
+    if constexpr (std::is_signed_v<std::remove_reference_t<decltype(v)>>) {
+      LOAM_TRY(serialize_svarint(s, v, name));
+    } else {
+      LOAM_TRY(serialize_uvarint(s, v, name));
+    }
+    if (v == 0) return make_error(ErrorCode::kCorrupt, name, "listed as present but zero");
     return {};
   };
-  if (mask & 1u) {
-    LOAM_TRY(serialize_uvarint(s, q.rotation, "stamp.rotation"));
-    LOAM_TRY(nonzero(q.rotation, "stamp.rotation"));
-  }
-  if (mask & 2u) {
-    LOAM_TRY(serialize_svarint(s, q.intensity, "stamp.intensity"));
-    LOAM_TRY(nonzero(q.intensity, "stamp.intensity"));
-  }
-  if (mask & 4u) {
-    LOAM_TRY(serialize_svarint(s, q.target, "stamp.target"));
-    LOAM_TRY(nonzero(q.target, "stamp.target"));
-  }
-  if (mask & 8u) {
-    LOAM_TRY(serialize_uvarint(s, q.shape, "stamp.shape"));
-    LOAM_TRY(nonzero(q.shape, "stamp.shape"));
-  }
-  if (mask & 16u) {
-    LOAM_TRY(serialize_uvarint(s, q.damping, "stamp.damping"));
-    LOAM_TRY(nonzero(q.damping, "stamp.damping"));
-  }
-  if (mask & 32u) {
-    LOAM_TRY(serialize_uvarint(s, q.speed, "stamp.speed"));
-    LOAM_TRY(nonzero(q.speed, "stamp.speed"));
-  }
-  if (mask & 64u) {
-    LOAM_TRY(serialize_uvarint(s, q.steps, "stamp.steps"));
-    LOAM_TRY(nonzero(q.steps, "stamp.steps"));
-  }
-  if (mask & 128u) {
-    LOAM_TRY(serialize_uvarint(s, q.seed, "stamp.seed"));
-    LOAM_TRY(nonzero(q.seed, "stamp.seed"));
-  }
-  if (mask & 256u) {
-    LOAM_TRY(serialize_uvarint(s, q.texture_id, "stamp.texture_id"));
-    LOAM_TRY(nonzero(q.texture_id, "stamp.texture_id"));
-  }
-  if constexpr (S::kReading) {
-    if (!(mask & 1u)) q.rotation = 0;
-    if (!(mask & 2u)) q.intensity = 0;
-    if (!(mask & 4u)) q.target = 0;
-    if (!(mask & 8u)) q.shape = 0;
-    if (!(mask & 16u)) q.damping = 0;
-    if (!(mask & 32u)) q.speed = 0;
-    if (!(mask & 64u)) q.steps = 0;
-    if (!(mask & 128u)) q.seed = 0;
-    if (!(mask & 256u)) q.texture_id = 0;
-  }
+  LOAM_TRY(field(1u, q.rotation, "stamp.rotation"));
+  LOAM_TRY(field(2u, q.intensity, "stamp.intensity"));
+  LOAM_TRY(field(4u, q.target, "stamp.target"));
+  LOAM_TRY(field(8u, q.shape, "stamp.shape"));
+  LOAM_TRY(field(16u, q.damping, "stamp.damping"));
+  LOAM_TRY(field(32u, q.speed, "stamp.speed"));
+  LOAM_TRY(field(64u, q.steps, "stamp.steps"));
+  LOAM_TRY(field(128u, q.seed, "stamp.seed"));
+  LOAM_TRY(field(256u, q.texture_id, "stamp.texture_id"));
   return {};
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "protocol/byte_order.h"
 #include "protocol/wire/byte_stream.h"
 
 namespace loam::wire {

@@ -169,11 +169,11 @@ Status serialize(S& s, Hello& m) {
   }
   LOAM_TRY(s.string(m.client_name, kMaxClientNameBytes, "hello.client_name"));
   LOAM_TRY(serialize_enum(s, m.requested_role, kRoleCount, "hello.requested_role"));
-  bool has_token = m.session_token.has_value();
-  LOAM_TRY(s.boolean(has_token, "hello.has_session_token"));
+  bool has_token = m.access_token.has_value();
+  LOAM_TRY(s.boolean(has_token, "hello.has_access_token"));
   if (has_token) {
-    if constexpr (S::kReading) m.session_token.emplace();
-    LOAM_TRY(s.bytes(m.session_token->data(), kSessionTokenBytes, "hello.session_token"));
+    if constexpr (S::kReading) m.access_token.emplace();
+    LOAM_TRY(s.bytes(m.access_token->data(), kAccessTokenBytes, "hello.access_token"));
   }
   return {};
 }
@@ -199,7 +199,6 @@ Status serialize(S& s, Welcome& m) {
   }
   LOAM_TRY(s.bits(m.client_id, "welcome.client_id"));
   LOAM_TRY(serialize_enum(s, m.granted_role, kRoleCount, "welcome.granted_role"));
-  LOAM_TRY(s.bytes(m.session_token.data(), kSessionTokenBytes, "welcome.session_token"));
   LOAM_TRY(serialize_world_params(s, m.world));
   LOAM_TRY(s.bits(m.global_sequence, "welcome.global_sequence"));
   LOAM_TRY(serialize_range<uint16_t>(s, m.tick_rate_hz, 1, 1000, "welcome.tick_rate_hz"));

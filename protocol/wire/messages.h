@@ -73,14 +73,17 @@ inline constexpr uint32_t kRegionEncodingCount = 2;
 enum class StampImageFormat : uint8_t { kGray8 = 0, kGray16 = 1 };
 inline constexpr uint32_t kStampImageFormatCount = 2;
 
-using SessionToken = std::array<uint8_t, kSessionTokenBytes>;
+using AccessToken = std::array<uint8_t, kAccessTokenBytes>;
 
 struct Hello {
   uint16_t version_major = kProtocolMajor;
   uint16_t version_minor = kProtocolMinor;
   std::string client_name;  // <= kMaxClientNameBytes
   Role requested_role = Role::kPlayer;
-  std::optional<SessionToken> session_token;  // present when resuming a session
+  // Who may join and in which role (server/access_tokens.h); absent where the server has no
+  // tokens. It does not name a session: a reconnecting client resumes by subscribing with the
+  // versions it holds (Subscribe entries with held = true), which works on any connection.
+  std::optional<AccessToken> access_token;
   friend bool operator==(const Hello&, const Hello&) = default;
 };
 
@@ -97,7 +100,6 @@ struct Welcome {
   uint16_t version_minor = kProtocolMinor;
   uint32_t client_id = 0;
   Role granted_role = Role::kPlayer;
-  SessionToken session_token{};  // present in a later Hello to resume
   WorldParams world;
   uint64_t global_sequence = 0;  // last sequence applied by the server
   uint16_t tick_rate_hz = 30;    // > 0

@@ -73,25 +73,34 @@ bool ClientTiles::plan_event(const wire::DeformEvent& e, std::span<const TileCha
 
 std::vector<TileCoord> ClientTiles::due_in_order() const {
   struct Key {
-    int mip;
+    bool focus;
+    bool top;  // the coarsest level the client subscribed to: the whole view, coarsely, first
     double distance2;
+    int mip;
     TileCoord tile;
   };
+  int top = 0;
+  for (const auto& [c, t] : tiles_) top = std::max<int>(top, c.mip);
   std::vector<Key> keys;
   keys.reserve(due_);
   for (const auto& [c, t] : tiles_) {
     if (!t.due) continue;
     double d2 = 0;
     if (focus_) {
-      // The tile's center in mip-0 samples.
+      // From the focus to the nearest point of the tile (mip-0 samples): 0 inside it.
       const double span = double(kTileSize) * double(int64_t(1) << c.mip);
-      const double cx = (double(c.tx) + 0.5) * span, cy = (double(c.ty) + 0.5) * span;
-      d2 = (cx - focus_->first) * (cx - focus_->first) + (cy - focus_->second) * (cy - focus_->second);
+      const double x0 = double(c.tx) * span, y0 = double(c.ty) * span;
+      const double dx = std::max({x0 - focus_->first, 0.0, focus_->first - (x0 + span)});
+      const double dy = std::max({y0 - focus_->second, 0.0, focus_->second - (y0 + span)});
+      d2 = dx * dx + dy * dy;
     }
-    keys.push_back({c.mip, d2, c});
+    keys.push_back({focus_.has_value(), c.mip == top, d2, c.mip, c});
   }
   std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
-    return std::tie(b.mip, a.distance2, a.tile) < std::tie(a.mip, b.distance2, b.tile);
+    // Ties (tiles at the same distance, e.g. all those holding the focus): finer first, but
+    // without a focus (every distance 0) coarser first.
+    return a.focus ? std::tie(b.top, a.distance2, a.mip, a.tile) < std::tie(a.top, b.distance2, b.mip, b.tile)
+                   : std::tie(b.top, b.mip, a.tile) < std::tie(a.top, a.mip, b.tile);
   });
   std::vector<TileCoord> out;
   out.reserve(keys.size());

@@ -54,8 +54,12 @@ class ClientTiles {
   // client subscribed to (it then gets the event); updates held versions and due regions.
   bool plan_event(const wire::DeformEvent& e, std::span<const TileChange> changes);
 
-  // Tiles with a region due, in the order they should leave: coarsest mip first, then the
-  // nearest to the focus (world sample coordinates at mip 0), then by coordinate.
+  // Tiles with a region due, in the order they should leave: the coarsest level subscribed
+  // first (the whole view shows at once, coarsely), then nearest the focus (world sample
+  // coordinates at mip 0; distance to the tile's nearest point), finer first among equals.
+  // The display shows the finest tile it holds at each point, so the tiles under the viewer
+  // come first and coarser tiles reach farther for the same distance: the view's error falls
+  // fastest where it is seen largest. Without a focus: coarsest mip first.
   void set_focus(std::optional<std::pair<double, double>> focus_samples) { focus_ = focus_samples; }
   std::vector<TileCoord> due_in_order() const;
   size_t due_count() const { return due_; }

@@ -1,37 +1,23 @@
 #include "server/replication/region_frames.h"
 
 #include "protocol/codec/region_codec.h"
+#include "protocol/tile_rect.h"
 #include "protocol/wire/framing.h"
 #include "protocol/wire/messages.h"
 
 namespace loam::server {
-
-namespace {
-
-// The samples of `rect` (tile-local) of a row-major kTileSize x kTileSize tile.
-template <typename T>
-std::vector<T> rect_samples(std::span<const T> tile, const RectI& rect) {
-  std::vector<T> out(size_t(rect.area()), T(0));
-  if (tile.empty()) return out;  // a detail tile not stored: all zero
-  size_t i = 0;
-  for (int64_t y = rect.y0; y < rect.y1; ++y) {
-    for (int64_t x = rect.x0; x < rect.x1; ++x) out[i++] = tile[size_t(y * kTileSize + x)];
-  }
-  return out;
-}
-
-}  // namespace
 
 Result<Frames> encode_region_frames(const World& world, const TileCoord& c, std::optional<uint64_t> base,
                                     const RectI& rect) {
   const int32_t rw = int32_t(rect.width()), rh = int32_t(rect.height());
   Result<std::vector<uint8_t>> payload =
       c.layer == Layer::kCoarse
-          ? encode_region(RegionEncoding::kFast,
-                          std::span<const uint16_t>(rect_samples(world.coarse_tile(c.mip, c.tx, c.ty), rect)),
-                          rw, rh)
+          ? encode_region(
+                RegionEncoding::kFast,
+                std::span<const uint16_t>(copy_tile_rect(world.coarse_tile(c.mip, c.tx, c.ty), rect)), rw, rh)
           : encode_region(RegionEncoding::kFast,
-                          std::span<const int8_t>(rect_samples(world.detail_tile(c.tx, c.ty), rect)), rw, rh);
+                          std::span<const int8_t>(copy_tile_rect(world.detail_tile(c.tx, c.ty), rect)), rw,
+                          rh);
   LOAM_TRY(payload);
   wire::RegionUpdate header;
   header.tile = c;

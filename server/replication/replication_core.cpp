@@ -205,12 +205,12 @@ void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
     return;
   }
   wire::Role granted = h.requested_role;
-  switch (check_access(access_, h.session_token)) {
+  switch (check_access(access_, h.access_token)) {
     case Access::kAsRequested: break;
     case Access::kSpectator: granted = wire::Role::kSpectator; break;
     case Access::kDenied:
-      fatal(c, wire::WireErrorCode::kUnauthorized, "hello.session_token",
-            h.session_token ? "wrong session token" : "this server requires a session token",
+      fatal(c, wire::WireErrorCode::kUnauthorized, "hello.access_token",
+            h.access_token ? "wrong access token" : "this server requires an access token",
             wire::ByeReason::kKicked);
       return;
   }

@@ -39,7 +39,7 @@ if "$build/client/loam-client" render --server "127.0.0.1:$port" --size 16x9 --o
   echo "viewer_smoke: a render without a token was let in" >&2
   exit 1
 fi
-grep -q "requires a session token" "$dir/refused.txt"
+grep -q "requires an access token" "$dir/refused.txt"
 "$build/client/loam-client" render --server "127.0.0.1:$port" --camera 900,1300,420 --look 1000,700,40 \
   --size 160x90 --out "$dir/live.png" --token-file "$dir/tokens"
 test -s "$dir/live.png"

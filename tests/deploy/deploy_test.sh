@@ -89,7 +89,7 @@ echo "$probe" | grep -q "role spectator" || fail "probe with the viewer token wa
 if "$bin/loam-client" probe --port "$port" --timeout 3 2>"$root/refused.txt"; then
   fail "a probe without a token was let in"
 fi
-grep -q "requires a session token" "$root/refused.txt" || fail "refusal without a reason: $(cat "$root/refused.txt")"
+grep -q "requires an access token" "$root/refused.txt" || fail "refusal without a reason: $(cat "$root/refused.txt")"
 "$bin/loam-client" bot --port "$port" --stamps 20 --rate 100 --seed 3 --token-file "$tokens" >"$root/bot.txt" ||
   fail "bot: $(cat "$root/bot.txt")"
 grep -q "20/20 stamps accepted" "$root/bot.txt" || fail "bot: $(cat "$root/bot.txt")"
@@ -106,7 +106,7 @@ LOAM_TOKEN=$(sed -n 's/^viewer //p' "$tokens") "$bin/loam-probe" --port "$port" 
 if "$bin/loam-probe" --port "$port" --token 0123456789abcdef0123456789abcdef --timeout 3 2>"$root/wrong.txt"; then
   fail "a probe with a wrong token was let in"
 fi
-grep -q "wrong session token" "$root/wrong.txt" || fail "refusal without a reason: $(cat "$root/wrong.txt")"
+grep -q "wrong access token" "$root/wrong.txt" || fail "refusal without a reason: $(cat "$root/wrong.txt")"
 stop_server
 
 # A misspelt key is an error at start, not a default kept quietly.

@@ -1,8 +1,9 @@
 // The golden stamp sequence: a fixed pseudo-random sequence of every stamp kind on both
-// layers (integer LCG, no libm), applied to a flat world. Its content hash pins the profile
+// layers (integer LCG, no libm: tests/support/random_stamps.h with its default options),
+// applied to a flat world. Its content hash pins the profile
 // table baking and every kernel: the GCC unit tests and a clang-built check in CI
 // (tests/determinism/golden_check.cpp, built with the fuzzers) must both reproduce it.
-// No GoogleTest here, so the clang build can compile it with protocol/ alone.
+// No GoogleTest here, so the clang build can compile it with protocol/ and tests/support/.
 #pragma once
 
 #include <cstdint>

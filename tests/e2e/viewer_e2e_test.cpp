@@ -214,11 +214,12 @@ TEST(ViewerEndToEnd, TwoViewersAndABotConvergeOnTheServersHashesAndRenderTheSame
   // The bot and viewer A deform (A's own stamps near the camera, so they are predicted);
   // every viewer keeps its frames going meanwhile.
   std::mt19937 rng(7);
+  StampRng stamps(7);
   const WorldParams& w = bot.welcome().world;
   std::vector<uint32_t> bot_seqs;
   std::uniform_real_distribution<double> ux(800, 1200), uy(600, 900), ur(6, 30);
   for (int i = 0; i < 40; ++i) {
-    auto s = bot.deform(random_stamp(rng, w));
+    auto s = bot.deform(random_stamp(stamps, w));
     ASSERT_TRUE(s.ok());
     bot_seqs.push_back(*s);
     if (i % 4 == 0) {

@@ -9,12 +9,11 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
-#include <random>
 #include <thread>
 
 #include "client/net/terrain_client.h"
 #include "integration_util.h"
-#include "protocol/wire/session_token.h"
+#include "protocol/wire/access_token.h"
 #include "server/server_config.h"
 #include "server_process.h"
 
@@ -24,7 +23,7 @@ namespace {
 constexpr const char* kEditor = "00112233445566778899aabbccddeeff";
 constexpr const char* kViewer = "ffeeddccbbaa99887766554433221100";
 
-wire::SessionToken tok(const char* hex) { return *wire::parse_session_token(hex); }
+wire::AccessToken tok(const char* hex) { return *wire::parse_access_token(hex); }
 
 TEST(AccessTokens, EditorAsRequestedViewerAsSpectatorOthersDenied) {
   AccessTokens open;
@@ -128,7 +127,7 @@ TEST(AccessTokens, SighupReadsARotatedTokensFileAndKeepsTheOldOnesWhenTheNewFile
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ErrorCode::kUnauthorized);
   // A client that joined before keeps its role: its stamp is accepted.
-  std::mt19937 rng(3);
+  test::StampRng rng(3);
   const auto sent = before.deform(test::random_stamp(rng, before.welcome().world));
   ASSERT_TRUE(sent.ok());
   ASSERT_TRUE(before.wait_until([&] { return before.ack(*sent).has_value(); }, std::chrono::seconds(30)));

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "integration_util.h"
-#include "protocol/wire/session_token.h"
+#include "protocol/wire/access_token.h"
 #include "server_process.h"
 
 namespace loam::test {
@@ -160,7 +160,7 @@ TEST(ConfigValidation, TokensNewWritesFileWithMode0600) {
   std::ifstream in(file);
   std::stringstream text;
   text << in.rdbuf();
-  wire::SessionTokenList tokens;
+  wire::AccessTokenList tokens;
   ASSERT_TRUE(wire::parse_token_lines(text.str(), file, tokens).ok());
   EXPECT_EQ(tokens.editors.size(), 2u);
   EXPECT_EQ(tokens.viewers.size(), 1u);
@@ -192,7 +192,7 @@ TEST(ConfigValidation, TokensNewWritesFileWithMode0600) {
 TEST(ConfigValidation, TokensNewWithoutFileStillPrintsToStdout) {
   const Ran r = run({LOAM_SERVER_BINARY, "tokens", "new", "--viewers", "0"});
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  wire::SessionTokenList tokens;
+  wire::AccessTokenList tokens;
   ASSERT_TRUE(wire::parse_token_lines(r.output, "stdout", tokens).ok()) << r.output;
   EXPECT_EQ(tokens.editors.size(), 1u);
   EXPECT_EQ(tokens.viewers.size(), 0u);

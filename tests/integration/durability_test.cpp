@@ -11,7 +11,6 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
-#include <random>
 #include <sstream>
 #include <thread>
 
@@ -62,7 +61,7 @@ Exit run(const std::string& args) {
 
 // Deforms `n` random stamps and waits for every ack; returns the last global sequence.
 uint64_t deform_all(client::TerrainClient& c, int n, uint32_t seed) {
-  std::mt19937 rng(seed);
+  StampRng rng(seed);
   std::vector<uint32_t> seqs;
   for (int i = 0; i < n; ++i) seqs.push_back(*c.deform(random_stamp(rng, c.welcome().world)));
   EXPECT_TRUE(c.wait_until([&] { return c.ack(seqs.back()).has_value(); }, 30s));
@@ -349,7 +348,7 @@ TEST_F(FullDisk, FullDiskRefusesEditsKeepsServingAndRecoversWhenSpaceReturns) {
   ASSERT_TRUE(c.subscribe(c.all_coarse_tiles(0)).ok());
   fill();
   // Edits are refused with a clear reason; nothing refused is logged or applied.
-  std::mt19937 rng(5);
+  StampRng rng(5);
   int refused = 0;
   for (int i = 0; i < 400 && refused == 0; ++i) {  // the last page of the segment may still take records
     const uint32_t s = *c.deform(random_stamp(rng, c.welcome().world));

@@ -162,18 +162,23 @@ TEST(ClientTilesPlanner, ALargeChangeSendsTheWholeTileNotAPatch) {
   EXPECT_EQ(tiles.need(a1).rect, (RectI{0, 0, kTileSize, kTileSize}));
 }
 
-TEST(ClientTilesPlanner, DueRegionsLeaveCoarsestMipFirstThenNearestTheFocus) {
+TEST(ClientTilesPlanner, DueRegionsLeaveTheCoarsestLevelFirstThenNearestTheFocus) {
   ClientTiles tiles;
   const std::vector<TileCoord> all = {{Layer::kCoarse, 0, 0, 0}, {Layer::kCoarse, 0, 5, 0},
                                       {Layer::kCoarse, 0, 2, 0}, {Layer::kCoarse, 1, 2, 0},
                                       {Layer::kCoarse, 1, 0, 0}, {Layer::kCoarse, 2, 0, 0}};
   for (const TileCoord& c : all) tiles.subscribe(c, std::nullopt, 0);
   tiles.set_focus(std::make_pair(5.5 * kTileSize, 0.5 * kTileSize));  // over mip-0 tile (5, 0)
-  const std::vector<TileCoord> order = tiles.due_in_order();
-  const std::vector<TileCoord> expected = {{Layer::kCoarse, 2, 0, 0}, {Layer::kCoarse, 1, 2, 0},
-                                           {Layer::kCoarse, 1, 0, 0}, {Layer::kCoarse, 0, 5, 0},
-                                           {Layer::kCoarse, 0, 2, 0}, {Layer::kCoarse, 0, 0, 0}};
-  EXPECT_EQ(order, expected);
+  // The top level; then the tiles holding the focus (finer first); then by distance.
+  const std::vector<TileCoord> expected = {{Layer::kCoarse, 2, 0, 0}, {Layer::kCoarse, 0, 5, 0},
+                                           {Layer::kCoarse, 1, 2, 0}, {Layer::kCoarse, 0, 2, 0},
+                                           {Layer::kCoarse, 1, 0, 0}, {Layer::kCoarse, 0, 0, 0}};
+  EXPECT_EQ(tiles.due_in_order(), expected);
+  tiles.set_focus(std::nullopt);  // no focus: coarsest mip first
+  const std::vector<TileCoord> by_mip = {{Layer::kCoarse, 2, 0, 0}, {Layer::kCoarse, 1, 0, 0},
+                                         {Layer::kCoarse, 1, 2, 0}, {Layer::kCoarse, 0, 0, 0},
+                                         {Layer::kCoarse, 0, 2, 0}, {Layer::kCoarse, 0, 5, 0}};
+  EXPECT_EQ(tiles.due_in_order(), by_mip);
 }
 
 TEST(ClientTilesPlanner, SubscribingAtTheCurrentVersionNeedsNothing) {

@@ -4,45 +4,24 @@
 // expected.txt. Run through tests/golden/replay/regenerate.sh.
 #include <cstdio>
 #include <filesystem>
-#include <random>
 #include <string>
 
 #include "protocol/log/log_file.h"
-#include "protocol/stamps/stamp_validate.h"
 #include "server/replay.h"
 #include "server/terrain_source.h"
+#include "tests/support/random_stamps.h"
 
 using namespace loam;
 
 namespace {
 
-QuantizedStamp make_stamp(std::mt19937& rng, const WorldParams& w, int i) {
-  const RectI r = w.sample_rect();
-  std::uniform_real_distribution<double> ux(double(r.x0) * w.meters_per_sample,
-                                            double(r.x1 - 1) * w.meters_per_sample);
-  std::uniform_real_distribution<double> uy(double(r.y0) * w.meters_per_sample,
-                                            double(r.y1 - 1) * w.meters_per_sample);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  for (;;) {
-    StampParams p;
-    p.kind =
-        StampKind(i % kStampKindCount == 0 ? 1 : i % kStampKindCount);  // no texture (no image registered)
-    p.center_x = ux(rng);
-    p.center_y = uy(rng);
-    p.radius = 2.0 + 40.0 * unit(rng);
-    p.rotation = 6.28 * unit(rng);
-    p.intensity = -3.0 + 6.0 * unit(rng);
-    p.shape = 0.3;
-    if (p.kind == StampKind::kCrater) p.intensity = 0.5 + 3.0 * unit(rng), p.volume_conserving = i % 4 == 0;
-    if (p.kind == StampKind::kFootprint) p.intensity = 0.3, p.radius = 3.0;
-    if (p.kind == StampKind::kFlatten) p.intensity = 0.5, p.target = 30.0 * unit(rng);
-    if (p.kind == StampKind::kShockwave)
-      p.radius = 6.0, p.intensity = 0.5, p.steps = 30, p.speed = 0.6, p.damping = 0.02;
-    if (i % 7 == 3)
-      p.kind = StampKind::kGaussian, p.layer = Layer::kDetail, p.radius = 1.5, p.intensity = 0.05;
-    auto q = validate_stamp(p, w);
-    if (q) return *q;
-  }
+// Stamp i is of the i-th kind in turn (every kind but texture: no image is registered), drawn
+// by the tests' generator; shockwaves stay small.
+Result<QuantizedStamp> make_stamp(test::StampRng& rng, const WorldParams& w, int i) {
+  test::RandomStampOptions o = test::random_stamp_options(w);
+  o.kinds = {o.kinds[size_t(i) % o.kinds.size()]};
+  o.max_radius_of_kind[size_t(StampKind::kShockwave)] = 6.0;
+  return test::random_valid_stamp(rng, o, w);
 }
 
 }  // namespace
@@ -74,11 +53,15 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s\n", writer.error().describe().c_str());
       return 1;
     }
-    std::mt19937 rng(seed);
+    test::StampRng rng(seed);
     const int count = 40 + int(seed) * 10;
     for (int i = 0; i < count; ++i) {
-      const Status st =
-          writer->append({uint64_t(i + 1), uint64_t(i / 3), seed, make_stamp(rng, world->params(), i)});
+      const auto stamp = make_stamp(rng, world->params(), i);
+      if (!stamp) {
+        std::fprintf(stderr, "%s\n", stamp.error().describe().c_str());
+        return 1;
+      }
+      const Status st = writer->append({uint64_t(i + 1), uint64_t(i / 3), seed, *stamp});
       if (!st.ok()) {
         std::fprintf(stderr, "%s\n", st.error().describe().c_str());
         return 1;

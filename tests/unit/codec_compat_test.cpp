@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
 #include "protocol/tile_hash.h"
 
@@ -33,7 +34,7 @@ std::vector<T> read_samples(const fs::path& p) {
   std::vector<T> s(b.size() / sizeof(T));
   for (size_t i = 0; i < s.size(); ++i) {
     if constexpr (sizeof(T) == 2) {
-      s[i] = uint16_t(b[2 * i] | (b[2 * i + 1] << 8));
+      s[i] = load_le<uint16_t>(b.data() + 2 * i);
     } else {
       s[i] = int8_t(b[i]);
     }

@@ -9,10 +9,10 @@
 #include <filesystem>
 #include <fstream>
 
+#include "protocol/byte_order.h"
 #include "protocol/log/log_file.h"
 #include "protocol/log/log_format.h"
 #include "protocol/log/log_json.h"
-#include "protocol/wire/byte_stream.h"
 #include "tests/unit/wire_samples.h"
 
 namespace loam::log {
@@ -143,10 +143,10 @@ TEST(LogFormat, TicksGoingBackwardsAreAnError) {
 
 TEST(LogFormat, UnknownFormatVersionIsUnsupportedEvenWithAValidChecksum) {
   std::vector<uint8_t> bytes = make_segment(sample_segment_header(), 1, 0);
-  wire::store_le<uint16_t>(bytes.data() + 12,
-                           kLogFormatVersion + 1);  // format_version, the body's first field
+  store_le<uint16_t>(bytes.data() + 12,
+                     kLogFormatVersion + 1);  // format_version, the body's first field
   const size_t body_end = bytes.size() - 8;
-  wire::store_le<uint64_t>(bytes.data() + body_end, XXH3_64bits(bytes.data(), body_end));
+  store_le<uint64_t>(bytes.data() + body_end, XXH3_64bits(bytes.data(), body_end));
   Result<SegmentScan> scan = scan_segment(bytes);
   ASSERT_FALSE(scan.ok());
   EXPECT_EQ(scan.error().code, ErrorCode::kUnsupported);
@@ -155,7 +155,7 @@ TEST(LogFormat, UnknownFormatVersionIsUnsupportedEvenWithAValidChecksum) {
 
 TEST(LogFormat, HeaderLengthBeyondItsCapIsOversizeWithoutAllocating) {
   std::vector<uint8_t> bytes = make_segment(sample_segment_header(), 1, 0);
-  wire::store_le<uint32_t>(bytes.data() + 8, 0xFFFFFFFFu);
+  store_le<uint32_t>(bytes.data() + 8, 0xFFFFFFFFu);
   Result<SegmentScan> scan = scan_segment(bytes);
   ASSERT_FALSE(scan.ok());
   EXPECT_EQ(scan.error().code, ErrorCode::kOversize);

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "protocol/wire/byte_stream.h"
+#include "protocol/byte_order.h"
 
 namespace loam {
 namespace {
@@ -55,12 +55,12 @@ TEST(StampImageFile, EveryPrefixAndEveryFlippedByteIsAnErrorNamingTheFile) {
 
 TEST(StampImageFile, HeaderClaimingAHugeImageIsRefusedBeforeAllocating) {
   std::vector<uint8_t> bytes = encode_stamp_image(sample_image(2, 2));
-  wire::store_le<uint32_t>(bytes.data() + 8, 4096);
-  wire::store_le<uint32_t>(bytes.data() + 12, 4096);  // 32 MiB claimed by a 32-byte file
+  store_le<uint32_t>(bytes.data() + 8, 4096);
+  store_le<uint32_t>(bytes.data() + 12, 4096);  // 32 MiB claimed by a 32-byte file
   auto r = decode_stamp_image(bytes, "huge.loamimg");
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kTruncated);
-  wire::store_le<uint32_t>(bytes.data() + 8, 5000);
+  store_le<uint32_t>(bytes.data() + 8, 5000);
   EXPECT_EQ(decode_stamp_image(bytes, "huge.loamimg").error().code, ErrorCode::kCorrupt);
 }
 

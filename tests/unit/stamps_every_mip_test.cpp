@@ -13,6 +13,7 @@
 #include "protocol/stamps/stamp_kernel.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
+#include "tests/unit/stamps_test_util.h"
 
 namespace loam {
 namespace {
@@ -55,15 +56,7 @@ struct Case {
   StampParams params;
 };
 
-StampParams stamp(StampKind kind, double x, double y, double radius, double intensity) {
-  StampParams s;
-  s.kind = kind;
-  s.center_x = x;
-  s.center_y = y;
-  s.radius = radius;
-  s.intensity = intensity;
-  return s;
-}
+using stamps_test::make_params;
 
 std::vector<Case> cases(const WorldParams& p, uint64_t texture_id) {
   const RectI r = p.sample_rect();
@@ -83,31 +76,31 @@ std::vector<Case> cases(const WorldParams& p, uint64_t texture_id) {
   for (const auto& [x, y] : centers) {
     const std::string at = " at (" + std::to_string(x) + ", " + std::to_string(y) + ")";
     const double radius = 9.0 + 13.0 * (n++ % 4);
-    out.push_back({"gaussian add" + at, stamp(StampKind::kGaussian, x, y, radius, 3.5)});
-    StampParams sub = stamp(StampKind::kGaussian, x, y, radius * 1.7, 2.0);
+    out.push_back({"gaussian add" + at, make_params(StampKind::kGaussian, x, y, radius, 3.5)});
+    StampParams sub = make_params(StampKind::kGaussian, x, y, radius * 1.7, 2.0);
     sub.blend = BlendMode::kSubtract;
     out.push_back({"gaussian subtract" + at, sub});
-    StampParams mn = stamp(StampKind::kGaussian, x, y, radius, -4.0);
+    StampParams mn = make_params(StampKind::kGaussian, x, y, radius, -4.0);
     mn.blend = BlendMode::kMin;
     mn.target = 480.0;
     out.push_back({"gaussian min" + at, mn});
-    StampParams mx = stamp(StampKind::kGaussian, x, y, radius, 4.0);
+    StampParams mx = make_params(StampKind::kGaussian, x, y, radius, 4.0);
     mx.blend = BlendMode::kMax;
     mx.target = 470.0;
     out.push_back({"gaussian max" + at, mx});
-    StampParams crater = stamp(StampKind::kCrater, x, y, radius, 6.0);
+    StampParams crater = make_params(StampKind::kCrater, x, y, radius, 6.0);
     crater.shape = 0.3;
     out.push_back({"crater" + at, crater});
     StampParams vc = crater;
     vc.volume_conserving = true;
     out.push_back({"volume-conserving crater" + at, vc});
-    StampParams foot = stamp(StampKind::kFootprint, x, y, radius * 0.6, 1.5);
+    StampParams foot = make_params(StampKind::kFootprint, x, y, radius * 0.6, 1.5);
     foot.rotation = 0.7;
     out.push_back({"footprint" + at, foot});
-    StampParams flat = stamp(StampKind::kFlatten, x, y, radius, 0.8);
+    StampParams flat = make_params(StampKind::kFlatten, x, y, radius, 0.8);
     flat.target = 470.0;
     out.push_back({"flatten" + at, flat});
-    StampParams tex = stamp(StampKind::kTexture, x, y, radius, 5.0);
+    StampParams tex = make_params(StampKind::kTexture, x, y, radius, 5.0);
     tex.rotation = 1.1;
     tex.texture_id = texture_id;
     out.push_back({"texture" + at, tex});
@@ -168,7 +161,7 @@ TEST(StampsEveryMip, FootprintWithTheServersContactNeedsNoSamplesUnderTheFoot) {
   // comes out exactly as the server's.
   const WorldParams p = odd_world();
   const World server_before = rough_world(p);
-  auto q = validate_stamp(stamp(StampKind::kFootprint, 2.0, 3.0, 30.0, 2.0), p);
+  auto q = validate_stamp(make_params(StampKind::kFootprint, 2.0, 3.0, 30.0, 2.0), p);
   ASSERT_TRUE(q.ok());
   auto baked = bake_stamp(*q, p);
   ASSERT_TRUE(baked.ok());

@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <random>
 #include <string>
 #include <vector>
 
@@ -14,21 +13,15 @@
 #include "protocol/stamps/stamp_fast.h"
 #include "protocol/stamps/stamp_profile.h"
 #include "stamps_test_util.h"
+#include "tests/support/random_stamps.h"
 
 namespace loam {
 namespace {
 
 using stamps_test::corner_world_params;
 
-// Deterministic draws on every platform (std distributions are not): raw mt19937 output.
-struct Rng {
-  std::mt19937 gen;
-  explicit Rng(uint32_t seed) : gen(seed) {}
-  uint32_t next() { return uint32_t(gen()); }
-  int64_t range(int64_t lo, int64_t hi) { return lo + int64_t(next() % uint32_t(hi - lo + 1)); }  // [lo, hi]
-  double unit() { return double(next()) / 4294967296.0; }                                         // [0, 1)
-  bool chance(uint32_t percent) { return next() % 100 < percent; }
-};
+// Deterministic draws on every platform (std distributions are not).
+using Rng = test::StampRng;
 
 std::vector<FastIsa> isas() {
   std::vector<FastIsa> v = {FastIsa::kBest, FastIsa::kPortable};
@@ -131,61 +124,14 @@ int64_t expect_same_as_reference(const World& base, const QuantizedStamp& q, con
   return changed;
 }
 
-// A random valid stamp of any per-sample kind. Radii are log-uniform from 1/256 sample up to
-// `max_radius` samples; centers anywhere in the layer, often on tile borders and corners.
+// A random valid stamp of any per-sample kind, aimed at tile borders, corners and the world's
+// edges (tests/support/random_stamps.h). Radii up to `max_radius` samples.
 StampParams random_params(Rng& rng, const WorldParams& p, double max_radius, uint64_t texture_id) {
-  StampParams s;
-  const StampKind kinds[] = {StampKind::kTexture, StampKind::kGaussian, StampKind::kCrater,
-                             StampKind::kFootprint, StampKind::kFlatten};
-  s.kind = kinds[rng.range(0, 4)];
-  if (s.kind == StampKind::kTexture && texture_id == 0) s.kind = StampKind::kGaussian;
-  s.layer = rng.chance(35) ? Layer::kDetail : Layer::kCoarse;
-  const double spacing =
-      s.layer == Layer::kCoarse ? p.meters_per_sample : p.meters_per_sample / p.detail_factor;
-  const double unit = s.layer == Layer::kCoarse ? p.meters_per_unit : p.detail_meters_per_unit;
-  const int64_t max_units = s.layer == Layer::kCoarse ? 65535 : 255;
-  const RectI lr = layer_sample_rect(p, s.layer);
-  auto coord = [&](int64_t lo, int64_t hi) {
-    const uint32_t pick = rng.next() % 4;
-    // Tile borders and the four-tile corner at sample 0 (and the world edges) need hitting
-    // often; a sub-sample offset in Q8 moves the center off the grid.
-    int64_t base = pick == 0 ? 0 : pick == 1 ? (rng.chance(50) ? lo : hi - 1) : rng.range(lo, hi - 1);
-    if (pick == 1 && base == hi - 1 && base < lo) base = lo;
-    return (double(base) + double(rng.range(0, 255)) / 256.0) * spacing;
-  };
-  s.center_x = coord(lr.x0, lr.x1);
-  s.center_y = coord(lr.y0, lr.y1);
-  const double log_lo = std::log(1.0 / 256.0), log_hi = std::log(max_radius);
-  s.radius = std::exp(log_lo + (log_hi - log_lo) * rng.unit()) * spacing;
-  s.rotation = double(rng.range(0, 65535)) / 65536.0 * 6.283185307179586;
-  if (rng.chance(15)) s.rotation = double(rng.range(0, 3)) * 1.5707963267948966;  // quarter turns
-  // Intensities up to the maximum so add, subtract, min and max saturate at both ends.
-  const int64_t units = rng.chance(20) ? max_units : rng.range(0, max_units / 8);
-  s.intensity = double(units) * unit * (rng.chance(50) ? 1.0 : -1.0);
-  s.blend = BlendMode(rng.range(0, 3));
-  s.target = s.layer == Layer::kCoarse ? double(rng.range(0, 65535)) * unit + p.height_offset
-                                       : double(rng.range(-128, 127)) * unit;
-  s.shape = rng.unit();
-  s.texture_id = texture_id;
-  switch (s.kind) {
-    case StampKind::kFootprint:
-      s.intensity = std::abs(s.intensity);
-      s.blend = BlendMode::kAdd;
-      break;
-    case StampKind::kFlatten:
-      s.intensity = rng.chance(20) ? 1.0 : rng.unit();
-      s.blend = BlendMode::kAdd;
-      break;
-    case StampKind::kCrater:
-      if (rng.chance(25) && (s.blend == BlendMode::kAdd || s.blend == BlendMode::kSubtract)) {
-        s.volume_conserving = true;
-      }
-      break;
-    default: break;
-  }
-  if (s.blend != BlendMode::kMin && s.blend != BlendMode::kMax && s.kind != StampKind::kFlatten)
-    s.target = 0.0;
-  return s;
+  test::RandomStampOptions o;
+  o.kinds = {StampKind::kTexture, StampKind::kGaussian, StampKind::kCrater, StampKind::kFootprint,
+             StampKind::kFlatten};
+  o.texture_id = texture_id;
+  return test::random_edge_case_stamp_params(rng, p, max_radius, o);
 }
 
 uint64_t add_random_texture(Rng& rng, TextureRegistry& reg) {

@@ -54,13 +54,11 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   Hello hello;
   hello.client_name = "viewer-1";
   hello.requested_role = Role::kPlayer;
-  hello.session_token = SessionToken{1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16};
+  hello.access_token = AccessToken{1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16};
   v.emplace_back("hello", hello);
   Welcome welcome;
   welcome.client_id = 7;
   welcome.granted_role = Role::kPlayer;
-  welcome.session_token = SessionToken{0xA0, 0xA1, 0xA2, 0xA3, 0xA4, 0xA5, 0xA6, 0xA7,
-                                       0xA8, 0xA9, 0xAA, 0xAB, 0xAC, 0xAD, 0xAE, 0xAF};
   welcome.world = sample_world();
   welcome.global_sequence = 123456;
   welcome.tick_rate_hz = 30;

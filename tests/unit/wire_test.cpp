@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 
+#include "protocol/byte_order.h"
 #include "protocol/wire/byte_stream.h"
 #include "protocol/wire/fields.h"
 #include "protocol/wire/framing.h"
@@ -162,16 +163,19 @@ TEST(WireDecode, BlobLengthBeyondItsCapIsOversize) {
   expect_error(decode_payload(type_of(reg), payload), ErrorCode::kOversize, "region.chunk");
 }
 
+// Welcome's WorldParams follow version_major(2) version_minor(2) client_id(4) granted_role(1).
+constexpr size_t kWelcomeWorldOffset = 9;
+
 TEST(WireDecode, NaNAndInfinityInWorldParametersAreRejectedByName) {
   const auto samples = sample_messages();
   const Message& welcome = samples[1].second;
   for (double bad : {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
                      -std::numeric_limits<double>::infinity()}) {
     std::vector<uint8_t> payload = payload_of(welcome);
-    put<uint64_t>(payload, 25, std::bit_cast<uint64_t>(bad));  // world.meters_per_sample
+    put<uint64_t>(payload, kWelcomeWorldOffset, std::bit_cast<uint64_t>(bad));  // world.meters_per_sample
     expect_error(decode_payload(type_of(welcome), payload), ErrorCode::kNotFinite, "world.meters_per_sample");
-    put<uint64_t>(payload, 25, std::bit_cast<uint64_t>(2.0));
-    put<uint64_t>(payload, 33, std::bit_cast<uint64_t>(bad));  // world.height_offset
+    put<uint64_t>(payload, kWelcomeWorldOffset, std::bit_cast<uint64_t>(2.0));
+    put<uint64_t>(payload, kWelcomeWorldOffset + 8, std::bit_cast<uint64_t>(bad));  // world.height_offset
     expect_error(decode_payload(type_of(welcome), payload), ErrorCode::kNotFinite, "world.height_offset");
   }
 }
@@ -179,7 +183,7 @@ TEST(WireDecode, NaNAndInfinityInWorldParametersAreRejectedByName) {
 TEST(WireDecode, WorldParametersOutOfRangeAreRejectedWithTheWorldPrefix) {
   Welcome w;
   std::vector<uint8_t> payload = payload_of(w);
-  put<int32_t>(payload, 25 + 44, 0);  // world.tiles_x
+  put<int32_t>(payload, kWelcomeWorldOffset + 44, 0);  // world.tiles_x
   expect_error(decode_payload(type_of(w), payload), ErrorCode::kInvalidArgument, "world.tiles_x");
 }
 
@@ -216,7 +220,7 @@ TEST(WireDecode, EnumerationsOutsideTheirKnownValuesAreBadEnum) {
   };
   const Case cases[] = {
       {Hello{}, 10, 4, "hello.requested_role"},
-      {Hello{}, 11, 2, "hello.has_session_token"},
+      {Hello{}, 11, 2, "hello.has_access_token"},
       {Deform{1, test::sample_stamp()}, 4, kStampKindCount, "stamp.kind"},
       {Deform{1, test::sample_stamp()}, 5, 2, "stamp.layer"},
       {Deform{1, test::sample_stamp()}, 6, kBlendModeCount, "stamp.blend"},

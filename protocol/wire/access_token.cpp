@@ -1,4 +1,4 @@
-#include "protocol/wire/session_token.h"
+#include "protocol/wire/access_token.h"
 
 namespace loam::wire {
 namespace {
@@ -18,18 +18,18 @@ std::string_view trim(std::string_view s) {
 
 }  // namespace
 
-Result<SessionToken> parse_session_token(std::string_view hex, const std::string& field) {
-  if (hex.size() != 2 * kSessionTokenBytes) {
+Result<AccessToken> parse_access_token(std::string_view hex, const std::string& field) {
+  if (hex.size() != 2 * kAccessTokenBytes) {
     return make_error(ErrorCode::kInvalidArgument, field,
-                      "a session token is " + std::to_string(2 * kSessionTokenBytes) + " hex digits, got " +
+                      "an access token is " + std::to_string(2 * kAccessTokenBytes) + " hex digits, got " +
                           std::to_string(hex.size()) + " characters");
   }
-  SessionToken t{};
+  AccessToken t{};
   for (size_t i = 0; i < t.size(); ++i) {
     const int hi = hex_value(hex[2 * i]), lo = hex_value(hex[2 * i + 1]);
     if (hi < 0 || lo < 0) {
       return make_error(ErrorCode::kInvalidArgument, field,
-                        "a session token holds only hex digits (0-9, a-f); character " +
+                        "an access token holds only hex digits (0-9, a-f); character " +
                             std::to_string(2 * i + (hi < 0 ? 1 : 2)) + " is not one");
     }
     t[i] = uint8_t(hi << 4 | lo);
@@ -37,7 +37,7 @@ Result<SessionToken> parse_session_token(std::string_view hex, const std::string
   return t;
 }
 
-std::string format_session_token(const SessionToken& token) {
+std::string format_access_token(const AccessToken& token) {
   static constexpr char kDigits[] = "0123456789abcdef";
   std::string out;
   out.reserve(2 * token.size());
@@ -48,13 +48,13 @@ std::string format_session_token(const SessionToken& token) {
   return out;
 }
 
-bool session_tokens_equal(const SessionToken& a, const SessionToken& b) {
+bool access_tokens_equal(const AccessToken& a, const AccessToken& b) {
   uint8_t diff = 0;
   for (size_t i = 0; i < a.size(); ++i) diff = uint8_t(diff | (a[i] ^ b[i]));
   return diff == 0;
 }
 
-Status parse_token_lines(std::string_view text, const std::string& source, SessionTokenList& out) {
+Status parse_token_lines(std::string_view text, const std::string& source, AccessTokenList& out) {
   size_t line_no = 0;
   while (!text.empty()) {
     const size_t end = text.find('\n');
@@ -68,13 +68,13 @@ Status parse_token_lines(std::string_view text, const std::string& source, Sessi
       return make_error(ErrorCode::kInvalidArgument, where, "expected 'editor TOKEN' or 'viewer TOKEN'");
     const std::string_view role = line.substr(0, space);
     const std::string_view hex = trim(line.substr(space + 1));
-    std::vector<SessionToken>* list = role == "editor"   ? &out.editors
-                                      : role == "viewer" ? &out.viewers
-                                                         : nullptr;
+    std::vector<AccessToken>* list = role == "editor"   ? &out.editors
+                                     : role == "viewer" ? &out.viewers
+                                                        : nullptr;
     if (!list)
       return make_error(ErrorCode::kInvalidArgument, where,
                         "unknown role '" + std::string(role) + "' (editor or viewer)");
-    auto token = parse_session_token(hex, where);
+    auto token = parse_access_token(hex, where);
     if (!token) return token.error();
     list->push_back(*token);
   }

@@ -1,0 +1,149 @@
+#include "tests/support/random_stamps.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace loam::test {
+
+std::vector<StampKind> all_stamp_kinds() {
+  std::vector<StampKind> kinds;
+  for (int k = 0; k < kStampKindCount; ++k) kinds.push_back(StampKind(k));
+  return kinds;
+}
+
+std::array<double, kStampKindCount> unlimited_radii() {
+  std::array<double, kStampKindCount> r;
+  r.fill(std::numeric_limits<double>::infinity());
+  return r;
+}
+
+RandomStampOptions random_stamp_options(const WorldParams& w) {
+  RandomStampOptions o;
+  o.kinds.erase(std::remove(o.kinds.begin(), o.kinds.end(), StampKind::kTexture), o.kinds.end());
+  const RectI r = w.sample_rect();
+  o.x0 = double(r.x0) * w.meters_per_sample;
+  o.y0 = double(r.y0) * w.meters_per_sample;
+  o.x1 = double(r.x1 - 1) * w.meters_per_sample;
+  o.y1 = double(r.y1 - 1) * w.meters_per_sample;
+  o.coarse_target_min = std::ceil(w.height_offset);
+  o.coarse_target_max =
+      std::max(o.coarse_target_min + 1.0, std::floor(w.height_offset + 65535.0 * w.meters_per_unit));
+  return o;
+}
+
+namespace {
+uint32_t steps(double lo, double hi, uint32_t per_meter) {
+  return std::max<uint32_t>(1, uint32_t((hi - lo) * double(per_meter)));
+}
+}  // namespace
+
+// The order of the draws below is the golden sequence's: each one is made whether or not the
+// kind uses it, so a change to one kind's parameters does not shift every later stamp.
+StampParams random_stamp_params(StampRng& rng, const RandomStampOptions& o) {
+  StampParams s;
+  s.kind = o.kinds[rng.below(uint32_t(o.kinds.size()))];
+  if (o.detail_one_in > 0) s.layer = rng.below(o.detail_one_in) == 0 ? Layer::kDetail : Layer::kCoarse;
+  if (s.layer == Layer::kDetail &&
+      std::find(o.detail_kinds.begin(), o.detail_kinds.end(), s.kind) == o.detail_kinds.end())
+    s.layer = Layer::kCoarse;
+  const bool coarse = s.layer == Layer::kCoarse;
+  s.center_x =
+      o.x0 + double(rng.below(steps(o.x0, o.x1, o.center_steps_per_meter))) / o.center_steps_per_meter;
+  s.center_y =
+      o.y0 + double(rng.below(steps(o.y0, o.y1, o.center_steps_per_meter))) / o.center_steps_per_meter;
+  s.radius = o.min_radius + double(rng.below(steps(o.min_radius, o.max_radius, o.radius_steps_per_meter))) /
+                                o.radius_steps_per_meter;
+  s.rotation = double(rng.below(1000)) / 100.0;
+  s.intensity =
+      (double(rng.below(200)) - 100.0) / (100.0 / (coarse ? o.coarse_max_intensity : o.detail_max_intensity));
+  const double min_intensity = coarse ? o.coarse_min_intensity : o.detail_min_intensity;
+  if (std::fabs(s.intensity) < min_intensity)
+    s.intensity = s.intensity < 0.0 ? -min_intensity : min_intensity;
+  s.shape = double(rng.below(100)) / 100.0;
+  s.texture_id = o.texture_id;
+  s.steps = 1 + rng.below(20);
+  s.speed = 0.2 + double(rng.below(70)) / 100.0;
+  s.damping = double(rng.below(10)) / 100.0;
+  if (s.kind == StampKind::kFlatten)
+    s.intensity = std::max(double(rng.below(100)) / 100.0, o.min_flatten_strength);
+  if (s.kind == StampKind::kFootprint) s.intensity = std::fabs(s.intensity);
+  if (s.kind == StampKind::kCrater) s.volume_conserving = rng.below(2) == 1;
+  const double target =
+      coarse ? double(rng.below(steps(o.coarse_target_min, o.coarse_target_max, 1))) + o.coarse_target_min
+             : o.detail_target;
+  if (s.kind == StampKind::kGaussian || s.kind == StampKind::kTexture)
+    s.blend = o.blends[rng.below(uint32_t(o.blends.size()))];
+  // Only flatten and the min/max blends take a target (the draw stays, so the sequence does).
+  if (s.kind == StampKind::kFlatten || s.blend == BlendMode::kMin || s.blend == BlendMode::kMax)
+    s.target = target;
+  s.radius = std::min(s.radius, o.max_radius_of_kind[size_t(s.kind)]);
+  return s;
+}
+
+StampParams random_edge_case_stamp_params(StampRng& rng, const WorldParams& p, double max_radius_samples,
+                                          const RandomStampOptions& o) {
+  StampParams s;
+  s.kind = o.kinds[rng.below(uint32_t(o.kinds.size()))];
+  if (s.kind == StampKind::kTexture && o.texture_id == 0) s.kind = StampKind::kGaussian;
+  if (o.detail_one_in > 0) s.layer = rng.below(o.detail_one_in) == 0 ? Layer::kDetail : Layer::kCoarse;
+  const bool coarse = s.layer == Layer::kCoarse;
+  const double spacing = coarse ? p.meters_per_sample : p.meters_per_sample / p.detail_factor;
+  const double unit = coarse ? p.meters_per_unit : p.detail_meters_per_unit;
+  const int64_t max_units = coarse ? 65535 : 255;
+  const RectI lr = layer_sample_rect(p, s.layer);
+  auto coord = [&](int64_t lo, int64_t hi) {
+    // Sample 0 (where tiles meet), the world's edges, or anywhere; a Q8 sub-sample offset
+    // moves the center off the grid.
+    const uint32_t pick = rng.below(4);
+    int64_t base = pick == 0 ? 0 : pick == 1 ? (rng.chance(50) ? lo : hi - 1) : rng.range(lo, hi - 1);
+    if (pick == 1 && base == hi - 1 && base < lo) base = lo;
+    return (double(base) + double(rng.range(0, 255)) / 256.0) * spacing;
+  };
+  s.center_x = coord(lr.x0, lr.x1);
+  s.center_y = coord(lr.y0, lr.y1);
+  const double log_lo = std::log(1.0 / 256.0), log_hi = std::log(max_radius_samples);
+  s.radius = std::exp(log_lo + (log_hi - log_lo) * rng.unit()) * spacing;
+  s.rotation = double(rng.range(0, 65535)) / 65536.0 * 6.283185307179586;
+  if (rng.chance(15)) s.rotation = double(rng.range(0, 3)) * 1.5707963267948966;  // quarter turns
+  const int64_t units = rng.chance(20) ? max_units : rng.range(0, max_units / 8);
+  s.intensity = double(units) * unit * (rng.chance(50) ? 1.0 : -1.0);
+  s.blend = BlendMode(rng.range(0, 3));
+  s.target =
+      coarse ? double(rng.range(0, 65535)) * unit + p.height_offset : double(rng.range(-128, 127)) * unit;
+  s.shape = rng.unit();
+  s.texture_id = o.texture_id;
+  switch (s.kind) {
+    case StampKind::kFootprint:
+      s.intensity = std::abs(s.intensity);
+      s.blend = BlendMode::kAdd;
+      break;
+    case StampKind::kFlatten:
+      s.intensity = rng.chance(20) ? 1.0 : rng.unit();
+      s.blend = BlendMode::kAdd;
+      break;
+    case StampKind::kCrater:
+      if (rng.chance(25) && (s.blend == BlendMode::kAdd || s.blend == BlendMode::kSubtract)) {
+        s.volume_conserving = true;
+      }
+      break;
+    default: break;
+  }
+  // Only flatten and the min/max blends take a target.
+  if (s.blend != BlendMode::kMin && s.blend != BlendMode::kMax && s.kind != StampKind::kFlatten)
+    s.target = 0.0;
+  return s;
+}
+
+Result<QuantizedStamp> random_valid_stamp(StampRng& rng, const RandomStampOptions& options,
+                                          const WorldParams& world, const StampLimits& limits,
+                                          const TextureRegistry* textures, int attempts) {
+  Error last = make_error(ErrorCode::kInvalidArgument, "attempts", "no draws allowed");
+  for (int i = 0; i < attempts; ++i) {
+    auto q = validate_stamp(random_stamp_params(rng, options), world, limits, textures);
+    if (q.ok()) return q;
+    last = q.error();
+  }
+  return last;
+}
+
+}  // namespace loam::test
