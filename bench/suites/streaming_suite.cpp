@@ -579,7 +579,7 @@ int run_streaming(const Context& ctx, Report& report) {
   report.paragraph(
       "**Bytes per stamp per client in sync.** Every client holds every coarse tile at every mip of the "
       "embedded "
-      "terrain; an editor sends gaussians, craters (half of them volume-conserving), footprints and flattens "
+      "terrain; an editor sends gaussians, craters, footprints and flattens (add and subtract) "
       "of radius "
       "4-40 samples anywhere, then shockwaves. A per-sample stamp costs a client its DeformEvent alone (it "
       "applies the "
@@ -622,9 +622,9 @@ int run_streaming(const Context& ctx, Report& report) {
     report.paragraph(
         "**A client joining at 128 KiB/s** (the default budget) with a clipmap viewer's subscription (mips "
         "by distance, "
-        "client/render/clipmap_interest.h) and its focus at the world's center. Regions leave coarsest mip "
-        "first, then "
-        "nearest the focus. The error is the height the client can show at 4000 probes over its view (the "
+        "client/render/clipmap_interest.h) and its focus at the world's center. Regions leave the coarsest "
+        "subscribed level first, then nearest the focus (finer first among equals, docs/streaming.md). The "
+        "error is the height the client can show at 4000 probes over its view (the "
         "finest mip it "
         "holds there, read as the display reads it) against mip 0, in meters.");
     report.table(std::move(join_table));
@@ -656,7 +656,7 @@ int run_streaming(const Context& ctx, Report& report) {
     report.paragraph(
         "**A join storm.** Four editors stamp at 5 stamps/s each; then 16 viewers join at once, each "
         "subscribing to "
-        "its clipmap view (a few hundred tiles) at the default budget. Encoding is bounded per tick and "
+        "its clipmap view (about 40 tiles, 1.6 MB) at the default budget. Encoding is bounded per tick and "
         "cached, so the "
         "editors' acks should not wait for it.");
     report.table(std::move(storm_table));
@@ -703,7 +703,10 @@ int run_streaming(const Context& ctx, Report& report) {
       "history "
       "(the last 64 changes of each recently changed tile) gives the samples changed since, which go as "
       "patches over "
-      "the held version; `the same tiles whole` is what resending the changed tiles whole would cost.");
+      "the held version; `the same tiles whole` is what resending the changed tiles whole would cost (at the "
+      "initial terrain's average tile size). Stamps spread over this small world change most of every tile, "
+      "so the patches' rects cover nearly whole tiles and save nothing here; a delta against the held "
+      "samples would (not yet: the history keeps rects, not samples).");
   report.table(std::move(resume_table));
   std::printf("  resume: %llu bytes against %llu whole (%zu tiles changed)\n",
               (unsigned long long)rs.resume_bytes, (unsigned long long)rs.whole_bytes, rs.changed_tiles);
