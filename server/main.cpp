@@ -196,6 +196,16 @@ int main(int argc, char** argv) {
                    "Encoded regions kept for other clients")
       ->capture_default_str()
       ->check(cli::IntRange(0, int64_t(1) << 40));
+  serve_cmd
+      ->add_option("--best-after-uses", config.best_after_uses,
+                   "Re-encode a whole tile in the best mode once sent this often (0: never)")
+      ->capture_default_str()
+      ->check(cli::IntRange(0, 1 << 20));
+  serve_cmd
+      ->add_option("--history-bytes", config.history_bytes,
+                   "Samples kept of recent changes, for delta patches to clients behind")
+      ->capture_default_str()
+      ->check(cli::IntRange(0, int64_t(1) << 40));
   serve_cmd->add_option("--snapshot-every", config.snapshot_every_stamps, "Stamps between snapshots (0: off)")
       ->capture_default_str()
       ->check(cli::IntRange(0, int64_t(1) << 40));

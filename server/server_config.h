@@ -41,10 +41,13 @@ struct ServerConfig {
   uint32_t client_bytes_per_second = 128u << 10;
   uint32_t max_encodes_per_tick = 32;         // regions encoded per tick, all clients together
   uint64_t region_cache_bytes = 64ull << 20;  // encoded regions kept for other clients
-  // Resume: the last changes of recently changed tiles, so a client back from a disconnect
-  // gets only the samples changed since the version it holds (~40 bytes a change).
+  uint32_t best_after_uses = 2;  // a whole tile sent this often is re-encoded in the best mode (0: never)
+  // Resume: the last changes of recently changed tiles and the samples they replaced, so a
+  // client back from a disconnect, or missing a shockwave, gets a delta against the version it
+  // holds (~40 bytes a change plus the replaced samples, within history_bytes).
   uint32_t history_changes_per_tile = 64;
   uint32_t history_tiles = 16384;
+  uint64_t history_bytes = 32ull << 20;
   // Persistence and reporting.
   uint64_t snapshot_every_stamps = 20000;  // 0: only at shutdown
   double snapshot_interval_s = 600.0;      // 0: only by count and at shutdown

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "protocol/hex64.h"
+#include "protocol/stamps/stamp_apply.h"
 #include "protocol/wire/framing.h"
 #include "server/event_log.h"
 
@@ -40,8 +41,8 @@ ReplicationCore::ReplicationCore(ServerConfig config, OpenedStorage opened, Core
     : config_(std::move(config)),
       storage_(std::move(opened.storage)),
       terrain_(std::move(opened.terrain)),
-      frames_(config_.region_cache_bytes),
-      history_(config_.history_changes_per_tile, config_.history_tiles),
+      frames_(config_.region_cache_bytes, config_.best_after_uses),
+      history_(config_.history_changes_per_tile, config_.history_tiles, config_.history_bytes),
       started_(now),
       last_snapshot_time_(now) {
   // Ticks continue the log's: its writer refuses a tick that goes backwards, and a restarted
@@ -359,6 +360,7 @@ void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>
   if (!storage_.writable()) try_resume_storage(now);
   if (!batch.empty()) commit_batch(std::move(batch), now);
   if (failed_) return;
+  frames_.adopt_best();
   stream_regions(now, unsent);
   if (config_.hashes_every_ticks > 0 && tick_ % config_.hashes_every_ticks == 0) {
     for (auto& [id, c] : clients_) {
@@ -405,6 +407,12 @@ void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime no
   // 2. Apply, acknowledge, fan out events (one encoding for every client), plan regions.
   for (const PendingDeform& p : batch) {
     const uint64_t s_seq = terrain_.last_seq() + 1;
+    // The samples the stamp may change, as they are now: the tile history keeps them so that
+    // a client behind gets a delta against what it holds. A stamp reaching more than a quarter
+    // of the history's bytes (a large shockwave) is recorded without them.
+    std::vector<TileSamples> before;
+    if (auto reach = stamp_reach(p.stamp, terrain_.world().params(), &terrain_.textures(), terrain_.limits()))
+      before = read_reach(terrain_.world(), p.stamp.layer, *reach, config_.history_bytes / 8);
     auto applied = terrain_.apply(p.stamp, s_seq, p.client);
     for (const Error& e : terrain_.take_backend_failures())
       log_event("backend_error",
@@ -415,7 +423,7 @@ void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime no
     acknowledge(p, s_seq);
     if (!applied) continue;
     const AppliedStamp& a = *applied;
-    history_.record(a.changes);
+    history_.record(a.changes, before);
     wire::DeformEvent ev;
     ev.global_seq = a.seq;
     ev.origin_client_id = a.client_id;
@@ -469,7 +477,7 @@ void ReplicationCore::stream_regions(CoreTime now, const std::function<uint64_t(
         if (frames.empty()) break;
       } else {
         bool encoded = false;
-        auto got = frames_.get(terrain_.world(), t, need.base, need.rect, &encoded);
+        auto got = frames_.get(terrain_.world(), &history_, t, need.base, need.rect, &encoded);
         if (encoded) --encodes_left;
         if (!got) {
           log_event("encode_error", {{"tile", to_string(t)}, {"error", got.error().describe()}});
@@ -575,6 +583,10 @@ void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
                       {"partial_regions_sent", std::to_string(stats_.partial_regions_sent)},
                       {"region_encodes", std::to_string(rc.encodes)},
                       {"region_cache_hits", std::to_string(rc.hits)},
+                      {"region_deltas", std::to_string(rc.delta_encodes)},
+                      {"region_best_upgrades", std::to_string(rc.best_upgrades)},
+                      {"region_best_bytes_saved", std::to_string(rc.best_bytes_saved)},
+                      {"history_bytes", std::to_string(history_.bytes())},
                       {"max_queue_bytes", std::to_string(max_queue_bytes)},
                       {"tick_p50_ms", std::to_string(last_p50_ms_)},
                       {"tick_p99_ms", std::to_string(last_p99_ms_)},

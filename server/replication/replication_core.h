@@ -14,9 +14,12 @@
 //    then nearest the client's focus, at the tile's newest version, encoded once for every
 //    client needing the same bytes (region_frames.h), with a bound on encodes per tick so a
 //    join storm cannot stall the tick; acks, events, pongs and errors go at once, outside it;
+//    patches for a client behind are deltas against what it holds (tile_history.h), and
+//    tiles sent to many are re-encoded in the best mode on a worker thread;
 //  - TileHashes, snapshots, storage back-off after a failed sync, and stats.
 //
-// Single-threaded: call it from one thread (the transport's I/O thread).
+// Call it from one thread (the transport's I/O thread); only the best-mode re-encodes run on
+// a worker of their own.
 #pragma once
 
 #include <chrono>
@@ -92,6 +95,9 @@ class ReplicationCore {
   const ServerStats& stats() const { return stats_; }
   ServerStats& mutable_stats() { return stats_; }  // the transport counts bytes in and out
   const RegionFrameCounters& region_counters() const { return frames_.counters(); }
+  const TileHistory& tile_history() const { return history_; }
+  // Waits for the best-mode re-encodes running off the tick thread and adopts them (tests).
+  void finish_background_encodes() { frames_.finish_best(); }
   bool failed() const { return failed_; }
   uint64_t tick_count() const { return tick_; }
   const TerrainState& terrain() const { return terrain_; }

@@ -1,41 +1,162 @@
 #include "server/replication/tile_history.h"
 
+#include <type_traits>
+
+#include "protocol/tile_rect.h"
+
 namespace loam::server {
 
-void TileHistory::record(std::span<const TileChange> changes) {
+std::vector<TileSamples> read_reach(const World& world, Layer layer, const RectI& reach0,
+                                    uint64_t max_samples) {
+  const WorldParams& p = world.params();
+  // Every (tile, global rect) first, so that nothing is copied when the total is too large.
+  struct Part {
+    TileCoord tile;
+    RectI local;
+  };
+  std::vector<Part> parts;
+  uint64_t total = 0;
+  auto cover = [&](Layer l, int32_t mip, const RectI& global, const RectI& tile_range) {
+    const RectI tiles = tiles_overlapping(global).intersect(tile_range);
+    for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+      for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+        const RectI local = global.intersect(tile_rect(int32_t(tx), int32_t(ty)))
+                                .translated(-tx * kTileSize, -ty * kTileSize);
+        if (local.empty()) continue;
+        total += uint64_t(local.area());
+        parts.push_back({TileCoord{l, uint8_t(mip), int32_t(tx), int32_t(ty)}, local});
+      }
+    }
+  };
+  if (layer == Layer::kDetail) {
+    const RectI r = reach0.intersect(p.detail_sample_rect());
+    cover(Layer::kDetail, 0, r, tiles_overlapping(p.detail_sample_rect()));
+  } else {
+    for (int32_t m = 0; m < p.mip_count() && total <= max_samples; ++m)
+      cover(Layer::kCoarse, m, mip_samples_reaching(p, m, reach0), p.tile_range(m));
+  }
+  if (total > max_samples) return {};
+  std::vector<TileSamples> out;
+  out.reserve(parts.size());
+  for (const Part& part : parts) {
+    TileSamples s{part.tile, part.local, {}, {}};
+    if (layer == Layer::kDetail)
+      s.detail = copy_tile_rect(world.detail_tile(part.tile.tx, part.tile.ty), part.local);
+    else
+      s.coarse = copy_tile_rect(world.coarse_tile(part.tile.mip, part.tile.tx, part.tile.ty), part.local);
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+namespace {
+
+// Copies the samples of `part` from `src` (row-major over src_rect) into `dst` (row-major over
+// dst_rect); both rects contain `part`, all in one grid.
+template <typename T>
+void copy_sub(std::span<const T> src, const RectI& src_rect, std::span<T> dst, const RectI& dst_rect,
+              const RectI& part) {
+  for (int64_t y = part.y0; y < part.y1; ++y) {
+    const T* s = src.data() + (y - src_rect.y0) * src_rect.width() + (part.x0 - src_rect.x0);
+    T* d = dst.data() + (y - dst_rect.y0) * dst_rect.width() + (part.x0 - dst_rect.x0);
+    std::copy(s, s + part.width(), d);
+  }
+}
+
+}  // namespace
+
+void TileHistory::forget(std::map<TileCoord, Entry>::iterator it) {
+  for (const Change& ch : it->second.changes) bytes_ -= ch.bytes();
+  lru_.erase(it->second.lru);
+  tiles_.erase(it);
+}
+
+void TileHistory::record(std::span<const TileChange> changes, std::span<const TileSamples> before) {
   if (per_tile_ == 0 || max_tiles_ == 0) return;
   for (const TileChange& c : changes) {
     auto it = tiles_.find(c.coord);
     if (it == tiles_.end()) {
-      if (tiles_.size() >= max_tiles_) {
-        tiles_.erase(lru_.back());
-        lru_.pop_back();
-      }
+      if (tiles_.size() >= max_tiles_) forget(tiles_.find(lru_.back()));
       lru_.push_front(c.coord);
       it = tiles_.emplace(c.coord, Entry{{}, lru_.begin()}).first;
     } else {
       lru_.splice(lru_.begin(), lru_, it->second.lru);
     }
-    std::deque<TileChange>& list = it->second.changes;
-    list.push_back(c);
-    if (list.size() > per_tile_) list.pop_front();
+    Change rec{c, false, {}, {}};
+    for (const TileSamples& s : before) {
+      if (s.tile != c.coord || !s.rect.contains(c.rect)) continue;
+      const bool coarse = c.coord.layer == Layer::kCoarse;
+      if (size_t(s.rect.area()) != (coarse ? s.coarse.size() : s.detail.size())) break;
+      if (coarse) {
+        rec.coarse.resize(size_t(c.rect.area()));
+        copy_sub<uint16_t>(s.coarse, s.rect, rec.coarse, c.rect, c.rect);
+      } else {
+        rec.detail.resize(size_t(c.rect.area()));
+        copy_sub<int8_t>(s.detail, s.rect, rec.detail, c.rect, c.rect);
+      }
+      rec.kept = true;
+      break;
+    }
+    std::deque<Change>& list = it->second.changes;
+    bytes_ += rec.bytes();
+    list.push_back(std::move(rec));
+    if (list.size() > per_tile_) {
+      bytes_ -= list.front().bytes();
+      list.pop_front();
+    }
   }
+  while (bytes_ > max_bytes_ && !lru_.empty()) forget(tiles_.find(lru_.back()));
 }
 
 std::optional<RectI> TileHistory::changed_since(const TileCoord& c, uint64_t held) const {
   const auto it = tiles_.find(c);
   if (it == tiles_.end()) return std::nullopt;
-  const std::deque<TileChange>& list = it->second.changes;
-  if (!list.empty() && list.back().new_version == held) return RectI{};
+  const std::deque<Change>& list = it->second.changes;
+  if (!list.empty() && list.back().change.new_version == held) return RectI{};
   // Versions chain: each change's base is the previous one's new version. Find the change made
   // right after `held` and unite the rects from there on.
   RectI rect;
   bool found = false;
-  for (const TileChange& ch : list) {
-    if (ch.base_version == held) found = true;
-    if (found) rect = rect.unite(ch.rect);
+  for (const Change& ch : list) {
+    if (ch.change.base_version == held) found = true;
+    if (found) rect = rect.unite(ch.change.rect);
   }
   return found ? std::optional<RectI>(rect) : std::nullopt;
+}
+
+template <typename T>
+std::optional<std::vector<T>> TileHistory::samples_at(const TileCoord& c, uint64_t held, const RectI& rect,
+                                                      std::span<const T> current) const {
+  if (current.size() != size_t(rect.area())) return std::nullopt;
+  const auto it = tiles_.find(c);
+  if (it == tiles_.end()) return std::nullopt;
+  const std::deque<Change>& list = it->second.changes;
+  std::vector<T> out(current.begin(), current.end());
+  if (!list.empty() && list.back().change.new_version == held) return out;
+  for (auto ch = list.rbegin(); ch != list.rend(); ++ch) {
+    const std::vector<T>* before;
+    if constexpr (std::is_same_v<T, uint16_t>)
+      before = &ch->coarse;
+    else
+      before = &ch->detail;
+    if (!ch->kept || !rect.contains(ch->change.rect) || before->size() != size_t(ch->change.rect.area()))
+      return std::nullopt;
+    copy_sub<T>(*before, ch->change.rect, out, rect, ch->change.rect);
+    if (ch->change.base_version == held) return out;
+  }
+  return std::nullopt;
+}
+
+std::optional<std::vector<uint16_t>> TileHistory::coarse_at(const TileCoord& c, uint64_t held,
+                                                            const RectI& rect,
+                                                            std::span<const uint16_t> current) const {
+  return samples_at<uint16_t>(c, held, rect, current);
+}
+
+std::optional<std::vector<int8_t>> TileHistory::detail_at(const TileCoord& c, uint64_t held,
+                                                          const RectI& rect,
+                                                          std::span<const int8_t> current) const {
+  return samples_at<int8_t>(c, held, rect, current);
 }
 
 }  // namespace loam::server

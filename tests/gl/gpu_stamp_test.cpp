@@ -13,6 +13,7 @@
 #include "protocol/stamps/stamp_kernel.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
+#include "tests/support/random_stamps.h"
 
 namespace loam::gpu {
 namespace {
@@ -65,85 +66,6 @@ struct Fixture {
     }
   }
 };
-
-// A Q8 coordinate somewhere interesting on an axis of `r` (layer samples).
-int64_t pick_coordinate(std::mt19937_64& rng, const RectI& r, bool x_axis, int64_t corner_pick) {
-  const int64_t lo = x_axis ? r.x0 : r.y0, hi = x_axis ? r.x1 : r.y1;
-  const int64_t frac = int64_t(rng() % 256);
-  int64_t s;
-  switch (corner_pick) {
-    case 0: s = lo + int64_t(rng() % uint64_t(hi - lo)); break;  // anywhere
-    case 1: {                                                    // a tile border
-      const int64_t t = floor_div(lo, kTileSize) + 1 + int64_t(rng() % uint64_t((hi - lo) / kTileSize - 1));
-      s = t * kTileSize + int64_t(rng() % 5) - 2;
-      break;
-    }
-    case 2: s = rng() % 2 ? lo + int64_t(rng() % 3) : hi - 1 - int64_t(rng() % 3); break;  // world edge
-    default: s = 0; break;  // the origin: a four-tile corner
-  }
-  s = std::clamp(s, lo, hi - 1);
-  return s * 256 + frac;
-}
-
-QuantizedStamp random_stamp(std::mt19937_64& rng, const WorldParams& world, const Fixture& fx,
-                            bool allow_shockwave) {
-  QuantizedStamp q;
-  const int kinds = allow_shockwave ? 6 : 5;
-  q.kind = StampKind(rng() % uint64_t(kinds));
-  q.layer = rng() % 2 ? Layer::kDetail : Layer::kCoarse;
-  const RectI r = layer_sample_rect(world, q.layer);
-  const int64_t pick = int64_t(rng() % 4);
-  q.center_x = pick_coordinate(rng, r, true, pick);
-  q.center_y = pick_coordinate(rng, r, false, pick == 3 ? 3 : int64_t(rng() % 4));
-  // Radii: tiny (down to 1/256 sample), ordinary, and the configured maximum.
-  switch (rng() % 10) {
-    case 0:
-    case 1: q.radius = uint32_t(1 + rng() % 512); break;
-    case 2: q.radius = 4096u * 256u; break;
-    default: q.radius = uint32_t(256 + rng() % (200 * 256)); break;
-  }
-  q.rotation = uint16_t(rng() % 4 == 0 ? (rng() % 4) * 16384 : rng());
-  const int32_t max_units = q.layer == Layer::kCoarse ? 65535 : 255;
-  // Saturating intensities a third of the time.
-  q.intensity = rng() % 3 == 0
-                    ? (rng() % 2 ? 1 : -1) * max_units * 256
-                    : int32_t(int64_t(rng() % uint64_t(2 * max_units * 256 + 1)) - max_units * 256);
-  q.blend = BlendMode(rng() % 4);
-  q.target =
-      int32_t(layer_min(q.layer) + int64_t(rng() % uint64_t(layer_max(q.layer) - layer_min(q.layer) + 1)));
-  q.shape = uint16_t(rng());
-  switch (q.kind) {
-    case StampKind::kTexture: q.texture_id = fx.texture_ids[rng() % fx.texture_ids.size()]; break;
-    case StampKind::kCrater:
-      if (q.blend == BlendMode::kAdd || q.blend == BlendMode::kSubtract) {
-        // The volume pre-pass walks the whole unclipped rect: keep it to ordinary radii.
-        if (rng() % 2 && q.radius < 300u * 256u) q.flags = kStampFlagVolumeConserving;
-      }
-      break;
-    case StampKind::kFootprint:
-      q.blend = BlendMode::kAdd;
-      q.intensity = std::abs(q.intensity);
-      break;
-    case StampKind::kFlatten:
-      q.blend = BlendMode::kAdd;
-      q.intensity = int32_t(rng() % 65537);
-      break;
-    case StampKind::kShockwave:
-      q.blend = BlendMode::kAdd;
-      q.radius = uint32_t(256 + rng() % (12 * 256));
-      q.steps = uint16_t(1 + rng() % 40);
-      q.speed = uint16_t(rng() % 3 == 0 ? 65535 : 1 + rng() % 65535);  // above the cap: sub-steps
-      q.damping = uint16_t(rng() % 2 ? 0 : rng());
-      break;
-    default: break;
-  }
-  // docs/stamps.md: a field is 0 on the kinds and blends that do not use it (the draws above
-  // stay, so the sequence of stamps is otherwise the same).
-  if (q.kind != StampKind::kFlatten && q.blend != BlendMode::kMin && q.blend != BlendMode::kMax) q.target = 0;
-  if (q.kind != StampKind::kCrater && q.kind != StampKind::kFootprint && q.kind != StampKind::kFlatten)
-    q.shape = 0;
-  return q;
-}
 
 // Texel mismatches between two worlds over both whole layers.
 int64_t count_mismatches(const World& a, const World& b) {
@@ -234,14 +156,14 @@ void expect_random_stamps_match_cpu(StampPath path, const char* what) {
   World gpu_world = cpu;
   auto g = GpuStamper::create(gpu_world, &fx.textures, {}, GpuStamperOptions{path});
   ASSERT_TRUE(g.ok()) << g.error().describe();
-  std::mt19937_64 rng(20240611);
+  loam::test::StampRng rng(20240611);
   std::vector<QuantizedStamp> stamps;
   // LOAM_GPU_CONFORMANCE_STAMPS shortens the run while debugging; CI runs the full count.
   const char* env = std::getenv("LOAM_GPU_CONFORMANCE_STAMPS");
   const size_t count = env ? size_t(std::strtoul(env, nullptr, 10)) : 1200;
   int vertex_stamps = 0;
   while (stamps.size() < count) {
-    QuantizedStamp q = random_stamp(rng, cpu.params(), fx, true);
+    QuantizedStamp q = loam::test::random_quantized_stamp(rng, cpu.params(), fx.texture_ids, true);
     if (!check_quantized(q, cpu.params(), {}, &fx.textures).ok()) continue;
     stamps.push_back(q);
     const auto baked = bake_stamp(q, cpu.params(), &fx.textures);

@@ -9,7 +9,10 @@
 #include <map>
 #include <set>
 
+#include "protocol/codec/region_codec.h"
+#include "protocol/stamps/stamp_apply.h"
 #include "protocol/stamps/stamp_validate.h"
+#include "protocol/tile_rect.h"
 #include "protocol/wire/framing.h"
 
 namespace loam::server {
@@ -287,6 +290,141 @@ TEST(ReplicationCore, AClientResumingBehindGetsPatchesOfTheSamplesChangedSinceIt
     samples += uint64_t(r.rect.area());
   }
   EXPECT_LT(samples, uint64_t(regions.size()) * kTileSamples / 8);
+}
+
+// The encoding a region's payload says it used (single-chunk regions).
+RegionEncoding encoding_of(const wire::RegionUpdate& r) {
+  EXPECT_EQ(r.chunk.size(), r.total_bytes);
+  auto header = read_region_header(r.chunk);
+  EXPECT_TRUE(header.ok());
+  return header.ok() ? header->encoding : RegionEncoding::kRaw;
+}
+
+TEST(ReplicationCore, PatchesForAClientBehindAreDeltasAgainstTheSamplesItHolds) {
+  ServerConfig config;
+  config.client_bytes_per_second = 0;
+  CoreHarness h(config);
+  const World initial = h.core().terrain().world();
+  const ClientId editor = h.join("editor");
+  uint32_t seq = 0;
+  for (int i = 0; i < 6; ++i) {
+    h.send(editor, wire::Deform{++seq, h.stamp(StampKind::kCrater, 200.0 + 15 * i, 250.0 + 3 * i, 12)});
+    h.send(editor, wire::Deform{++seq, h.stamp(StampKind::kGaussian, 240.0, 200.0 + 20 * i, 9)});
+    h.tick();
+  }
+  const ClientId back = h.join("back");
+  h.send(back, h.subscribe_all(true));  // holds everything at version 0
+  h.tick();
+  const World& now = h.core().terrain().world();
+  const auto regions = h.of(back).all<wire::RegionUpdate>();
+  ASSERT_FALSE(regions.empty());
+  for (const auto& r : regions) {
+    ASSERT_TRUE(r.patch);
+    EXPECT_EQ(encoding_of(r), RegionEncoding::kDelta) << to_string(r.tile);
+    // Decoded against the samples held at version 0, it gives the samples now.
+    const auto held = copy_tile_rect(initial.coarse_tile(r.tile.mip, r.tile.tx, r.tile.ty), r.rect);
+    auto decoded = decode_region(r.chunk, uint32_t(r.rect.width()), uint32_t(r.rect.height()),
+                                 RegionRefs<uint16_t>{.base = held, .coarser = {}});
+    ASSERT_TRUE(decoded.ok()) << decoded.error().describe();
+    EXPECT_EQ(*decoded, copy_tile_rect(now.coarse_tile(r.tile.mip, r.tile.tx, r.tile.ty), r.rect))
+        << to_string(r.tile);
+  }
+  EXPECT_EQ(h.core().region_counters().delta_encodes, regions.size());
+}
+
+TEST(ReplicationCore, AWholeTileSentToManyIsReencodedInTheBestModeOffTheTick) {
+  ServerConfig config;
+  config.client_bytes_per_second = 0;
+  config.best_after_uses = 2;
+  CoreHarness h(config);
+  const ClientId a = h.join("a"), b = h.join("b");
+  h.send(a, h.subscribe_all(false));
+  h.send(b, h.subscribe_all(false));
+  for (int i = 0; i < 100 && h.core().tiles_of(b)->due_count() > 0; ++i) h.tick();
+  const uint64_t fast_bytes = h.of(b).region_bytes;
+  h.core().finish_background_encodes();
+  const RegionFrameCounters rc = h.core().region_counters();
+  EXPECT_GT(rc.best_upgrades, 0u);
+  EXPECT_GT(rc.best_bytes_saved, 0u);
+  EXPECT_LT(rc.best_bytes_saved, fast_bytes / 4);  // a few percent: the fast mode is close
+  // A third client gets the smaller frames, and they decode to the same tiles.
+  const ClientId c = h.join("c");
+  h.send(c, h.subscribe_all(false));
+  for (int i = 0; i < 100 && h.core().tiles_of(c)->due_count() > 0; ++i) h.tick();
+  EXPECT_EQ(h.of(c).region_bytes + rc.best_bytes_saved, fast_bytes);
+  size_t best = 0;
+  const World& w = h.core().terrain().world();
+  for (const auto& r : h.of(c).all<wire::RegionUpdate>()) {
+    if (encoding_of(r) == RegionEncoding::kBest) ++best;
+    auto decoded = decode_region(r.chunk, kTileSize, kTileSize);
+    ASSERT_TRUE(decoded.ok());
+    const auto tile = w.coarse_tile(r.tile.mip, r.tile.tx, r.tile.ty);
+    EXPECT_TRUE(std::equal(decoded->begin(), decoded->end(), tile.begin(), tile.end()));
+  }
+  EXPECT_EQ(best, rc.best_upgrades);
+}
+
+TEST(TileHistory, SamplesAtAVersionAreRebuiltByUndoingEveryLaterChange) {
+  WorldParams p;
+  p.tiles_x = 3;
+  p.tiles_y = 2;
+  World world(p, 20000);
+  TileHistory history(64, 64);
+  std::map<uint64_t, World> at;  // the world after each stamp
+  at.emplace(0, world);
+  StampParams s;
+  s.kind = StampKind::kCrater;
+  s.radius = 40;
+  s.intensity = 3;
+  s.shape = 0.3;
+  for (uint64_t seq = 1; seq <= 8; ++seq) {
+    // Around the corner of four tiles and along the world's edge.
+    s.center_x = seq % 2 ? 256.0 + 9.0 * double(seq) : 760.0;
+    s.center_y = seq % 2 ? 250.0 : 20.0 * double(seq);
+    auto q = validate_stamp(s, p, {});
+    ASSERT_TRUE(q.ok());
+    auto reach = stamp_reach(*q, p);
+    ASSERT_TRUE(reach.ok());
+    const auto before = read_reach(world, Layer::kCoarse, *reach, 1u << 24);
+    ASSERT_FALSE(before.empty());
+    ASSERT_TRUE(apply_stamp(world, *q).ok());
+    history.record(world.commit(seq), before);
+    at.emplace(seq, world);
+  }
+  size_t checked = 0;
+  for (int32_t m = 0; m < p.mip_count(); ++m) {
+    const RectI tiles = p.tile_range(m);
+    for (int32_t ty = int32_t(tiles.y0); ty < tiles.y1; ++ty) {
+      for (int32_t tx = int32_t(tiles.x0); tx < tiles.x1; ++tx) {
+        const TileCoord c{Layer::kCoarse, uint8_t(m), tx, ty};
+        for (const auto& [held, old] : at) {
+          if (old.tile_state(c).version != held) continue;  // not a version this tile had
+          const auto rect = history.changed_since(c, held);
+          if (!rect || rect->empty()) continue;
+          const auto now = copy_tile_rect(world.coarse_tile(m, tx, ty), *rect);
+          const auto rebuilt = history.coarse_at(c, held, *rect, now);
+          ASSERT_TRUE(rebuilt.has_value()) << to_string(c) << " at " << held;
+          EXPECT_EQ(*rebuilt, copy_tile_rect(old.coarse_tile(m, tx, ty), *rect))
+              << to_string(c) << " at " << held;
+          ++checked;
+        }
+      }
+    }
+  }
+  EXPECT_GT(checked, 20u);
+  // Over its byte bound the history forgets the least recently changed tiles: no samples,
+  // no rect, and the client gets the whole tile.
+  TileHistory small(64, 64, 1024);
+  WorldParams one;
+  World w1(one, 100);
+  s.center_x = s.center_y = 128;
+  auto q = validate_stamp(s, one, {});
+  ASSERT_TRUE(q.ok());
+  const auto before = read_reach(w1, Layer::kCoarse, *stamp_reach(*q, one), 1u << 24);
+  ASSERT_TRUE(apply_stamp(w1, *q).ok());
+  small.record(w1.commit(1), before);
+  EXPECT_LE(small.bytes(), 1024u);
+  EXPECT_EQ(small.coarse_at(TileCoord{}, 0, RectI{0, 0, 1, 1}, std::vector<uint16_t>{100}), std::nullopt);
 }
 
 TEST(TileHistory, ChangedSinceUnitesTheRectsAfterTheHeldVersionOrSaysUnknown) {

@@ -146,4 +146,92 @@ Result<QuantizedStamp> random_valid_stamp(StampRng& rng, const RandomStampOption
   return last;
 }
 
+// A Q8 coordinate somewhere interesting on an axis of `r` (layer samples).
+namespace {
+
+int64_t pick_coordinate(StampRng& rng, const RectI& r, bool x_axis, int64_t corner_pick) {
+  const int64_t lo = x_axis ? r.x0 : r.y0, hi = x_axis ? r.x1 : r.y1;
+  const int64_t frac = int64_t(rng.next() % 256);
+  int64_t s;
+  switch (corner_pick) {
+    case 0: s = lo + int64_t(rng.next() % uint64_t(hi - lo)); break;  // anywhere
+    case 1: {                                                         // a tile border
+      const int64_t t =
+          floor_div(lo, kTileSize) + 1 + int64_t(rng.next() % uint64_t((hi - lo) / kTileSize - 1));
+      s = t * kTileSize + int64_t(rng.next() % 5) - 2;
+      break;
+    }
+    case 2:
+      s = rng.next() % 2 ? lo + int64_t(rng.next() % 3) : hi - 1 - int64_t(rng.next() % 3);
+      break;                // world edge
+    default: s = 0; break;  // the origin: a four-tile corner
+  }
+  s = std::clamp(s, lo, hi - 1);
+  return s * 256 + frac;
+}
+
+}  // namespace
+
+QuantizedStamp random_quantized_stamp(StampRng& rng, const WorldParams& world,
+                                      std::span<const uint64_t> texture_ids, bool allow_shockwave) {
+  QuantizedStamp q;
+  const int kinds = allow_shockwave ? 6 : 5;
+  q.kind = StampKind(rng.next() % uint64_t(kinds));
+  q.layer = rng.next() % 2 ? Layer::kDetail : Layer::kCoarse;
+  const RectI r = layer_sample_rect(world, q.layer);
+  const int64_t pick = int64_t(rng.next() % 4);
+  q.center_x = pick_coordinate(rng, r, true, pick);
+  q.center_y = pick_coordinate(rng, r, false, pick == 3 ? 3 : int64_t(rng.next() % 4));
+  // Radii: tiny (down to 1/256 sample), ordinary, and the configured maximum.
+  switch (rng.next() % 10) {
+    case 0:
+    case 1: q.radius = uint32_t(1 + rng.next() % 512); break;
+    case 2: q.radius = 4096u * 256u; break;
+    default: q.radius = uint32_t(256 + rng.next() % (200 * 256)); break;
+  }
+  q.rotation = uint16_t(rng.next() % 4 == 0 ? (rng.next() % 4) * 16384 : rng.next());
+  const int32_t max_units = q.layer == Layer::kCoarse ? 65535 : 255;
+  // Saturating intensities a third of the time.
+  q.intensity = rng.next() % 3 == 0
+                    ? (rng.next() % 2 ? 1 : -1) * max_units * 256
+                    : int32_t(int64_t(rng.next() % uint64_t(2 * max_units * 256 + 1)) - max_units * 256);
+  q.blend = BlendMode(rng.next() % 4);
+  q.target = int32_t(layer_min(q.layer) +
+                     int64_t(rng.next() % uint64_t(layer_max(q.layer) - layer_min(q.layer) + 1)));
+  q.shape = uint16_t(rng.next());
+  switch (q.kind) {
+    case StampKind::kTexture:
+      q.texture_id = texture_ids.empty() ? 0 : texture_ids[rng.next() % texture_ids.size()];
+      break;
+    case StampKind::kCrater:
+      if (q.blend == BlendMode::kAdd || q.blend == BlendMode::kSubtract) {
+        // The volume pre-pass walks the whole unclipped rect: keep it to ordinary radii.
+        if (rng.next() % 2 && q.radius < 300u * 256u) q.flags = kStampFlagVolumeConserving;
+      }
+      break;
+    case StampKind::kFootprint:
+      q.blend = BlendMode::kAdd;
+      q.intensity = std::abs(q.intensity);
+      break;
+    case StampKind::kFlatten:
+      q.blend = BlendMode::kAdd;
+      q.intensity = int32_t(rng.next() % 65537);
+      break;
+    case StampKind::kShockwave:
+      q.blend = BlendMode::kAdd;
+      q.radius = uint32_t(256 + rng.next() % (12 * 256));
+      q.steps = uint16_t(1 + rng.next() % 40);
+      q.speed = uint16_t(rng.next() % 3 == 0 ? 65535 : 1 + rng.next() % 65535);  // above the cap: sub-steps
+      q.damping = uint16_t(rng.next() % 2 ? 0 : rng.next());
+      break;
+    default: break;
+  }
+  // docs/stamps.md: a field is 0 on the kinds and blends that do not use it (the draws above
+  // stay, so the sequence of stamps is otherwise the same).
+  if (q.kind != StampKind::kFlatten && q.blend != BlendMode::kMin && q.blend != BlendMode::kMax) q.target = 0;
+  if (q.kind != StampKind::kCrater && q.kind != StampKind::kFootprint && q.kind != StampKind::kFlatten)
+    q.shape = 0;
+  return q;
+}
+
 }  // namespace loam::test

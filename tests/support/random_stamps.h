@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <span>
 #include <vector>
 
 #include "protocol/result.h"
@@ -97,5 +98,15 @@ StampParams random_edge_case_stamp_params(StampRng& rng, const WorldParams& worl
 Result<QuantizedStamp> random_valid_stamp(StampRng& rng, const RandomStampOptions& options,
                                           const WorldParams& world, const StampLimits& limits = {},
                                           const TextureRegistry* textures = nullptr, int attempts = 100);
+
+// A quantized stamp drawn field by field, for kernels compared texel for texel: any kind
+// (the shockwave when allowed), either layer, centers anywhere, on a tile border, at the world's
+// edge or on a four-tile corner with a sub-sample offset, radii from 1/256 sample to the
+// maximum, saturating intensities a third of the time, any blend, rotation, shape, target,
+// volume-conserving craters and shockwave speeds above the cap. Texture stamps take one of
+// `texture_ids`. Fields a kind does not use are 0 (docs/stamps.md); the stamp may still fail
+// check_quantized (a caller skips those).
+QuantizedStamp random_quantized_stamp(StampRng& rng, const WorldParams& world,
+                                      std::span<const uint64_t> texture_ids, bool allow_shockwave);
 
 }  // namespace loam::test

@@ -1,0 +1,61 @@
+#include "server/replication/background_encoder.h"
+
+#include <utility>
+
+#include "protocol/codec/region_codec.h"
+
+namespace loam::server {
+
+BackgroundEncoder::~BackgroundEncoder() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (worker_.joinable()) worker_.join();
+}
+
+bool BackgroundEncoder::submit(Job job) {
+  {
+    std::lock_guard lock(mutex_);
+    if (queue_.size() >= max_queue_) return false;
+    queue_.push_back(std::move(job));
+    if (!worker_.joinable()) worker_ = std::thread([this] { run(); });
+  }
+  wake_.notify_one();
+  return true;
+}
+
+std::vector<BackgroundEncoder::Done> BackgroundEncoder::take() {
+  std::lock_guard lock(mutex_);
+  return std::exchange(done_, {});
+}
+
+void BackgroundEncoder::wait_idle() {
+  std::unique_lock lock(mutex_);
+  idle_.wait(lock, [&] { return queue_.empty() && !busy_; });
+}
+
+void BackgroundEncoder::run() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+    if (stop_) return;
+    Job job = std::move(queue_.front());
+    queue_.pop_front();
+    busy_ = true;
+    lock.unlock();
+    Result<std::vector<uint8_t>> payload =
+        job.key.tile.layer == Layer::kCoarse
+            ? encode_region(RegionEncoding::kBest, std::span<const uint16_t>(job.coarse), job.width,
+                            job.height)
+            : encode_region(RegionEncoding::kBest, std::span<const int8_t>(job.detail), job.width,
+                            job.height);
+    lock.lock();
+    done_.push_back({job.key, std::move(payload)});
+    busy_ = false;
+    if (queue_.empty()) idle_.notify_all();
+  }
+}
+
+}  // namespace loam::server
