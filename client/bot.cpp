@@ -63,7 +63,7 @@ int run_bot(const BotOptions& o) {
   client::TerrainClient c;
   if (const Status st = c.connect(host, port, name, wire::Role::kBot, o.token); !st.ok()) {
     std::fprintf(stderr, "loam-client bot: %s\n", st.error().describe().c_str());
-    return 1;
+    return kBotCannotJoin;
   }
   std::printf("bot %s: joined as client %u at sequence %llu\n", name.c_str(), c.welcome().client_id,
               (unsigned long long)c.welcome().global_sequence);
@@ -85,9 +85,9 @@ int run_bot(const BotOptions& o) {
   };
   if (o.roam_mps > 0) {
     interest.emplace(world, render::InterestConfig{});
-    if (!follow().ok()) return 1;
+    if (!follow().ok()) return kBotCannotJoin;
   } else if (!c.subscribe(c.all_coarse_tiles(0)).ok()) {
-    return 1;
+    return kBotCannotJoin;
   }
   std::mt19937 rng(seed);
   std::vector<uint32_t> sent;
@@ -114,8 +114,12 @@ int run_bot(const BotOptions& o) {
     }
   }
   c.wait_until([&] { return sent.empty() || c.ack(sent.back()).has_value(); }, 10s);
-  size_t accepted = 0;
-  for (uint32_t s : sent) accepted += c.ack(s) && c.ack(s)->accepted;
+  size_t accepted = 0, refused = 0;
+  for (uint32_t s : sent) {
+    const auto ack = c.ack(s);
+    if (ack) (ack->accepted ? accepted : refused) += 1;
+  }
+  const size_t unacknowledged = sent.size() - accepted - refused, unsent = size_t(stamps) - sent.size();
   // Let the next TileHashes arrive so the report includes a comparison.
   const size_t hashes = c.tile_hash_messages();
   c.wait_until([&] { return c.tile_hash_messages() > hashes; }, 5s);
@@ -126,8 +130,13 @@ int run_bot(const BotOptions& o) {
       name.c_str(), accepted, sent.size(), (unsigned long long)k.events_applied,
       (unsigned long long)k.regions, (unsigned long long)k.hash_checks,
       (unsigned long long)k.hash_mismatches);
+  if (refused + unacknowledged + unsent > 0) {
+    std::fprintf(stderr, "bot %s: %zu stamps refused, %zu unacknowledged, %zu never sent\n", name.c_str(),
+                 refused, unacknowledged, unsent);
+  }
   (void)c.connection().send(wire::Bye{wire::ByeReason::kNormal, "bot done"});
-  return k.hash_mismatches == 0 ? 0 : 3;
+  if (k.hash_mismatches != 0) return kBotMismatch;
+  return refused + unacknowledged + unsent == 0 ? kBotOk : kBotLostStamps;
 }
 
 }  // namespace loam::client

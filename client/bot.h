@@ -25,7 +25,13 @@ struct BotOptions {
   double roam_mps = 0;  // > 0: walk a loop across the world at this speed (meters per second)
 };
 
-// Returns the process exit code: 0, 1 when it could not join, 3 after a hash mismatch.
+// Bot exit codes: what a script or a load test can rely on.
+inline constexpr int kBotOk = 0;          // every stamp accepted, no hash mismatch
+inline constexpr int kBotCannotJoin = 1;  // could not connect, join or subscribe
+inline constexpr int kBotMismatch = 3;    // the confirmed store disagreed with the server's hashes
+inline constexpr int kBotLostStamps = 4;  // stamps refused, unacknowledged, or never sent (link lost)
+
+// Runs the bot; returns its exit code (a mismatch wins over lost stamps).
 int run_bot(const BotOptions& options);
 
 }  // namespace loam::client

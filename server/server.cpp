@@ -174,6 +174,7 @@ void Server::on_bytes(const ConnectionPtr& c, size_t n) {
   core_.mutable_stats().bytes_in += n;
   c->assembler.feed(std::span(c->read_buffer.data(), n));
   const auto now = Clock::now();
+  bool complete = false;
   while (!c->closing) {
     auto next = c->assembler.next_message();
     if (!next) {
@@ -182,11 +183,14 @@ void Server::on_bytes(const ConnectionPtr& c, size_t n) {
     }
     if (!next->has_value()) break;
     core_.receive(c->id, **next, now);
+    complete = true;
     deliver();
   }
   deliver();
-  // Any input from a client in session restarts its idle timer (the handshake's runs on).
-  if (!c->closing && !core_.in_handshake(c->id)) arm_timer(c, config_.idle_timeout_s, false);
+  // A complete frame from a client in session restarts its idle timer (the handshake's runs
+  // on). Bytes alone do not: a byte now and then of a frame never finished must not hold a
+  // session open.
+  if (complete && !c->closing && !core_.in_handshake(c->id)) arm_timer(c, config_.idle_timeout_s, false);
 }
 
 void Server::deliver() {

@@ -698,15 +698,12 @@ int run_streaming(const Context& ctx, Report& report) {
                         rs.converged ? "yes" : "NO"});
   report.paragraph(
       "**Resume after stamps away.** A client holding every tile of the embedded terrain disconnects; an "
-      "editor "
-      "stamps; the client reconnects and subscribes again with the versions it holds. The server's tile "
-      "history "
-      "(the last 64 changes of each recently changed tile) gives the samples changed since, which go as "
-      "patches over "
-      "the held version; `the same tiles whole` is what resending the changed tiles whole would cost (at the "
-      "initial terrain's average tile size). Stamps spread over this small world change most of every tile, "
-      "so the patches' rects cover nearly whole tiles and save nothing here; a delta against the held "
-      "samples would (not yet: the history keeps rects, not samples).");
+      "editor stamps; the client reconnects and subscribes again with the versions it holds. The server's "
+      "tile history (the last 64 changes of each recently changed tile, and the samples each replaced) "
+      "rebuilds the samples the client holds over the rect changed since, and the patch is a delta against "
+      "them (kDelta); `the same tiles whole` is what resending the changed tiles whole would cost (at the "
+      "initial terrain's average tile size). Stamps spread over this small world change most of every "
+      "tile, so the patches' rects cover nearly whole tiles: only the delta coding saves here.");
   report.table(std::move(resume_table));
   std::printf("  resume: %llu bytes against %llu whole (%zu tiles changed)\n",
               (unsigned long long)rs.resume_bytes, (unsigned long long)rs.whole_bytes, rs.changed_tiles);

@@ -108,12 +108,14 @@ std::vector<TileCoord> ClientTiles::due_in_order() const {
   return out;
 }
 
-RegionNeed ClientTiles::need(const TileCoord& c) const {
+RegionNeed ClientTiles::need(const TileCoord& c,
+                             const std::function<bool(const TileCoord&, uint64_t)>& delta_possible) const {
   RegionNeed n;
   n.tile = c;
   n.rect = {0, 0, kTileSize, kTileSize};
   const TileInterest* t = find(c);
-  if (!t || !t->held || t->whole || t->changed.empty() || t->changed.area() * 4 > kTileSamples) return n;
+  if (!t || !t->held || t->whole || t->changed.empty()) return n;
+  if (t->changed.area() * 4 > kTileSamples && !(delta_possible && delta_possible(c, *t->held))) return n;
   n.base = t->held;
   n.rect = t->changed;
   return n;

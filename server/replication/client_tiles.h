@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <optional>
 #include <span>
@@ -63,9 +64,12 @@ class ClientTiles {
   void set_focus(std::optional<std::pair<double, double>> focus_samples) { focus_ = focus_samples; }
   std::vector<TileCoord> due_in_order() const;
   size_t due_count() const { return due_; }
-  // What the due tile c needs now: a patch when the client holds a version and the changed
-  // samples are at most a quarter of the tile, else the whole tile.
-  RegionNeed need(const TileCoord& c) const;
+  // What the due tile c needs now: a patch when the client holds a version and either the
+  // changed samples are at most a quarter of the tile or `delta_possible(c, held)` (the server
+  // can code the patch against the held samples, which beats the whole tile at any size);
+  // else the whole tile.
+  RegionNeed need(const TileCoord& c,
+                  const std::function<bool(const TileCoord&, uint64_t)>& delta_possible = {}) const;
   // The region for c at `version` was sent: the client will hold it.
   void mark_sent(const TileCoord& c, uint64_t version);
 

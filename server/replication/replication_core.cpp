@@ -469,7 +469,8 @@ void ReplicationCore::stream_regions(CoreTime now, const std::function<uint64_t(
     if (budget > 0 && double(queued) > budget) continue;
     for (const TileCoord& t : c.tiles.due_in_order()) {
       if (budget > 0 && c.credit <= 0) break;
-      const RegionNeed need = c.tiles.need(t);
+      const RegionNeed need = c.tiles.need(
+          t, [&](const TileCoord& tile, uint64_t held) { return history_.can_rebuild(tile, held); });
       Frames frames;
       if (encodes_left == 0) {
         // Out of encodes this tick: only what the cache already holds may still go.

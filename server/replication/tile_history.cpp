@@ -147,6 +147,18 @@ std::optional<std::vector<T>> TileHistory::samples_at(const TileCoord& c, uint64
   return std::nullopt;
 }
 
+bool TileHistory::can_rebuild(const TileCoord& c, uint64_t held) const {
+  const auto it = tiles_.find(c);
+  if (it == tiles_.end()) return false;
+  const std::deque<Change>& list = it->second.changes;
+  if (!list.empty() && list.back().change.new_version == held) return true;
+  for (auto ch = list.rbegin(); ch != list.rend(); ++ch) {
+    if (!ch->kept) return false;
+    if (ch->change.base_version == held) return true;
+  }
+  return false;
+}
+
 std::optional<std::vector<uint16_t>> TileHistory::coarse_at(const TileCoord& c, uint64_t held,
                                                             const RectI& rect,
                                                             std::span<const uint16_t> current) const {

@@ -54,6 +54,8 @@ class TileHistory {
                                                  std::span<const uint16_t> current) const;
   std::optional<std::vector<int8_t>> detail_at(const TileCoord& c, uint64_t held, const RectI& rect,
                                                std::span<const int8_t> current) const;
+  // Whether coarse_at / detail_at can rebuild c's samples at `held` (no copy made).
+  bool can_rebuild(const TileCoord& c, uint64_t held) const;
 
   size_t tiles() const { return tiles_.size(); }
   uint64_t bytes() const { return bytes_; }  // replaced samples held

@@ -19,51 +19,12 @@
 #include <vector>
 
 #include "integration_util.h"
+#include "program_run.h"
 #include "protocol/wire/access_token.h"
 #include "server_process.h"
 
 namespace loam::test {
 namespace {
-
-struct Ran {
-  int exit_code = -1;  // -1: did not exit normally
-  std::string output;  // stdout and stderr together
-};
-
-// Runs a program to completion with stdout and stderr captured.
-Ran run(std::vector<std::string> args) {
-  const std::string out = temp_data_dir("run") + "/output";
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  Ran r;
-  if (rc != 0) return r;
-  // A check that failed to refuse leaves a server running: stop it after a deadline.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  int status = 0;
-  while (waitpid(pid, &status, WNOHANG) != pid) {
-    if (std::chrono::steady_clock::now() > deadline) {
-      ::kill(pid, SIGKILL);
-      waitpid(pid, &status, 0);
-      r.output = "(still running after 60 s: killed)\n";
-      return r;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));  // polling the child's exit
-  }
-  if (WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-  std::ifstream f(out);
-  std::stringstream s;
-  s << f.rdbuf();
-  r.output += s.str();
-  return r;
-}
 
 // `loam-server serve` with a throwaway data folder and an ephemeral port, plus `extra`; the
 // checks refuse before anything is opened, so a refused run never listens.

@@ -174,6 +174,26 @@ TEST(ReplicationCore, ShockwaveMipsTravelAsPatchesOverTheHeldVersion) {
   }
 }
 
+TEST(ReplicationCore, AShockwavesPatchesAreEncodedOnceForEveryClientInSync) {
+  ServerConfig config;
+  config.client_bytes_per_second = 0;
+  CoreHarness h(config);
+  std::vector<ClientId> ids;
+  for (int i = 0; i < 6; ++i) ids.push_back(h.join("c" + std::to_string(i)));
+  for (const ClientId id : ids) h.send(id, h.subscribe_all(true));
+  h.tick();
+  uint32_t seq = 0;
+  for (int i = 0; i < 4; ++i) {
+    const uint64_t before = h.core().region_counters().encodes;
+    h.send(ids[0], wire::Deform{++seq, h.stamp(StampKind::kShockwave, 200.0 + 40 * i, 300.0, 6.0)});
+    h.tick();
+    const size_t patches = h.of(ids[1]).all<wire::RegionUpdate>().size();
+    for (const ClientId id : ids) EXPECT_EQ(h.of(id).all<wire::RegionUpdate>().size(), patches);
+    EXPECT_EQ(h.core().region_counters().encodes - before, patches) << "shockwave " << i;
+    h.clear();
+  }
+}
+
 TEST(ReplicationCore, RegionsLeaveUnderTheClientsBudgetCoarsestMipFirst) {
   ServerConfig config;
   config.client_bytes_per_second = 128 << 10;
