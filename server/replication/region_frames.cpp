@@ -113,6 +113,7 @@ Result<Frames> RegionFrames::get(const World& world, const TileHistory* history,
   const RegionKey key = key_of(world, c, base, rect);
   lru_.push_front(key);
   Entry& e = entries_.emplace(key, Entry{*frames, bytes, lru_.begin(), 0, false}).first->second;
+  counters_.bytes_held += bytes;
   use(world, key, e);
   return frames;
 }

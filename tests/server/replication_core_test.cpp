@@ -185,7 +185,9 @@ TEST(ReplicationCore, AShockwavesPatchesAreEncodedOnceForEveryClientInSync) {
   uint32_t seq = 0;
   for (int i = 0; i < 4; ++i) {
     const uint64_t before = h.core().region_counters().encodes;
-    h.send(ids[0], wire::Deform{++seq, h.stamp(StampKind::kShockwave, 200.0 + 40 * i, 300.0, 6.0)});
+    // Several in one tick, overlapping: the patches coalesce, the same way for every client.
+    for (int j = 0; j < 4; ++j)
+      h.send(ids[0], wire::Deform{++seq, h.stamp(StampKind::kShockwave, 200.0 + 40 * i + 9 * j, 300.0, 6.0)});
     h.tick();
     const size_t patches = h.of(ids[1]).all<wire::RegionUpdate>().size();
     for (const ClientId id : ids) EXPECT_EQ(h.of(id).all<wire::RegionUpdate>().size(), patches);
@@ -367,6 +369,8 @@ TEST(ReplicationCore, AWholeTileSentToManyIsReencodedInTheBestModeOffTheTick) {
   EXPECT_GT(rc.best_upgrades, 0u);
   EXPECT_GT(rc.best_bytes_saved, 0u);
   EXPECT_LT(rc.best_bytes_saved, fast_bytes / 4);  // a few percent: the fast mode is close
+  // The cache holds every tile once, at its smaller size.
+  EXPECT_EQ(rc.bytes_held, fast_bytes - rc.best_bytes_saved);
   // A third client gets the smaller frames, and they decode to the same tiles.
   const ClientId c = h.join("c");
   h.send(c, h.subscribe_all(false));
