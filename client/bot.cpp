@@ -5,12 +5,12 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
-#include <random>
 
 #include "client/net/terrain_client.h"
 #include "client/render/clipmap_interest.h"
 #include "client/view/roam_path.h"
 #include "protocol/stamps/stamp_validate.h"
+#include "tests/support/random_stamps.h"
 
 namespace loam::client {
 
@@ -18,37 +18,32 @@ namespace {
 
 using namespace std::chrono_literals;
 
-// A random stamp anywhere in the world, or, with `near`, within 150 m of that point.
-QuantizedStamp bot_stamp(std::mt19937& rng, const WorldParams& w,
+// The bot's mix, drawn by the shared seeded generator (the same seed gives the same stamps
+// with any compiler and standard library): craters 4 in 10, gaussians (add or subtract) 4 in
+// 10 with one of them on the detail layer, footprints and shockwaves 1 in 10 each; radii
+// 2-32 m (footprints 1.5 m, shockwaves 6 m); anywhere in the world, or within 150 m of `near`.
+QuantizedStamp bot_stamp(test::StampRng& rng, const WorldParams& w,
                          std::optional<std::pair<double, double>> near = std::nullopt) {
-  const RectI r = w.sample_rect();
-  double x0 = double(r.x0) * w.meters_per_sample, x1 = double(r.x1 - 1) * w.meters_per_sample;
-  double y0 = double(r.y0) * w.meters_per_sample, y1 = double(r.y1 - 1) * w.meters_per_sample;
+  test::RandomStampOptions o = test::random_stamp_options(w);
+  o.kinds = {StampKind::kCrater,    StampKind::kCrater,   StampKind::kCrater,   StampKind::kCrater,
+             StampKind::kGaussian,  StampKind::kGaussian, StampKind::kGaussian, StampKind::kGaussian,
+             StampKind::kFootprint, StampKind::kShockwave};
+  o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
+  o.detail_one_in = 4;  // of the gaussians: the other kinds stay on the coarse layer
+  o.detail_kinds = {StampKind::kGaussian};
+  o.min_radius = 2.0;
+  o.max_radius = 32.0;
+  o.max_radius_of_kind[size_t(StampKind::kFootprint)] = 1.5;
+  o.max_radius_of_kind[size_t(StampKind::kShockwave)] = 6.0;
+  o.coarse_max_intensity = 2.5;
+  o.coarse_min_intensity = 0.2;
+  o.detail_max_intensity = 0.25;
   if (near) {
-    x0 = std::max(x0, near->first - 150.0), x1 = std::min(x1, near->first + 150.0);
-    y0 = std::max(y0, near->second - 150.0), y1 = std::min(y1, near->second + 150.0);
+    o.x0 = std::max(o.x0, near->first - 150.0), o.x1 = std::min(o.x1, near->first + 150.0);
+    o.y0 = std::max(o.y0, near->second - 150.0), o.y1 = std::min(o.y1, near->second + 150.0);
   }
-  std::uniform_real_distribution<double> ux(x0, x1);
-  std::uniform_real_distribution<double> uy(y0, y1);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (;;) {
-    StampParams p;
-    const uint32_t pick = uint32_t(rng() % 10);
-    p.center_x = ux(rng);
-    p.center_y = uy(rng);
-    p.radius = 2.0 + 30.0 * unit(rng);
-    p.rotation = 6.28 * unit(rng);
-    p.intensity = -2.0 + 4.0 * unit(rng);
-    p.kind = StampKind::kGaussian;
-    if (pick < 4) p.kind = StampKind::kCrater, p.intensity = 0.5 + 2.0 * unit(rng), p.shape = 0.3;
-    if (pick == 4) p.kind = StampKind::kFootprint, p.intensity = 0.2, p.radius = 1.5;
-    if (pick == 5)
-      p.kind = StampKind::kShockwave, p.radius = 6.0, p.intensity = 0.4, p.steps = 40, p.speed = 0.6,
-      p.damping = 0.02;
-    if (pick == 6)
-      p.kind = StampKind::kGaussian, p.layer = Layer::kDetail, p.radius = 1.0, p.intensity = 0.05;
-    auto q = validate_stamp(p, w);
-    if (q) return *q;
+    if (auto q = test::random_valid_stamp(rng, o, w)) return *q;
   }
 }
 
@@ -89,7 +84,7 @@ int run_bot(const BotOptions& o) {
   } else if (!c.subscribe(c.all_coarse_tiles(0)).ok()) {
     return kBotCannotJoin;
   }
-  std::mt19937 rng(seed);
+  test::StampRng rng(seed);
   std::vector<uint32_t> sent;
   const auto period = std::chrono::duration<double>(1.0 / rate);
   auto next = std::chrono::steady_clock::now();

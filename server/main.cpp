@@ -152,7 +152,17 @@ int main(int argc, char** argv) {
   // Every number is range-checked here, for the flag and the config-file key alike
   // (app/cli_checks.h); docs/configuration.md lists the same ranges.
   using cli::Bound;
-  serve_cmd->add_option("--max-clients", config.max_clients)
+  serve_cmd->add_option("--max-clients", config.max_clients, "Clients in session (through Hello)")
+      ->capture_default_str()
+      ->check(cli::IntRange(1, 65536));
+  serve_cmd
+      ->add_option("--max-handshakes", config.max_handshakes,
+                   "Connections not yet through Hello, all addresses")
+      ->capture_default_str()
+      ->check(cli::IntRange(1, 65536));
+  serve_cmd
+      ->add_option("--max-handshakes-per-address", config.max_handshakes_per_address,
+                   "Connections not yet through Hello, from one address")
       ->capture_default_str()
       ->check(cli::IntRange(1, 65536));
   serve_cmd->add_option("--max-frame-bytes", config.max_frame_bytes)
@@ -170,6 +180,14 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::FiniteRange(0, 1e6, Bound::kOpen));
   serve_cmd->add_option("--deform-burst", config.deform_burst, "Rate limit burst")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(1, 1e6));
+  serve_cmd
+      ->add_option("--requests-per-second", config.requests_per_second,
+                   "Per client: Subscribe, Unsubscribe, Ping, StampImageRequest and StatsRequest")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 1e6, Bound::kOpen));
+  serve_cmd->add_option("--request-burst", config.request_burst, "Per client: request bucket capacity")
       ->capture_default_str()
       ->check(cli::FiniteRange(1, 1e6));
   serve_cmd->add_option("--handshake-timeout", config.handshake_timeout_s, "Seconds")

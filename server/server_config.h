@@ -27,12 +27,18 @@ struct ServerConfig {
   std::vector<std::string> viewer_tokens;
   std::string tokens_file;  // more tokens, `editor HEX` / `viewer HEX` lines (server/access_tokens.h)
   // Limits.
-  uint32_t max_clients = 64;
+  uint32_t max_clients = 64;                 // clients in session (through Hello)
+  uint32_t max_handshakes = 64;              // connections not yet through Hello, all addresses
+  uint32_t max_handshakes_per_address = 16;  // the same, from one address
   uint32_t max_frame_bytes = 1u << 20;
   uint32_t max_subscriptions = 4096;
   uint32_t max_pending_deforms = 64;  // per client: queued deforms not yet acknowledged
   double deforms_per_second = 60.0;   // token bucket rate per client
   double deform_burst = 120.0;        // token bucket capacity
+  // Every other request (Subscribe, Unsubscribe, Ping, StampImageRequest, StatsRequest): a
+  // token bucket per client, so that re-subscribing or pinging in a loop cannot take the tick.
+  double requests_per_second = 30.0;
+  double request_burst = 120.0;
   double handshake_timeout_s = 5.0;
   double idle_timeout_s = 60.0;
   uint64_t max_queue_bytes = 32u << 20;  // a client whose unsent data exceeds this is dropped

@@ -2,6 +2,12 @@
 
 #include <utility>
 
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
 #include "protocol/codec/region_codec.h"
 
 namespace loam::server {
@@ -37,6 +43,11 @@ void BackgroundEncoder::wait_idle() {
 }
 
 void BackgroundEncoder::run() {
+#ifdef __linux__
+  // The lowest priority: on a small machine the re-encodes take only the time the tick thread
+  // and the clients leave (Linux niceness is per thread).
+  (void)setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 19);
+#endif
   std::unique_lock lock(mutex_);
   for (;;) {
     wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });

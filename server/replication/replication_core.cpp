@@ -94,34 +94,69 @@ void ReplicationCore::fatal(Client& c, wire::WireErrorCode code, const std::stri
 
 // The client leaves the core at once; its queued deforms stay (they were validated and may
 // already be in this tick) and their acks go nowhere.
+bool ReplicationCore::erase_client(ClientId id) {
+  const auto it = clients_.find(id);
+  if (it == clients_.end()) return false;
+  if (it->second.state == Client::State::kHandshake) {
+    --handshakes_;
+    const auto a = handshakes_by_address_.find(it->second.address);
+    if (a != handshakes_by_address_.end() && --a->second == 0) handshakes_by_address_.erase(a);
+  } else {
+    --sessions_;
+  }
+  clients_.erase(it);
+  return true;
+}
+
 void ReplicationCore::close(ClientId id, const std::string& reason) {
-  if (clients_.erase(id) == 0) return;
+  if (!erase_client(id)) return;
   ++stats_.disconnects;
   log_event("disconnect", {{"client", std::to_string(id)}, {"reason", reason}});
   out_.closes.emplace_back(id, reason);
 }
 
 void ReplicationCore::disconnected(ClientId id, const std::string& reason) {
-  if (clients_.erase(id) == 0) return;
+  if (!erase_client(id)) return;
   ++stats_.disconnects;
   log_event("disconnect", {{"client", std::to_string(id)}, {"reason", reason}});
 }
 
 // --- Admission ---
 
+namespace {
+
+// "1.2.3.4:5678" or "::1:5678": the address, without the port.
+std::string address_of(const std::string& peer) {
+  const size_t colon = peer.rfind(':');
+  return colon == std::string::npos ? peer : peer.substr(0, colon);
+}
+
+}  // namespace
+
 ClientId ReplicationCore::connect(const std::string& peer, CoreTime now) {
   Client& c = clients_[next_id_];
   c.id = next_id_++;
   c.peer = peer;
+  c.address = address_of(peer);
+  ++handshakes_;
+  const uint32_t from_address = ++handshakes_by_address_[c.address];
   c.tokens = config_.deform_burst;
   c.refill = now;
+  c.requests = config_.request_burst;
+  c.requests_refill = now;
   c.credit_time = now;
   ++stats_.connects;
   log_event("connect", {{"client", std::to_string(c.id)}, {"peer", peer}});
-  if (clients_.size() > config_.max_clients) {
+  // Connections that have not said Hello have a pool of their own, smaller per address, so
+  // that nobody can hold the session slots (--max-clients) without a token.
+  if (handshakes_ > config_.max_handshakes || from_address > config_.max_handshakes_per_address) {
     const ClientId id = c.id;
     fatal(c, wire::WireErrorCode::kServerFull, "",
-          "server full (" + std::to_string(config_.max_clients) + " clients)", wire::ByeReason::kKicked);
+          handshakes_ > config_.max_handshakes
+              ? "too many connections in their handshake (" + std::to_string(config_.max_handshakes) + ")"
+              : "too many connections in their handshake from " + c.address + " (" +
+                    std::to_string(config_.max_handshakes_per_address) + ")",
+          wire::ByeReason::kKicked);
     return id;
   }
   return c.id;
@@ -156,6 +191,7 @@ void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now)
           std::string("expected Hello, got ") + wire::to_string(type), wire::ByeReason::kProtocolError);
     return;
   }
+  if (!admit_request(c, type, now)) return;
   switch (type) {
     case wire::MessageType::kHello:
       if (c.state != Client::State::kHandshake) {
@@ -194,6 +230,34 @@ void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now)
   }
 }
 
+bool ReplicationCore::admit_request(Client& c, wire::MessageType type, CoreTime now) {
+  switch (type) {
+    case wire::MessageType::kPing:
+    case wire::MessageType::kSubscribe:
+    case wire::MessageType::kUnsubscribe:
+    case wire::MessageType::kStampImageRequest:
+    case wire::MessageType::kStatsRequest: break;
+    default: return true;  // Hello, Bye, Deform (its own bucket), and what the switch refuses
+  }
+  c.requests = std::min(config_.request_burst,
+                        c.requests + seconds(now - c.requests_refill) * config_.requests_per_second);
+  c.requests_refill = now;
+  if (c.requests >= 1.0) {
+    c.requests -= 1.0;
+    c.requests_refused = false;
+    return true;
+  }
+  // One Error per run of refusals: a flood must not be answered with a flood.
+  ++stats_.requests_refused;
+  if (!c.requests_refused) {
+    c.requests_refused = true;
+    violation(c, wire::WireErrorCode::kRateLimited, "requests.rate",
+              std::string(wire::to_string(type)) + " refused: over " +
+                  std::to_string(int(config_.requests_per_second)) + " requests a second");
+  }
+  return false;
+}
+
 void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
   if (h.version_major != wire::kProtocolMajor) {
     log_event("reject", {{"client", std::to_string(c.id)},
@@ -215,9 +279,20 @@ void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
             wire::ByeReason::kKicked);
       return;
   }
+  if (sessions_ >= config_.max_clients) {
+    fatal(c, wire::WireErrorCode::kServerFull, "",
+          "server full (" + std::to_string(config_.max_clients) + " clients)", wire::ByeReason::kKicked);
+    return;
+  }
   c.role = granted;
   c.editor = editor_role(granted);
   c.name = h.client_name;
+  // Out of the handshake pool, into a session slot.
+  --handshakes_;
+  if (const auto a = handshakes_by_address_.find(c.address);
+      a != handshakes_by_address_.end() && --a->second == 0)
+    handshakes_by_address_.erase(a);
+  ++sessions_;
   c.state = Client::State::kReady;
   wire::Welcome w;
   w.client_id = c.id;
@@ -566,6 +641,7 @@ void ReplicationCore::record_tick_ms(double ms) {
 }
 
 void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
+  flush_suppressed_log_lines();
   std::vector<double> t = std::move(tick_ms_);
   tick_ms_.clear();
   std::sort(t.begin(), t.end());
@@ -577,6 +653,7 @@ void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
                       {"deforms_accepted", std::to_string(stats_.deforms_accepted)},
                       {"deforms_rejected", std::to_string(stats_.deforms_rejected)},
                       {"violations", std::to_string(stats_.violations)},
+                      {"requests_refused", std::to_string(stats_.requests_refused)},
                       {"bytes_in", std::to_string(stats_.bytes_in)},
                       {"bytes_out", std::to_string(stats_.bytes_out)},
                       {"events_sent", std::to_string(stats_.events_sent)},

@@ -48,7 +48,8 @@ using CoreTime = CoreClock::time_point;
 struct ServerStats {
   uint64_t connects = 0, disconnects = 0;
   uint64_t deforms_accepted = 0, deforms_rejected = 0;
-  uint64_t violations = 0;  // every Error sent for a client's fault
+  uint64_t violations = 0;        // every Error sent for a client's fault
+  uint64_t requests_refused = 0;  // requests over a client's rate, dropped
   uint64_t bytes_in = 0, bytes_out = 0;
   uint64_t regions_sent = 0, partial_regions_sent = 0, events_sent = 0;
   uint64_t tick_overruns = 0;
@@ -113,12 +114,16 @@ class ReplicationCore {
     ClientId id = 0;
     State state = State::kHandshake;
     std::string name, peer;
+    std::string address;  // the peer without its port: the per-address handshake limit
     wire::Role role = wire::Role::kPlayer;
     bool editor = true;
     double tokens = 0;  // deform token bucket
     CoreTime refill;
     uint32_t unacked = 0;  // deforms accepted into the queue, not yet acknowledged
     uint64_t violations = 0;
+    double requests = 0;  // request token bucket (Subscribe, Unsubscribe, Ping, ...)
+    CoreTime requests_refill;
+    bool requests_refused = false;  // refused since the last one accepted: Error already sent
     ClientTiles tiles;
     double credit = 0;  // bulk byte budget
     CoreTime credit_time;
@@ -135,7 +140,11 @@ class ReplicationCore {
   void fatal(Client& c, wire::WireErrorCode code, const std::string& field, const std::string& text,
              wire::ByeReason reason);
   void close(ClientId id, const std::string& reason);
+  // Removes a client and its share of the handshake or session counts; false if unknown.
+  bool erase_client(ClientId id);
 
+  // Takes a request token; false (the request is dropped) when the client is over its rate.
+  bool admit_request(Client& c, wire::MessageType type, CoreTime now);
   void on_hello(Client& c, const wire::Hello& h);
   void on_subscribe(Client& c, const wire::Subscribe& sub);
   void on_deform(Client& c, const wire::Deform& d, CoreTime now);
@@ -157,6 +166,10 @@ class ReplicationCore {
   RegionFrames frames_;
   TileHistory history_;
   std::map<ClientId, Client> clients_;
+  // Connections still in their handshake (all, and per address) and clients in session: the
+  // pools --max-handshakes, --max-handshakes-per-address and --max-clients bound.
+  size_t handshakes_ = 0, sessions_ = 0;
+  std::map<std::string, uint32_t> handshakes_by_address_;
   std::vector<PendingDeform> pending_;
   ClientId next_id_ = 1;
   uint64_t tick_ = 0;

@@ -314,6 +314,65 @@ TEST(ReplicationCore, AClientResumingBehindGetsPatchesOfTheSamplesChangedSinceIt
   EXPECT_LT(samples, uint64_t(regions.size()) * kTileSamples / 8);
 }
 
+TEST(ReplicationCore, RequestsOverTheClientsRateAreDroppedWithOneErrorPerRun) {
+  ServerConfig config;
+  config.requests_per_second = 10;
+  config.request_burst = 5;
+  CoreHarness h(config);
+  const ClientId a = h.join("a"), b = h.join("b");
+  for (uint64_t i = 0; i < 20; ++i) h.send(a, wire::Ping{i});
+  EXPECT_EQ(h.of(a).all<wire::Pong>().size(), 5u);
+  auto errors = h.of(a).all<wire::ErrorMsg>();
+  ASSERT_EQ(errors.size(), 1u);  // not one per refused request
+  EXPECT_EQ(errors[0].code, wire::WireErrorCode::kRateLimited);
+  EXPECT_EQ(h.core().stats().requests_refused, 15u);
+  // Another client is not affected; the first gets its rate back as time passes.
+  h.send(b, wire::Ping{1});
+  EXPECT_EQ(h.of(b).all<wire::Pong>().size(), 1u);
+  h.tick(300ms);
+  for (uint64_t i = 0; i < 3; ++i) h.send(a, wire::Ping{100 + i});
+  EXPECT_EQ(h.of(a).all<wire::Pong>().size(), 8u);
+  EXPECT_EQ(h.of(a).all<wire::ErrorMsg>().size(), 1u);
+  // Subscriptions draw on the same bucket.
+  for (int i = 0; i < 10; ++i) h.send(a, h.subscribe_all(true));
+  EXPECT_EQ(h.of(a).all<wire::ErrorMsg>().size(), 2u);
+}
+
+TEST(ReplicationCore, ConnectionsInTheirHandshakeHaveAPoolOfTheirOwnPerAddress) {
+  ServerConfig config;
+  config.max_clients = 2;
+  config.max_handshakes = 3;
+  config.max_handshakes_per_address = 2;
+  CoreHarness h(config);
+  const CoreTime t = h.now();
+  const ClientId x1 = h.core().connect("10.0.0.1:1001", t), x2 = h.core().connect("10.0.0.1:1002", t);
+  const ClientId x3 = h.core().connect("10.0.0.1:1003", t);  // a third from the same address
+  EXPECT_TRUE(h.core().in_handshake(x1));
+  EXPECT_TRUE(h.core().in_handshake(x2));
+  EXPECT_FALSE(h.core().in_handshake(x3));  // refused and closed
+  const ClientId y1 = h.core().connect("10.0.0.2:2001", t);
+  const ClientId z1 = h.core().connect("10.0.0.3:3001", t);  // the pool of three is full
+  EXPECT_TRUE(h.core().in_handshake(y1));
+  EXPECT_FALSE(h.core().in_handshake(z1));
+  // Leaving the handshake frees a place: in session now, not in the pool.
+  wire::Hello hello;
+  hello.client_name = "x1";
+  h.send(x1, hello);
+  ASSERT_EQ(h.of(x1).all<wire::Welcome>().size(), 1u);
+  const ClientId x4 = h.core().connect("10.0.0.1:1004", t);
+  EXPECT_TRUE(h.core().in_handshake(x4));
+  // Sessions are counted apart: two in session, the third Hello is refused as full.
+  hello.client_name = "x2";
+  h.send(x2, hello);
+  EXPECT_EQ(h.of(x2).all<wire::Welcome>().size(), 1u);
+  hello.client_name = "y1";
+  h.send(y1, hello);
+  EXPECT_TRUE(h.of(y1).all<wire::Welcome>().empty());
+  const auto errors = h.of(y1).all<wire::ErrorMsg>();
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0].code, wire::WireErrorCode::kServerFull);
+}
+
 // The encoding a region's payload says it used (single-chunk regions).
 RegionEncoding encoding_of(const wire::RegionUpdate& r) {
   EXPECT_EQ(r.chunk.size(), r.total_bytes);

@@ -1,4 +1,4 @@
-// Seeded random stamps for tests, benchmarks and the golden stamp sequence: one generator,
+// Seeded random stamps for tests, benchmarks, the bot and the golden stamp sequence: one generator,
 // so every suite draws the same mix of kinds, layers, blends and parameters, and options
 // (kind set, layer share, center bounds, radius range, intensities, targets) adapt it to a
 // world instead of each suite writing its own. random_edge_case_stamp_params draws the hard
