@@ -183,6 +183,21 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::FiniteRange(1, 1e6));
   serve_cmd
+      ->add_option("--max-stamp-cost", config.max_stamp_cost,
+                   "Sample updates one stamp may cost (a shockwave's times its steps)")
+      ->capture_default_str()
+      ->check(cli::IntRange(1, int64_t(1) << 50));
+  serve_cmd
+      ->add_option("--stamp-cost-per-second", config.stamp_cost_per_second,
+                   "Per client: sample updates a second of stamps")
+      ->capture_default_str()
+      ->check(cli::IntRange(1, int64_t(1) << 50));
+  serve_cmd
+      ->add_option("--tick-stamp-cost", config.tick_stamp_cost,
+                   "Sample updates applied per tick, all clients (at least one stamp)")
+      ->capture_default_str()
+      ->check(cli::IntRange(1, int64_t(1) << 50));
+  serve_cmd
       ->add_option("--requests-per-second", config.requests_per_second,
                    "Per client: Subscribe, Unsubscribe, Ping, StampImageRequest and StatsRequest")
       ->capture_default_str()

@@ -35,6 +35,13 @@ struct ServerConfig {
   uint32_t max_pending_deforms = 64;  // per client: queued deforms not yet acknowledged
   double deforms_per_second = 60.0;   // token bucket rate per client
   double deform_burst = 120.0;        // token bucket capacity
+  // Stamps by cost (stamp_cost: sample updates, a shockwave's times its steps): a stamp over
+  // max_stamp_cost is refused; a client's stamps draw on a bucket of stamp_cost_per_second
+  // (capacity: the larger of it and max_stamp_cost); a tick applies stamps up to
+  // tick_stamp_cost (at least one), the rest wait for the next tick in order.
+  uint64_t max_stamp_cost = 1ull << 24;
+  uint64_t stamp_cost_per_second = 1ull << 24;
+  uint64_t tick_stamp_cost = 1ull << 22;
   // Every other request (Subscribe, Unsubscribe, Ping, StampImageRequest, StatsRequest): a
   // token bucket per client, so that re-subscribing or pinging in a loop cannot take the tick.
   double requests_per_second = 30.0;

@@ -108,6 +108,15 @@ Result<RectI> stamp_reach(const QuantizedStamp& q, const WorldParams& world, con
   return baked.value().rect;
 }
 
+Result<uint64_t> stamp_cost(const QuantizedStamp& q, const WorldParams& world,
+                            const TextureRegistry* textures, const StampLimits& limits) {
+  auto reach = stamp_reach(q, world, textures, limits);
+  LOAM_TRY(reach);
+  const uint64_t samples = uint64_t(std::max<int64_t>(reach.value().area(), 1));
+  if (q.kind != StampKind::kShockwave) return samples;
+  return samples * uint64_t(std::max<int32_t>(q.steps, 1)) * uint64_t(shockwave_substeps(q.speed));
+}
+
 Result<RectI> apply_stamp_with_contact(World& world, const QuantizedStamp& q, const FootprintContact& contact,
                                        const TextureRegistry* textures, const StampLimits& limits) {
   if (q.kind != StampKind::kFootprint) return apply_stamp(world, q, textures, limits);

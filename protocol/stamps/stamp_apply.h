@@ -42,6 +42,13 @@ Result<RectI> apply_stamp_reference(World& world, const QuantizedStamp& q,
 Result<RectI> stamp_reach(const QuantizedStamp& q, const WorldParams& world,
                           const TextureRegistry* textures = nullptr, const StampLimits& limits = {});
 
+// The work of applying a stamp, in sample updates: the samples of its reach, times its
+// (sub-)steps for a shockwave (a bound: early steps touch less). Admission budgets count it
+// (a radius-1000 shockwave of 1024 steps is 4 * 10^9; a crater of radius 40 samples, 6561).
+// Errors as check_quantized.
+Result<uint64_t> stamp_cost(const QuantizedStamp& q, const WorldParams& world,
+                            const TextureRegistry* textures = nullptr, const StampLimits& limits = {});
+
 // apply_stamp with a footprint's contact given (a DeformEvent carries the server's) instead
 // of measured on `world`, which then need not hold every sample under the foot. Other kinds
 // ignore `contact`.

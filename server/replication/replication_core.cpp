@@ -142,6 +142,7 @@ ClientId ReplicationCore::connect(const std::string& peer, CoreTime now) {
   const uint32_t from_address = ++handshakes_by_address_[c.address];
   c.tokens = config_.deform_burst;
   c.refill = now;
+  c.cost_tokens = double(std::max(config_.stamp_cost_per_second, config_.max_stamp_cost));
   c.requests = config_.request_burst;
   c.requests_refill = now;
   c.credit_time = now;
@@ -372,7 +373,10 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
     send(c, ack);
     return;
   }
-  c.tokens = std::min(config_.deform_burst, c.tokens + seconds(now - c.refill) * config_.deforms_per_second);
+  const double elapsed = seconds(now - c.refill);
+  c.tokens = std::min(config_.deform_burst, c.tokens + elapsed * config_.deforms_per_second);
+  c.cost_tokens = std::min(double(std::max(config_.stamp_cost_per_second, config_.max_stamp_cost)),
+                           c.cost_tokens + elapsed * double(config_.stamp_cost_per_second));
   c.refill = now;
   if (c.tokens < 1.0) {
     reject(wire::WireErrorCode::kRateLimited, "deform", "rate limit exceeded");
@@ -387,9 +391,29 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
     reject(wire::to_wire(st.error().code), st.error().field, st.error().describe());
     return;
   }
+  // Admission by cost: one stamp may be worth a million small ones.
+  const auto cost = stamp_cost(d.stamp, terrain_.world().params(), &terrain_.textures(), terrain_.limits());
+  if (!cost) {
+    reject(wire::to_wire(cost.error().code), cost.error().field, cost.error().describe());
+    return;
+  }
+  if (*cost > config_.max_stamp_cost) {
+    reject(wire::WireErrorCode::kOversize, "stamp.cost",
+           "the stamp costs " + std::to_string(*cost) + " sample updates, over the limit of " +
+               std::to_string(config_.max_stamp_cost) + " per stamp");
+    return;
+  }
+  if (double(*cost) > c.cost_tokens) {
+    reject(wire::WireErrorCode::kRateLimited, "stamp.cost",
+           "the stamp costs " + std::to_string(*cost) +
+               " sample updates, over what is left of this client's " +
+               std::to_string(config_.stamp_cost_per_second) + " a second");
+    return;
+  }
+  c.cost_tokens -= double(*cost);
   c.tokens -= 1.0;
   ++c.unacked;
-  pending_.push_back({c.id, d.client_seq, d.stamp});
+  pending_.push_back({c.id, d.client_seq, d.stamp, *cost});
 }
 
 void ReplicationCore::on_stamp_image(Client& c, const wire::StampImageRequest& r) {
@@ -429,8 +453,14 @@ void ReplicationCore::acknowledge(const PendingDeform& p, std::optional<uint64_t
 void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>& unsent) {
   if (stopping_ || failed_) return;
   ++tick_;
-  std::vector<PendingDeform> batch = std::move(pending_);
-  pending_.clear();
+  // This tick's stamps, in order, up to the tick's cost budget (at least one): the rest wait.
+  size_t n = 0;
+  uint64_t spent = 0;
+  while (n < pending_.size() && (n == 0 || spent + pending_[n].cost <= config_.tick_stamp_cost))
+    spent += pending_[n++].cost;
+  std::vector<PendingDeform> batch(std::make_move_iterator(pending_.begin()),
+                                   std::make_move_iterator(pending_.begin() + ptrdiff_t(n)));
+  pending_.erase(pending_.begin(), pending_.begin() + ptrdiff_t(n));
   last_batch_ = batch.size();
   if (!storage_.writable()) try_resume_storage(now);
   if (!batch.empty()) commit_batch(std::move(batch), now);

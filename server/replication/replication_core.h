@@ -119,6 +119,7 @@ class ReplicationCore {
     bool editor = true;
     double tokens = 0;  // deform token bucket
     CoreTime refill;
+    double cost_tokens = 0;  // stamp cost bucket (sample updates)
     uint32_t unacked = 0;  // deforms accepted into the queue, not yet acknowledged
     uint64_t violations = 0;
     double requests = 0;  // request token bucket (Subscribe, Unsubscribe, Ping, ...)
@@ -132,6 +133,7 @@ class ReplicationCore {
     ClientId client = 0;
     uint32_t client_seq = 0;
     QuantizedStamp stamp;
+    uint64_t cost = 0;  // stamp_cost
   };
 
   void send(Client& c, const wire::Message& m);

@@ -338,6 +338,75 @@ TEST(ReplicationCore, RequestsOverTheClientsRateAreDroppedWithOneErrorPerRun) {
   EXPECT_EQ(h.of(a).all<wire::ErrorMsg>().size(), 2u);
 }
 
+TEST(ReplicationCore, StampsAreAdmittedByCostPerStampAndPerClient) {
+  CoreHarness probe;  // the stamps' costs, to size the limits
+  const WorldParams& p = probe.core().terrain().world().params();
+  const QuantizedStamp wide = probe.stamp(StampKind::kGaussian, 300, 300, 60);
+  const uint64_t wide_cost = *stamp_cost(wide, p);
+  // A shockwave of many steps over a wide box.
+  StampParams s;
+  s.kind = StampKind::kShockwave;
+  s.center_x = s.center_y = 400;
+  s.radius = 20;
+  s.intensity = 1;
+  s.steps = 200;
+  s.speed = 0.5;
+  auto wave = validate_stamp(s, p, probe.core().terrain().limits());
+  ASSERT_TRUE(wave.ok()) << wave.error().describe();
+  const uint64_t wave_cost = *stamp_cost(*wave, p);
+  ServerConfig config;
+  config.max_stamp_cost = 10 * wide_cost;
+  config.stamp_cost_per_second = wide_cost;  // a burst of ten, then one a second
+  ASSERT_GT(wave_cost, config.max_stamp_cost);
+  CoreHarness h(config);
+  const ClientId heavy = h.join("heavy"), light = h.join("light");
+  h.send(heavy, wire::Deform{1, *wave});
+  for (uint32_t i = 0; i < 12; ++i) h.send(heavy, wire::Deform{2 + i, wide});
+  // The light client's small stamps go through meanwhile: a bucket of its own.
+  for (uint32_t i = 1; i <= 5; ++i) h.send(light, wire::Deform{i, h.stamp(StampKind::kCrater, 100, 100, 5)});
+  h.tick();
+  h.tick();
+  size_t accepted = 0, over_limit = 0, over_budget = 0;
+  for (const auto& a : h.of(heavy).all<wire::DeformAck>()) {
+    accepted += a.accepted;
+    if (!a.accepted && a.field == "stamp.cost") {
+      over_limit += a.reject_code == wire::WireErrorCode::kOversize;
+      over_budget += a.reject_code == wire::WireErrorCode::kRateLimited;
+    }
+  }
+  EXPECT_EQ(over_limit, 1u);  // the shockwave
+  EXPECT_EQ(accepted, 10u);
+  EXPECT_EQ(over_budget, 2u);
+  const auto light_acks = h.of(light).all<wire::DeformAck>();
+  EXPECT_EQ(light_acks.size(), 5u);
+  for (const auto& a : light_acks) EXPECT_TRUE(a.accepted);
+}
+
+TEST(ReplicationCore, ATickAppliesStampsUpToItsCostBudgetAndTheRestFollowInOrder) {
+  ServerConfig config;
+  CoreHarness probe;  // the stamps' cost, to size the budget
+  const QuantizedStamp q = probe.stamp(StampKind::kGaussian, 300, 300, 40);
+  const uint64_t cost = *stamp_cost(q, probe.core().terrain().world().params());
+  config.tick_stamp_cost = 2 * cost;
+  CoreHarness h(config);
+  const ClientId a = h.join("a");
+  for (uint32_t i = 1; i <= 5; ++i) h.send(a, wire::Deform{i, q});
+  h.tick();
+  EXPECT_EQ(h.of(a).all<wire::DeformAck>().size(), 2u);
+  h.tick();
+  EXPECT_EQ(h.of(a).all<wire::DeformAck>().size(), 4u);
+  h.tick();
+  const auto acks = h.of(a).all<wire::DeformAck>();
+  ASSERT_EQ(acks.size(), 5u);
+  for (uint32_t i = 0; i < 5; ++i) {
+    EXPECT_TRUE(acks[i].accepted);
+    EXPECT_EQ(acks[i].client_seq, i + 1);  // in order
+    if (i > 0) {
+      EXPECT_EQ(acks[i].global_seq, acks[i - 1].global_seq + 1);
+    }
+  }
+}
+
 TEST(ReplicationCore, ConnectionsInTheirHandshakeHaveAPoolOfTheirOwnPerAddress) {
   ServerConfig config;
   config.max_clients = 2;

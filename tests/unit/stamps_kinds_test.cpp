@@ -690,5 +690,33 @@ TEST(StampReach, HoldsEverySampleTheStampChanges) {
   EXPECT_GT(checked, 150);
 }
 
+// stamp_cost is what admission counts: a stamp's reach in samples, times a shockwave's steps
+// and sub-steps; it grows with the radius squared and linearly with the steps.
+TEST(StampCost, IsTheReachTimesTheShockwavesStepsAndSubsteps) {
+  const WorldParams w = stamps_test::corner_world_params();
+  StampParams p = stamps_test::make_params(StampKind::kGaussian, 10, 10, 20, 1);
+  auto q = validate_stamp(p, w);
+  ASSERT_TRUE(q.ok());
+  EXPECT_EQ(*stamp_cost(*q, w), uint64_t(stamp_reach(*q, w)->area()));
+  p.radius = 40;
+  const uint64_t wider = *stamp_cost(*validate_stamp(p, w), w);
+  EXPECT_GT(wider, 3 * *stamp_cost(*q, w));
+  p = stamps_test::make_params(StampKind::kShockwave, 10, 10, 4, 1);
+  p.steps = 10;
+  p.speed = 0.5;
+  auto wave = validate_stamp(p, w);
+  ASSERT_TRUE(wave.ok());
+  const uint64_t area = uint64_t(stamp_reach(*wave, w)->area());
+  EXPECT_EQ(*stamp_cost(*wave, w), area * 10 * uint64_t(shockwave_substeps(wave->speed)));
+  p.speed = 0.95;  // above the Courant cap: sub-steps, each of them counted
+  auto fast = validate_stamp(p, w);
+  ASSERT_TRUE(fast.ok());
+  ASSERT_GT(shockwave_substeps(fast->speed), 1);
+  EXPECT_EQ(*stamp_cost(*fast, w),
+            uint64_t(stamp_reach(*fast, w)->area()) * 10 * uint64_t(shockwave_substeps(fast->speed)));
+  p.radius = std::nan("");
+  EXPECT_FALSE(validate_stamp(p, w).ok());  // what never validates never reaches stamp_cost
+}
+
 }  // namespace
 }  // namespace loam
