@@ -1,5 +1,7 @@
 #include "client/net/terrain_client.h"
 
+#include <algorithm>
+
 #include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
 
@@ -13,6 +15,16 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   auto w = connection_->connect(host, port, hello);
   if (!w) return w.error();
   welcome_ = *w;
+  // Deforms in flight on a lost connection will never be answered; the queued ones go now.
+  (void)pacer_.forget_unacked();
+  pacer_.set_limits(welcome_.limits.max_pending_deforms, double(welcome_.limits.max_deforms_per_second),
+                    DeformPacer::Clock::now());
+  return send_paced();
+}
+
+Status TerrainClient::send_paced() {
+  for (auto& [seq, stamp] : pacer_.take_sendable(DeformPacer::Clock::now()))
+    LOAM_TRY(connection_->send(wire::Deform{seq, std::move(stamp)}));
   return {};
 }
 
@@ -84,7 +96,8 @@ Status TerrainClient::unsubscribe(const std::vector<TileCoord>& tiles) {
 
 Result<uint32_t> TerrainClient::deform(const QuantizedStamp& stamp) {
   const uint32_t seq = next_client_seq_++;
-  LOAM_TRY(connection_->send(wire::Deform{seq, stamp}));
+  pacer_.submit(seq, stamp);
+  LOAM_TRY(send_paced());
   return seq;
 }
 
@@ -188,6 +201,7 @@ Status TerrainClient::handle(wire::Message& m) {
     case wire::MessageType::kDeformAck: {
       const auto& a = std::get<wire::DeformAck>(m);
       acks_[a.client_seq] = AckResult{a.accepted, a.global_seq, a.reject_code, a.field};
+      pacer_.acknowledged(a.client_seq);
       if (a.accepted) last_seen_seq_ = std::max(last_seen_seq_, a.global_seq);
       return {};
     }
@@ -212,10 +226,15 @@ Status TerrainClient::handle(wire::Message& m) {
 }
 
 Status TerrainClient::pump(std::chrono::milliseconds timeout) {
+  // A queued Deform due before the timeout cuts the wait short, so the pacing keeps its rate.
+  if (const auto due = pacer_.next_send_time()) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(*due - DeformPacer::Clock::now());
+    timeout = std::clamp(left + std::chrono::milliseconds(1), std::chrono::milliseconds(0), timeout);
+  }
   auto m = connection_->next(timeout);
   while (true) {
     if (!m) return m.error();
-    if (!m->has_value()) return {};
+    if (!m->has_value()) return send_paced();
     if (const Status st = handle(**m); !st.ok()) {
       // A message we could not use (a region that fails its checks, say) is recorded and
       // repaired by the next hash check; it does not end the session.

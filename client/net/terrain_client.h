@@ -16,6 +16,7 @@
 
 #include "client/net/confirmed_store.h"
 #include "client/net/connection.h"
+#include "client/net/deform_pacer.h"
 
 namespace loam::client {
 
@@ -46,8 +47,13 @@ class TerrainClient {
   Status unsubscribe(const std::vector<TileCoord>& tiles);
   // Every mip-0 coarse tile of the world.
   std::vector<TileCoord> all_coarse_tiles(int32_t mip = 0) const;
-  // Sends a Deform; returns the client's own sequence number for it.
+  // Sends a Deform; returns the client's own sequence number for it. Within the limits the
+  // Welcome announced (unacknowledged Deforms, Deforms a second) it leaves at once; beyond them
+  // it waits here, in order, and pump() sends it when an ack or time allows (deform_pacer.h).
   Result<uint32_t> deform(const QuantizedStamp& stamp);
+  // Deforms waiting to be sent, and sent but not yet acknowledged.
+  size_t deforms_queued() const { return pacer_.queued(); }
+  size_t deforms_unacked() const { return pacer_.unacked(); }
 
   // Handles messages for up to `timeout` (returns early when the inbox stays empty that long).
   // An Error result means the connection is gone.
@@ -78,6 +84,7 @@ class TerrainClient {
   Status request_missing_textures();
 
   Status handshake(const std::string& host, uint16_t port);
+  Status send_paced();
 
   std::unique_ptr<Connection> connection_ = std::make_unique<Connection>();
   std::string name_;
@@ -89,6 +96,7 @@ class TerrainClient {
   TextureRegistry textures_;
   std::set<uint64_t> textures_requested_;
   std::map<uint32_t, AckResult> acks_;
+  DeformPacer pacer_;
   std::vector<wire::ErrorMsg> errors_;
   std::vector<Error> local_errors_;
   std::optional<wire::Bye> bye_;

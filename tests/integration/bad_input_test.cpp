@@ -210,9 +210,17 @@ TEST_F(BadInput, GaussianWithTargetIsRejectedNamingTheField) {
 TEST_F(BadInput, FloodBeyondTheRateLimitIsRejectedWithoutDisconnecting) {
   client::TerrainClient c;
   ASSERT_TRUE(c.connect("127.0.0.1", server_.port(), "flood", wire::Role::kPlayer, token(kEditorToken)).ok());
+  // Raw frames, all at once: the client library would pace them to the announced limits.
   StampRng rng(3);
   std::vector<uint32_t> seqs;
-  for (int i = 0; i < 60; ++i) seqs.push_back(*c.deform(random_stamp(rng, c.welcome().world)));
+  std::vector<uint8_t> bytes;
+  for (uint32_t i = 1; i <= 60; ++i) {
+    const auto frame = wire::encode_frame(wire::Deform{i, random_stamp(rng, c.welcome().world)});
+    ASSERT_TRUE(frame.ok());
+    bytes.insert(bytes.end(), frame->begin(), frame->end());
+    seqs.push_back(i);
+  }
+  c.connection().send_raw(std::move(bytes));
   ASSERT_TRUE(c.wait_until(
       [&] {
         for (uint32_t s : seqs)
@@ -230,6 +238,32 @@ TEST_F(BadInput, FloodBeyondTheRateLimitIsRejectedWithoutDisconnecting) {
   EXPECT_GT(limited, 0);
   EXPECT_GE(accepted, 10) << "the burst is honoured";
   EXPECT_TRUE(c.connection().open());
+}
+
+// The same sixty through the client library: it keeps to the Welcome's limits (20 a
+// second here, 64 unacknowledged), so a backlog is accepted in full, in order.
+TEST_F(BadInput, ABacklogWithinTheAnnouncedLimitsIsAcceptedInFull) {
+  client::TerrainClient c;
+  ASSERT_TRUE(
+      c.connect("127.0.0.1", server_.port(), "backlog", wire::Role::kPlayer, token(kEditorToken)).ok());
+  StampRng rng(3);
+  std::vector<uint32_t> seqs;
+  for (int i = 0; i < 60; ++i) seqs.push_back(*c.deform(random_stamp(rng, c.welcome().world)));
+  EXPECT_GT(c.deforms_queued(), 0u);  // most wait on the client's side
+  ASSERT_TRUE(c.wait_until(
+      [&] {
+        for (uint32_t s : seqs)
+          if (!c.ack(s)) return false;
+        return true;
+      },
+      20s));
+  uint64_t last = 0;
+  for (uint32_t s : seqs) {
+    const auto a = c.ack(s);
+    ASSERT_TRUE(a->accepted) << "deform " << s << ": " << a->field;
+    EXPECT_GT(a->global_seq, last);  // in order
+    last = a->global_seq;
+  }
 }
 
 TEST_F(BadInput, ClientThatNeverReadsIsDroppedWithABoundedQueue) {

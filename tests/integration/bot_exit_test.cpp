@@ -31,10 +31,9 @@ TEST(BotExit, ExitsZeroWhenEveryStampIsAccepted) {
 
 TEST(BotExit, ExitsWithLostStampsWhenTheServerRefusesSome) {
   ServerProcess server;
-  // Two stamps of burst, then one a second: most of ten stamps at 50/s are refused.
-  ASSERT_TRUE(
-      server.start(temp_data_dir("bot_exit_refused"), {"--deforms-per-second", "1", "--deform-burst", "2"}))
-      << server.log();
+  // The bot keeps to the rate and cap the Welcome announces, so refuse by cost: no stamp of
+  // its mix costs as little as 100 sample updates.
+  ASSERT_TRUE(server.start(temp_data_dir("bot_exit_refused"), {"--max-stamp-cost", "100"})) << server.log();
   const Ran r = run_bot(server.port(), 10, 50);
   EXPECT_EQ(r.exit_code, client::kBotLostStamps) << r.output;
   EXPECT_NE(r.output.find("stamps refused"), std::string::npos) << r.output;
