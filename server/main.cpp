@@ -183,6 +183,10 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::FiniteRange(1, 1e6));
   serve_cmd
+      ->add_option("--metrics-bind", config.metrics_bind,
+                   "HOST:PORT for Prometheus metrics over HTTP (GET /metrics); empty: none")
+      ->capture_default_str();
+  serve_cmd
       ->add_option("--max-stamp-cost", config.max_stamp_cost,
                    "Sample updates one stamp may cost (a shockwave's times its steps)")
       ->capture_default_str()

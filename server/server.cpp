@@ -43,6 +43,12 @@ Server::Server(asio::io_context& io, ServerConfig config, OpenedStorage opened)
       config_(config),
       core_(std::move(config), std::move(opened), Clock::now()),
       acceptor_(io),
+      metrics_(io,
+               [this] {
+                 uint64_t max_queue = 0;
+                 for (const auto& [id, c] : connections_) max_queue = std::max(max_queue, c->queued_bytes);
+                 return prometheus_text(core_.metrics(max_queue));
+               }),
       tick_timer_(io),
       stats_timer_(io),
       signals_(io, SIGINT, SIGTERM),
@@ -64,6 +70,12 @@ Status Server::start() {
                       "cannot listen: " + ec.message());
   }
   port_ = acceptor_.local_endpoint().port();
+  // Before the port file: whoever waits for it may count on everything being up.
+  if (!config_.metrics_bind.empty()) {
+    LOAM_TRY(metrics_.start(config_.metrics_bind));
+    log_event("metrics_listening",
+              {{"bind", config_.metrics_bind}, {"port", std::to_string(metrics_.port())}});
+  }
   if (!config_.port_file.empty()) {
     const std::string tmp = config_.port_file + ".tmp";
     {
@@ -317,6 +329,7 @@ void Server::shutdown(const std::string& reason) {
   stopping_ = true;
   asio::error_code ec;
   acceptor_.close(ec);
+  metrics_.stop();
   tick_timer_.cancel();
   stats_timer_.cancel();
   signals_.cancel();

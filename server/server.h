@@ -19,6 +19,7 @@
 #include <string>
 
 #include "protocol/wire/framing.h"
+#include "server/metrics_http.h"
 #include "server/replication/replication_core.h"
 #include "server/server_config.h"
 #include "server/storage.h"
@@ -36,6 +37,7 @@ class Server {
   // address cannot be bound.
   Status start();
   uint16_t port() const { return port_; }
+  uint16_t metrics_port() const { return metrics_.port(); }  // 0: no metrics endpoint
   // Graceful stop: stop accepting, make the log durable, write a snapshot, send Bye to every
   // client, then let the io_context run out.
   void shutdown(const std::string& reason);
@@ -66,6 +68,7 @@ class Server {
   ServerConfig config_;
   ReplicationCore core_;
   asio::ip::tcp::acceptor acceptor_;
+  MetricsHttp metrics_;  // --metrics-bind
   asio::steady_timer tick_timer_;
   asio::steady_timer stats_timer_;
   asio::signal_set signals_;

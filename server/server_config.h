@@ -15,6 +15,7 @@ struct ServerConfig {
   std::string bind_address = "127.0.0.1";
   uint16_t port = 7878;                   // 0: an ephemeral port (see port_file)
   std::string port_file;                  // when set, the bound port is written there once listening
+  std::string metrics_bind;               // HOST:PORT of the Prometheus /metrics endpoint; empty: none
   std::string dem_path;                   // empty: the embedded default terrain
   int dem_band = 0;                       // the DEM's height band (1-based); 0: its only band
   std::vector<std::string> stamp_images;  // texture-stamp image files to register

@@ -344,6 +344,7 @@ void ReplicationCore::on_subscribe(Client& c, const wire::Subscribe& sub) {
 void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) {
   auto reject = [&](wire::WireErrorCode code, const std::string& field, const std::string& why) {
     ++stats_.deforms_rejected;
+    ++stats_.deforms_rejected_by[wire::to_string(code)];
     ++stats_.violations;
     ++c.violations;
     wire::DeformAck ack;
@@ -370,6 +371,7 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
     ack.reject_code = wire::WireErrorCode::kIo;
     ack.field = "storage.unavailable";
     ++stats_.deforms_rejected;
+    ++stats_.deforms_rejected_by[wire::to_string(ack.reject_code)];
     send(c, ack);
     return;
   }
@@ -479,6 +481,7 @@ void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime no
   const auto refuse_all = [&] {
     for (const PendingDeform& p : batch) {
       ++stats_.deforms_rejected;
+      ++stats_.deforms_rejected_by[wire::to_string(wire::WireErrorCode::kIo)];
       acknowledge(p, std::nullopt);
     }
   };
@@ -662,12 +665,46 @@ void ReplicationCore::maybe_snapshot(CoreTime now, bool force) {
 
 void ReplicationCore::record_tick_ms(double ms) {
   tick_ms_.push_back(ms);
+  ticks_.add(ms);
   if (ms > 1000.0 / config_.tick_hz) {
     ++stats_.tick_overruns;
     log_event("tick_overrun", {{"tick", std::to_string(tick_)},
                                {"ms", std::to_string(ms)},
                                {"stamps", std::to_string(last_batch_)}});
   }
+}
+
+MetricsSnapshot ReplicationCore::metrics(uint64_t max_queue_bytes) const {
+  MetricsSnapshot m;
+  m.sessions = sessions_;
+  m.handshakes = handshakes_;
+  m.connects = stats_.connects;
+  m.disconnects = stats_.disconnects;
+  m.sequence = terrain_.last_seq();
+  m.deforms_accepted = stats_.deforms_accepted;
+  m.deforms_rejected = stats_.deforms_rejected_by;
+  m.requests_refused = stats_.requests_refused;
+  m.violations = stats_.violations;
+  m.bytes_in = stats_.bytes_in;
+  m.bytes_out = stats_.bytes_out;
+  m.events_sent = stats_.events_sent;
+  m.regions_sent = stats_.regions_sent;
+  m.partial_regions_sent = stats_.partial_regions_sent;
+  const RegionFrameCounters& rc = frames_.counters();
+  m.region_encodes = rc.encodes;
+  m.region_cache_hits = rc.hits;
+  m.region_deltas = rc.delta_encodes;
+  m.region_best_upgrades = rc.best_upgrades;
+  m.region_cache_bytes = rc.bytes_held;
+  m.history_bytes = history_.bytes();
+  m.pending_deforms = pending_.size();
+  for (const PendingDeform& p : pending_) m.pending_stamp_cost += p.cost;
+  m.max_queue_bytes = max_queue_bytes;
+  m.tick_overruns = stats_.tick_overruns;
+  m.storage_failures = stats_.storage_failures;
+  m.snapshot_sequence = storage_.last_snapshot_seq();
+  m.ticks = ticks_;
+  return m;
 }
 
 void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {

@@ -33,6 +33,7 @@
 
 #include "protocol/wire/messages.h"
 #include "server/access_tokens.h"
+#include "server/metrics.h"
 #include "server/replication/client_tiles.h"
 #include "server/replication/region_frames.h"
 #include "server/replication/tile_history.h"
@@ -48,8 +49,9 @@ using CoreTime = CoreClock::time_point;
 struct ServerStats {
   uint64_t connects = 0, disconnects = 0;
   uint64_t deforms_accepted = 0, deforms_rejected = 0;
-  uint64_t violations = 0;        // every Error sent for a client's fault
-  uint64_t requests_refused = 0;  // requests over a client's rate, dropped
+  uint64_t violations = 0;                              // every Error sent for a client's fault
+  uint64_t requests_refused = 0;                        // requests over a client's rate, dropped
+  std::map<std::string, uint64_t> deforms_rejected_by;  // by reason (wire error code name)
   uint64_t bytes_in = 0, bytes_out = 0;
   uint64_t regions_sent = 0, partial_regions_sent = 0, events_sent = 0;
   uint64_t tick_overruns = 0;
@@ -97,6 +99,8 @@ class ReplicationCore {
   ServerStats& mutable_stats() { return stats_; }  // the transport counts bytes in and out
   const RegionFrameCounters& region_counters() const { return frames_.counters(); }
   const TileHistory& tile_history() const { return history_; }
+  // Everything /metrics reports (metrics.h); the transport adds its largest send queue.
+  MetricsSnapshot metrics(uint64_t max_queue_bytes) const;
   // Waits for the best-mode re-encodes running off the tick thread and adopts them (tests).
   void finish_background_encodes() { frames_.finish_best(); }
   bool failed() const { return failed_; }
@@ -120,7 +124,7 @@ class ReplicationCore {
     double tokens = 0;  // deform token bucket
     CoreTime refill;
     double cost_tokens = 0;  // stamp cost bucket (sample updates)
-    uint32_t unacked = 0;  // deforms accepted into the queue, not yet acknowledged
+    uint32_t unacked = 0;    // deforms accepted into the queue, not yet acknowledged
     uint64_t violations = 0;
     double requests = 0;  // request token bucket (Subscribe, Unsubscribe, Ping, ...)
     CoreTime requests_refill;
@@ -192,6 +196,7 @@ class ReplicationCore {
   size_t stream_cursor_ = 0;     // bulk turns rotate so no client always goes first
   size_t last_batch_ = 0;        // stamps in the last tick
   std::vector<double> tick_ms_;  // since the last stats line
+  TickHistogram ticks_;          // every tick since start, for /metrics
   double last_p50_ms_ = 0, last_p99_ms_ = 0;
 };
 
