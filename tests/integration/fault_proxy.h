@@ -1,0 +1,50 @@
+// A TCP proxy between clients and a server that injects network faults, for tests (this
+// kernel has no netem): a delay with jitter on every byte (order kept), a stall (nothing
+// forwarded for a while, as a link that drops out and comes back: the bytes wait and then
+// arrive at once), and a reset of every connection (RST both ways). One thread polls every
+// link; faults are asked for from the test's thread.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+#include <thread>
+
+namespace loam::test {
+
+class FaultProxy {
+ public:
+  struct Faults {
+    std::chrono::milliseconds delay{0};   // added to every byte, each direction
+    std::chrono::milliseconds jitter{0};  // plus up to this much more, drawn per read
+  };
+  // Listens on an ephemeral loopback port and forwards to 127.0.0.1:upstream_port.
+  FaultProxy(uint16_t upstream_port, Faults faults, uint64_t seed = 1);
+  ~FaultProxy();
+  FaultProxy(const FaultProxy&) = delete;
+  FaultProxy& operator=(const FaultProxy&) = delete;
+
+  uint16_t port() const { return port_; }
+  // Nothing is forwarded either way for `d` from now; what arrives meanwhile waits.
+  void stall(std::chrono::milliseconds d);
+  // Every open connection is reset (RST to both ends); new connections are accepted.
+  void reset_all() { reset_.store(true); }
+  uint64_t bytes_forwarded() const { return forwarded_.load(); }
+  uint64_t connections() const { return connections_.load(); }
+
+ private:
+  void run();
+
+  uint16_t upstream_;
+  Faults faults_;
+  uint64_t rng_;
+  int listen_fd_ = -1;
+  uint16_t port_ = 0;
+  std::atomic<bool> stop_{false}, reset_{false};
+  std::atomic<int64_t> stall_until_ns_{0};
+  std::atomic<uint64_t> forwarded_{0}, connections_{0};
+  std::thread thread_;
+};
+
+}  // namespace loam::test
