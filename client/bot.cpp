@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <thread>
 
 #include "client/net/terrain_client.h"
 #include "client/render/clipmap_interest.h"
@@ -84,31 +85,53 @@ int run_bot(const BotOptions& o) {
   } else if (!c.subscribe(c.all_coarse_tiles(0)).ok()) {
     return kBotCannotJoin;
   }
+  // The connection is gone: reconnect as the viewer does (the store resumes from the versions
+  // it holds, unanswered Deforms go again under the resume key), retrying for a few seconds.
+  int reconnects = 0;
+  const auto recover = [&]() -> bool {
+    const auto give_up = std::chrono::steady_clock::now() + 5s;
+    while (std::chrono::steady_clock::now() < give_up) {
+      if (c.reconnect(host, port).ok()) {
+        ++reconnects;
+        std::printf("bot %s: reconnected\n", name.c_str());
+        if (interest) focus_sent.reset();
+        return !interest || follow().ok();
+      }
+      std::this_thread::sleep_for(200ms);  // back-off between attempts
+    }
+    return false;
+  };
   test::StampRng rng(seed);
   std::vector<uint32_t> sent;
   const auto period = std::chrono::duration<double>(1.0 / rate);
   auto next = std::chrono::steady_clock::now();
-  for (uint32_t i = 0; i < stamps; ++i) {
+  bool lost = false;
+  for (uint32_t i = 0; i < stamps && !lost; ++i) {
     std::optional<std::pair<double, double>> near;
     if (interest) {
       const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
       near = roam_position(world, seed, o.roam_mps, t);
     }
-    auto s = c.deform(bot_stamp(rng, world, near));
+    auto s = c.deform(bot_stamp(rng, world, near));  // queued; it leaves when the link allows
     if (!s) break;
     sent.push_back(*s);
     next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
-    while (std::chrono::steady_clock::now() < next) {
-      if (interest && !follow().ok()) break;
-      if (!c.pump(std::min<std::chrono::milliseconds>(100ms,
-                                                      std::chrono::duration_cast<std::chrono::milliseconds>(
-                                                          next - std::chrono::steady_clock::now()) +
-                                                          1ms))
-               .ok())
-        break;
+    while (!lost && std::chrono::steady_clock::now() < next) {
+      const auto wait = std::min<std::chrono::milliseconds>(
+          100ms,
+          std::chrono::duration_cast<std::chrono::milliseconds>(next - std::chrono::steady_clock::now()) +
+              1ms);
+      if ((interest && !follow().ok()) || !c.pump(wait).ok()) lost = !recover();
     }
   }
-  c.wait_until([&] { return sent.empty() || c.ack(sent.back()).has_value(); }, 10s);
+  // Every answer, reconnecting if the link goes while waiting for them.
+  const auto all_answered = [&] {
+    return sent.empty() || (c.deforms_queued() == 0 && c.deforms_unacked() == 0);
+  };
+  for (int attempt = 0; !lost && attempt < 4; ++attempt) {
+    if (c.wait_until(all_answered, 10s)) break;
+    if (c.connection().open() || !recover()) break;
+  }
   size_t accepted = 0, refused = 0;
   for (uint32_t s : sent) {
     const auto ack = c.ack(s);
@@ -122,13 +145,14 @@ int run_bot(const BotOptions& o) {
   std::printf(
       "bot %s: %zu/%zu stamps accepted; events applied %llu, regions %llu, hash checks %llu, mismatches "
       "%llu\n",
-      name.c_str(), accepted, sent.size(), (unsigned long long)k.events_applied,
+      name.c_str(), accepted, size_t(stamps), (unsigned long long)k.events_applied,
       (unsigned long long)k.regions, (unsigned long long)k.hash_checks,
       (unsigned long long)k.hash_mismatches);
   if (refused + unacknowledged + unsent > 0) {
     std::fprintf(stderr, "bot %s: %zu stamps refused, %zu unacknowledged, %zu never sent\n", name.c_str(),
                  refused, unacknowledged, unsent);
   }
+  if (reconnects > 0) std::printf("bot %s: %d reconnects\n", name.c_str(), reconnects);
   (void)c.connection().send(wire::Bye{wire::ByeReason::kNormal, "bot done"});
   if (k.hash_mismatches != 0) return kBotMismatch;
   return refused + unacknowledged + unsent == 0 ? kBotOk : kBotLostStamps;

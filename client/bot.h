@@ -29,7 +29,7 @@ struct BotOptions {
 inline constexpr int kBotOk = 0;          // every stamp accepted, no hash mismatch
 inline constexpr int kBotCannotJoin = 1;  // could not connect, join or subscribe
 inline constexpr int kBotMismatch = 3;    // the confirmed store disagreed with the server's hashes
-inline constexpr int kBotLostStamps = 4;  // stamps refused, unacknowledged, or never sent (link lost)
+inline constexpr int kBotLostStamps = 4;  // stamps refused, or unanswered after reconnecting failed
 
 // Runs the bot; returns its exit code (a mismatch wins over lost stamps).
 int run_bot(const BotOptions& options);

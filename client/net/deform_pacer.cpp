@@ -29,7 +29,7 @@ std::vector<std::pair<uint32_t, QuantizedStamp>> DeformPacer::take_sendable(Cloc
     // to it; after idling it starts from now. Over any window of w seconds no more than
     // per_second * w + 2 leave, which a server bucket of capacity >= 2 accepts (default 120).
     if (per_second_ > 0) next_send_ = (now - next_send_ >= interval ? now : next_send_) + interval;
-    unacked_.insert(queued_.front().first);
+    unacked_.emplace(queued_.front().first, queued_.front().second);
     out.push_back(std::move(queued_.front()));
     queued_.pop_front();
   }
@@ -41,10 +41,18 @@ std::optional<DeformPacer::Clock::time_point> DeformPacer::next_send_time() cons
   return next_send_;
 }
 
-std::vector<uint32_t> DeformPacer::forget_unacked() {
-  std::vector<uint32_t> out(unacked_.begin(), unacked_.end());
+std::vector<uint32_t> DeformPacer::drop_unacked() {
+  std::vector<uint32_t> out;
+  for (const auto& [seq, stamp] : unacked_) out.push_back(seq);
   unacked_.clear();
   return out;
+}
+
+size_t DeformPacer::requeue_unacked() {
+  const size_t n = unacked_.size();
+  for (auto it = unacked_.rbegin(); it != unacked_.rend(); ++it) queued_.emplace_front(it->first, it->second);
+  unacked_.clear();
+  return n;
 }
 
 }  // namespace loam::client

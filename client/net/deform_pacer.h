@@ -8,8 +8,8 @@
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <optional>
-#include <set>
 #include <utility>
 #include <vector>
 
@@ -29,9 +29,14 @@ class DeformPacer {
   void acknowledged(uint32_t client_seq);
   // The Deforms that may leave now, oldest first; they count as unacknowledged from here.
   std::vector<std::pair<uint32_t, QuantizedStamp>> take_sendable(Clock::time_point now);
-  // Sent and not acknowledged when the connection went away: their answers will never come.
-  // They are forgotten (the caller decides whether to submit them again).
-  std::vector<uint32_t> forget_unacked();
+  // Sent and not acknowledged when the connection went away: their answers will not come on
+  // it. They go back to the front of the queue, in order, to be sent again on the next
+  // connection (the server recognises them by the resume key: answered once, applied once).
+  // Returns how many.
+  size_t requeue_unacked();
+  // The same, when they must not go again (the server cannot tell whether it applied them):
+  // they are dropped; returns their sequence numbers.
+  std::vector<uint32_t> drop_unacked();
 
   // When the oldest queued Deform may leave, if one waits for time (not for an ack).
   std::optional<Clock::time_point> next_send_time() const;
@@ -46,7 +51,7 @@ class DeformPacer {
   // none is assumed.
   Clock::time_point next_send_{};
   std::deque<std::pair<uint32_t, QuantizedStamp>> queued_;
-  std::set<uint32_t> unacked_;
+  std::map<uint32_t, QuantizedStamp> unacked_;  // sent, by client_seq
 };
 
 }  // namespace loam::client

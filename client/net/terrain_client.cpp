@@ -1,6 +1,7 @@
 #include "client/net/terrain_client.h"
 
 #include <algorithm>
+#include <random>
 
 #include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
@@ -12,11 +13,17 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   hello.client_name = name_;
   hello.requested_role = role_;
   hello.access_token = token_;
+  hello.resume_key = resume_key_;
   auto w = connection_->connect(host, port, hello);
   if (!w) return w.error();
   welcome_ = *w;
-  // Deforms in flight on a lost connection will never be answered; the queued ones go now.
-  (void)pacer_.forget_unacked();
+  // Deforms in flight on a lost connection go again, first, when the server still knows our
+  // resume key (answered once, applied once); after a restart it may have logged them
+  // already, so they are dropped (at most once). Then the queued ones.
+  if (welcome_.resume_key_known)
+    (void)pacer_.requeue_unacked();
+  else
+    (void)pacer_.drop_unacked();
   pacer_.set_limits(welcome_.limits.max_pending_deforms, double(welcome_.limits.max_deforms_per_second),
                     DeformPacer::Clock::now());
   return send_paced();
@@ -33,6 +40,10 @@ Status TerrainClient::connect(const std::string& host, uint16_t port, const std:
   name_ = name;
   role_ = role;
   token_ = token;
+  if (resume_key_ == 0) {
+    std::random_device rd;
+    while (resume_key_ == 0) resume_key_ = (uint64_t(rd()) << 32) ^ uint64_t(rd());
+  }
   LOAM_TRY(handshake(host, port));
   store_ = std::make_unique<ConfirmedStore>(welcome_.world);
   last_seen_seq_ = welcome_.global_sequence;
@@ -97,7 +108,8 @@ Status TerrainClient::unsubscribe(const std::vector<TileCoord>& tiles) {
 Result<uint32_t> TerrainClient::deform(const QuantizedStamp& stamp) {
   const uint32_t seq = next_client_seq_++;
   pacer_.submit(seq, stamp);
-  LOAM_TRY(send_paced());
+  // A lost connection shows in pump(); the Deform then waits for the next one (reconnect).
+  (void)send_paced();
   return seq;
 }
 

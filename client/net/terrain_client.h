@@ -34,7 +34,8 @@ class TerrainClient {
   Status connect(const std::string& host, uint16_t port, const std::string& name,
                  wire::Role role = wire::Role::kPlayer, std::optional<wire::AccessToken> token = {});
   // Reconnects after a lost connection and resumes: the store is kept, and every tile is
-  // subscribed again with the version held, so the server sends only tiles that changed.
+  // subscribed again with the version held, so the server sends only tiles that changed;
+  // Deforms sent and not answered go again under the same resume key (applied once).
   Status reconnect(const std::string& host, uint16_t port);
   const wire::Welcome& welcome() const { return welcome_; }
   Connection& connection() { return *connection_; }
@@ -48,8 +49,9 @@ class TerrainClient {
   // Every mip-0 coarse tile of the world.
   std::vector<TileCoord> all_coarse_tiles(int32_t mip = 0) const;
   // Sends a Deform; returns the client's own sequence number for it. Within the limits the
-  // Welcome announced (unacknowledged Deforms, Deforms a second) it leaves at once; beyond them
-  // it waits here, in order, and pump() sends it when an ack or time allows (deform_pacer.h).
+  // Welcome announced (unacknowledged Deforms, Deforms a second) it leaves at once; beyond them,
+  // or while the connection is down, it waits here, in order, and pump() (or reconnect()) sends
+  // it when an ack, time or a new connection allows (deform_pacer.h).
   Result<uint32_t> deform(const QuantizedStamp& stamp);
   // Deforms waiting to be sent, and sent but not yet acknowledged.
   size_t deforms_queued() const { return pacer_.queued(); }
@@ -90,6 +92,7 @@ class TerrainClient {
   std::string name_;
   wire::Role role_ = wire::Role::kPlayer;
   std::optional<wire::AccessToken> token_;
+  uint64_t resume_key_ = 0;  // random, kept across reconnects: resent Deforms count once
   wire::Welcome welcome_;
   std::unique_ptr<ConfirmedStore> store_;
   std::map<TileCoord, wire::RegionAssembler> assemblers_;

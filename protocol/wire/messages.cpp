@@ -175,6 +175,7 @@ Status serialize(S& s, Hello& m) {
     if constexpr (S::kReading) m.access_token.emplace();
     LOAM_TRY(s.bytes(m.access_token->data(), kAccessTokenBytes, "hello.access_token"));
   }
+  LOAM_TRY(s.bits(m.resume_key, "hello.resume_key"));
   return {};
 }
 
@@ -203,6 +204,7 @@ Status serialize(S& s, Welcome& m) {
   LOAM_TRY(s.bits(m.global_sequence, "welcome.global_sequence"));
   LOAM_TRY(serialize_range<uint16_t>(s, m.tick_rate_hz, 1, 1000, "welcome.tick_rate_hz"));
   LOAM_TRY(serialize(s, m.limits));
+  LOAM_TRY(s.boolean(m.resume_key_known, "welcome.resume_key_known"));
   return {};
 }
 

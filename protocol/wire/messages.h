@@ -81,9 +81,14 @@ struct Hello {
   std::string client_name;  // <= kMaxClientNameBytes
   Role requested_role = Role::kPlayer;
   // Who may join and in which role (server/access_tokens.h); absent where the server has no
-  // tokens. It does not name a session: a reconnecting client resumes by subscribing with the
-  // versions it holds (Subscribe entries with held = true), which works on any connection.
+  // tokens. It does not name a session: a reconnecting client resumes its tiles by subscribing
+  // with the versions it holds (Subscribe entries with held = true), and its Deforms by its
+  // resume key.
   std::optional<AccessToken> access_token;
+  // A random number the client keeps across its reconnects (0: none). A Deform resent on a
+  // new connection with the same key and client_seq is answered with its first answer and not
+  // applied again (exactly once).
+  uint64_t resume_key = 0;
   friend bool operator==(const Hello&, const Hello&) = default;
 };
 
@@ -104,6 +109,10 @@ struct Welcome {
   uint64_t global_sequence = 0;  // last sequence applied by the server
   uint16_t tick_rate_hz = 30;    // > 0
   ServerLimits limits;
+  // The server remembers the answers of this client's resume key (it has not restarted since
+  // they were given): Deforms sent and never answered may be sent again, and count once.
+  // False: they may or may not have been applied; the client must not send them again.
+  bool resume_key_known = false;
   friend bool operator==(const Welcome&, const Welcome&) = default;
 };
 

@@ -97,6 +97,8 @@ void ReplicationCore::fatal(Client& c, wire::WireErrorCode code, const std::stri
 bool ReplicationCore::erase_client(ClientId id) {
   const auto it = clients_.find(id);
   if (it == clients_.end()) return false;
+  if (const auto k = key_owner_.find(it->second.resume_key); k != key_owner_.end() && k->second == id)
+    key_owner_.erase(k);
   if (it->second.state == Client::State::kHandshake) {
     --handshakes_;
     const auto a = handshakes_by_address_.find(it->second.address);
@@ -295,6 +297,9 @@ void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
     handshakes_by_address_.erase(a);
   ++sessions_;
   c.state = Client::State::kReady;
+  // The newest connection of a resume key gets the answers of the Deforms still waiting.
+  c.resume_key = h.resume_key;
+  if (c.resume_key != 0) key_owner_[c.resume_key] = c.id;
   wire::Welcome w;
   w.client_id = c.id;
   w.granted_role = granted;
@@ -305,6 +310,9 @@ void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
   w.limits.max_subscribed_tiles = config_.max_subscriptions;
   w.limits.max_pending_deforms = config_.max_pending_deforms;
   w.limits.max_deforms_per_second = uint32_t(config_.deforms_per_second);
+  // After a restart the ledger is empty: the client must not resend what it never saw
+  // answered, since the log may hold it already.
+  w.resume_key_known = h.resume_key != 0 && ledger_.knows(h.resume_key);
   send(c, w);
   log_event("hello",
             {{"client", std::to_string(c.id)}, {"name", c.name}, {"role", wire::to_string(granted)}});
@@ -352,6 +360,7 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
     ack.accepted = false;
     ack.reject_code = code;
     ack.field = field.substr(0, wire::kMaxFieldNameBytes);
+    if (c.resume_key != 0) ledger_.answered(c.resume_key, ack);
     send(c, ack);
     log_event("deform_rejected", {{"client", std::to_string(c.id)},
                                   {"client_seq", std::to_string(d.client_seq)},
@@ -363,6 +372,15 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
     reject(wire::WireErrorCode::kUnauthorized, "role", "viewers cannot deform");
     return;
   }
+  // Sent again after a reconnect: answered as the first time, never applied twice.
+  if (c.resume_key != 0) {
+    const DeformLedger::Lookup seen = ledger_.lookup(c.resume_key, d.client_seq);
+    if (seen.seen != DeformLedger::Seen::kNew) {
+      ++stats_.deforms_resent;
+      if (seen.seen == DeformLedger::Seen::kAnswered) send(c, seen.ack);
+      return;  // kPending: answered on this connection when its tick commits it
+    }
+  }
   if (!storage_.writable()) {
     // Not the client's fault: refused, not counted as a violation.
     wire::DeformAck ack;
@@ -372,6 +390,7 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
     ack.field = "storage.unavailable";
     ++stats_.deforms_rejected;
     ++stats_.deforms_rejected_by[wire::to_string(ack.reject_code)];
+    if (c.resume_key != 0) ledger_.answered(c.resume_key, ack);
     send(c, ack);
     return;
   }
@@ -415,7 +434,8 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
   c.cost_tokens -= double(*cost);
   c.tokens -= 1.0;
   ++c.unacked;
-  pending_.push_back({c.id, d.client_seq, d.stamp, *cost});
+  pending_.push_back({c.id, d.client_seq, d.stamp, *cost, c.resume_key});
+  if (c.resume_key != 0) ledger_.admitted(c.resume_key, d.client_seq);
 }
 
 void ReplicationCore::on_stamp_image(Client& c, const wire::StampImageRequest& r) {
@@ -436,10 +456,6 @@ void ReplicationCore::on_stamp_image(Client& c, const wire::StampImageRequest& r
 // --- The tick ---
 
 void ReplicationCore::acknowledge(const PendingDeform& p, std::optional<uint64_t> seq) {
-  const auto it = clients_.find(p.client);
-  if (it == clients_.end()) return;
-  Client& c = it->second;
-  if (c.unacked > 0) --c.unacked;
   wire::DeformAck ack;
   ack.client_seq = p.client_seq;
   ack.accepted = seq.has_value();
@@ -449,6 +465,16 @@ void ReplicationCore::acknowledge(const PendingDeform& p, std::optional<uint64_t
     ack.reject_code = wire::WireErrorCode::kIo;
     ack.field = "storage.unavailable";
   }
+  if (p.key != 0) ledger_.answered(p.key, ack);
+  // The sender, or the newest connection of its resume key when it has reconnected since.
+  ClientId to = p.client;
+  if (p.key != 0) {
+    if (const auto k = key_owner_.find(p.key); k != key_owner_.end()) to = k->second;
+  }
+  const auto it = clients_.find(to);
+  if (it == clients_.end()) return;
+  Client& c = it->second;
+  if (to == p.client && c.unacked > 0) --c.unacked;  // its slot; a new connection never took one
   send(c, ack);
 }
 
@@ -721,6 +747,7 @@ void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
                       {"deforms_rejected", std::to_string(stats_.deforms_rejected)},
                       {"violations", std::to_string(stats_.violations)},
                       {"requests_refused", std::to_string(stats_.requests_refused)},
+                      {"deforms_resent", std::to_string(stats_.deforms_resent)},
                       {"bytes_in", std::to_string(stats_.bytes_in)},
                       {"bytes_out", std::to_string(stats_.bytes_out)},
                       {"events_sent", std::to_string(stats_.events_sent)},

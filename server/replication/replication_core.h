@@ -35,6 +35,7 @@
 #include "server/access_tokens.h"
 #include "server/metrics.h"
 #include "server/replication/client_tiles.h"
+#include "server/replication/deform_ledger.h"
 #include "server/replication/region_frames.h"
 #include "server/replication/tile_history.h"
 #include "server/server_config.h"
@@ -49,8 +50,9 @@ using CoreTime = CoreClock::time_point;
 struct ServerStats {
   uint64_t connects = 0, disconnects = 0;
   uint64_t deforms_accepted = 0, deforms_rejected = 0;
-  uint64_t violations = 0;                              // every Error sent for a client's fault
-  uint64_t requests_refused = 0;                        // requests over a client's rate, dropped
+  uint64_t violations = 0;        // every Error sent for a client's fault
+  uint64_t requests_refused = 0;  // requests over a client's rate, dropped
+  uint64_t deforms_resent = 0;    // Deforms seen again after a reconnect: answered, not applied
   std::map<std::string, uint64_t> deforms_rejected_by;  // by reason (wire error code name)
   uint64_t bytes_in = 0, bytes_out = 0;
   uint64_t regions_sent = 0, partial_regions_sent = 0, events_sent = 0;
@@ -118,7 +120,8 @@ class ReplicationCore {
     ClientId id = 0;
     State state = State::kHandshake;
     std::string name, peer;
-    std::string address;  // the peer without its port: the per-address handshake limit
+    std::string address;      // the peer without its port: the per-address handshake limit
+    uint64_t resume_key = 0;  // Hello's: resent Deforms are recognised by it (deform_ledger.h)
     wire::Role role = wire::Role::kPlayer;
     bool editor = true;
     double tokens = 0;  // deform token bucket
@@ -138,6 +141,7 @@ class ReplicationCore {
     uint32_t client_seq = 0;
     QuantizedStamp stamp;
     uint64_t cost = 0;  // stamp_cost
+    uint64_t key = 0;   // the sender's resume key (0: none)
   };
 
   void send(Client& c, const wire::Message& m);
@@ -175,6 +179,8 @@ class ReplicationCore {
   // Connections still in their handshake (all, and per address) and clients in session: the
   // pools --max-handshakes, --max-handshakes-per-address and --max-clients bound.
   size_t handshakes_ = 0, sessions_ = 0;
+  DeformLedger ledger_{4096, 1024};
+  std::map<uint64_t, ClientId> key_owner_;  // resume key -> its newest connection
   std::map<std::string, uint32_t> handshakes_by_address_;
   std::vector<PendingDeform> pending_;
   ClientId next_id_ = 1;

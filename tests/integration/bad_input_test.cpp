@@ -37,6 +37,32 @@ std::optional<wire::ErrorMsg> expect_error(client::Connection& c, bool closes) {
   return closes ? std::nullopt : err;  // a close was expected but never came
 }
 
+// Deforms next_seq + 1 ... next_seq + n as raw frames in one write, past the client library's
+// pacing; returns their client sequence numbers.
+std::vector<uint32_t> send_raw_deforms(client::TerrainClient& c, StampRng& rng, uint32_t& next_seq, int n) {
+  std::vector<uint32_t> seqs;
+  std::vector<uint8_t> bytes;
+  for (int i = 0; i < n; ++i) {
+    const auto frame = wire::encode_frame(wire::Deform{++next_seq, random_stamp(rng, c.welcome().world)});
+    EXPECT_TRUE(frame.ok());
+    if (frame.ok()) bytes.insert(bytes.end(), frame->begin(), frame->end());
+    seqs.push_back(next_seq);
+  }
+  c.connection().send_raw(std::move(bytes));
+  return seqs;
+}
+
+// Pumps until every one of `seqs` has its DeformAck.
+bool all_answered(client::TerrainClient& c, const std::vector<uint32_t>& seqs) {
+  return c.wait_until(
+      [&] {
+        for (uint32_t s : seqs)
+          if (!c.ack(s)) return false;
+        return true;
+      },
+      20s);
+}
+
 class BadInput : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -212,22 +238,9 @@ TEST_F(BadInput, FloodBeyondTheRateLimitIsRejectedWithoutDisconnecting) {
   ASSERT_TRUE(c.connect("127.0.0.1", server_.port(), "flood", wire::Role::kPlayer, token(kEditorToken)).ok());
   // Raw frames, all at once: the client library would pace them to the announced limits.
   StampRng rng(3);
-  std::vector<uint32_t> seqs;
-  std::vector<uint8_t> bytes;
-  for (uint32_t i = 1; i <= 60; ++i) {
-    const auto frame = wire::encode_frame(wire::Deform{i, random_stamp(rng, c.welcome().world)});
-    ASSERT_TRUE(frame.ok());
-    bytes.insert(bytes.end(), frame->begin(), frame->end());
-    seqs.push_back(i);
-  }
-  c.connection().send_raw(std::move(bytes));
-  ASSERT_TRUE(c.wait_until(
-      [&] {
-        for (uint32_t s : seqs)
-          if (!c.ack(s)) return false;
-        return true;
-      },
-      20s));
+  uint32_t next_seq = 0;
+  const std::vector<uint32_t> seqs = send_raw_deforms(c, rng, next_seq, 60);
+  ASSERT_TRUE(all_answered(c, seqs));
   int limited = 0, accepted = 0;
   for (uint32_t s : seqs) {
     const auto a = c.ack(s);
@@ -250,13 +263,7 @@ TEST_F(BadInput, ABacklogWithinTheAnnouncedLimitsIsAcceptedInFull) {
   std::vector<uint32_t> seqs;
   for (int i = 0; i < 60; ++i) seqs.push_back(*c.deform(random_stamp(rng, c.welcome().world)));
   EXPECT_GT(c.deforms_queued(), 0u);  // most wait on the client's side
-  ASSERT_TRUE(c.wait_until(
-      [&] {
-        for (uint32_t s : seqs)
-          if (!c.ack(s)) return false;
-        return true;
-      },
-      20s));
+  ASSERT_TRUE(all_answered(c, seqs));
   uint64_t last = 0;
   for (uint32_t s : seqs) {
     const auto a = c.ack(s);
@@ -316,23 +323,8 @@ TEST(PendingDeforms, DeformsBeyondTheUnacknowledgedLimitAreRefusedUntilAcksFreeT
   uint32_t next_seq = 1000;
   // All Deforms of a burst go in one write, so the server reads them before any tick runs.
   auto burst = [&](int n) {
-    std::vector<uint32_t> seqs;
-    std::vector<uint8_t> bytes;
-    for (int i = 0; i < n; ++i) {
-      const auto frame = wire::encode_frame(wire::Deform{++next_seq, random_stamp(rng, c.welcome().world)});
-      EXPECT_TRUE(frame.ok());
-      if (frame.ok()) bytes.insert(bytes.end(), frame->begin(), frame->end());
-      seqs.push_back(next_seq);
-    }
-    c.connection().send_raw(std::move(bytes));
-    EXPECT_TRUE(c.wait_until(
-        [&] {
-          for (uint32_t s : seqs)
-            if (!c.ack(s)) return false;
-          return true;
-        },
-        20s))
-        << server.log();
+    const std::vector<uint32_t> seqs = send_raw_deforms(c, rng, next_seq, n);
+    EXPECT_TRUE(all_answered(c, seqs)) << server.log();
     int accepted = 0, too_many = 0;
     for (uint32_t s : seqs) {
       const auto a = c.ack(s);

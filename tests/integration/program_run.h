@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <fstream>
 #include <sstream>
@@ -26,7 +27,9 @@ struct Ran {
 
 // Runs a program to completion with stdout and stderr captured.
 inline Ran run(std::vector<std::string> args) {
-  const std::string out = temp_data_dir("run") + "/output";
+  // A folder per run: tests run several programs at once (bots on threads).
+  static std::atomic<int> runs{0};
+  const std::string out = temp_data_dir("run" + std::to_string(runs++)) + "/output";
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);

@@ -407,6 +407,60 @@ TEST(ReplicationCore, ATickAppliesStampsUpToItsCostBudgetAndTheRestFollowInOrder
   }
 }
 
+TEST(ReplicationCore, DeformsResentAfterAReconnectAreAnsweredOnceAndAppliedOnce) {
+  CoreHarness h;
+  const auto hello = [&](ClientId id, const std::string& name, uint64_t key) {
+    wire::Hello m;
+    m.client_name = name;
+    m.resume_key = key;
+    h.send(id, m);
+  };
+  const QuantizedStamp s1 = h.stamp(StampKind::kCrater, 100, 100, 8),
+                       s2 = h.stamp(StampKind::kGaussian, 200, 100, 8),
+                       s3 = h.stamp(StampKind::kCrater, 300, 100, 8);
+  const ClientId a = h.core().connect("test:a", h.now());
+  hello(a, "a", 42);
+  h.send(a, wire::Deform{1, s1});
+  h.send(a, wire::Deform{2, s2});
+  h.tick();  // both committed; a has their answers
+  ASSERT_EQ(h.of(a).all<wire::DeformAck>().size(), 2u);
+  const uint64_t seq2 = h.of(a).all<wire::DeformAck>()[1].global_seq;
+  h.send(a, wire::Deform{3, s3});         // admitted, waiting for its tick...
+  h.core().disconnected(a, "link lost");  // ...when the link goes
+  // The client comes back with the same key and sends again what it never saw answered (and
+  // one it did: its answer was lost on the way, say).
+  const ClientId b = h.core().connect("test:b", h.now());
+  hello(b, "a", 42);
+  // The server still knows the key: resending is safe (after a restart it would say not).
+  ASSERT_EQ(h.of(b).all<wire::Welcome>().size(), 1u);
+  EXPECT_TRUE(h.of(b).all<wire::Welcome>()[0].resume_key_known);
+  EXPECT_FALSE(h.of(a).all<wire::Welcome>()[0].resume_key_known);  // a new key at first
+  h.send(b, wire::Deform{2, s2});
+  h.send(b, wire::Deform{3, s3});
+  const auto now_acks = h.of(b).all<wire::DeformAck>();
+  ASSERT_EQ(now_acks.size(), 1u);  // 2: its first answer again, at once
+  EXPECT_EQ(now_acks[0].client_seq, 2u);
+  EXPECT_TRUE(now_acks[0].accepted);
+  EXPECT_EQ(now_acks[0].global_seq, seq2);
+  h.tick();  // 3 commits once, answered on the new connection
+  const auto acks = h.of(b).all<wire::DeformAck>();
+  ASSERT_EQ(acks.size(), 2u);
+  EXPECT_EQ(acks[1].client_seq, 3u);
+  EXPECT_TRUE(acks[1].accepted);
+  EXPECT_EQ(acks[1].global_seq, 3u);
+  EXPECT_EQ(h.core().terrain().last_seq(), 3u);  // three stamps, none twice
+  EXPECT_EQ(h.core().stats().deforms_resent, 2u);
+  // Another key's sequence numbers are its own; no key, no memory.
+  const ClientId c = h.core().connect("test:c", h.now());
+  hello(c, "c", 7);
+  h.send(c, wire::Deform{2, s2});
+  const ClientId d = h.join("d");
+  h.send(d, wire::Deform{2, s2});
+  h.send(d, wire::Deform{2, s2});
+  h.tick();
+  EXPECT_EQ(h.core().terrain().last_seq(), 6u);
+}
+
 TEST(ReplicationCore, ConnectionsInTheirHandshakeHaveAPoolOfTheirOwnPerAddress) {
   ServerConfig config;
   config.max_clients = 2;

@@ -33,9 +33,14 @@ TEST(DeformPacer, ABacklogLeavesInOrderWithinTheUnacknowledgedCap) {
   EXPECT_EQ(sent[0].first, 4u);
   EXPECT_EQ(p.queued(), 6u);
   EXPECT_EQ(p.unacked(), 3u);
-  // A lost connection: the three in flight are forgotten, the queue stays for the next one.
-  EXPECT_EQ(p.forget_unacked(), (std::vector<uint32_t>{1, 3, 4}));
-  EXPECT_EQ(p.take_sendable(t0).size(), 3u);
+  // A lost connection: the three in flight go back to the front, in order, before the queue.
+  EXPECT_EQ(p.requeue_unacked(), 3u);
+  EXPECT_EQ(p.unacked(), 0u);
+  sent = p.take_sendable(t0);
+  ASSERT_EQ(sent.size(), 3u);
+  EXPECT_EQ(sent[0].first, 1u);
+  EXPECT_EQ(sent[1].first, 3u);
+  EXPECT_EQ(sent[2].first, 4u);
 }
 
 TEST(DeformPacer, NoWindowSeesMoreThanTheRateAllowsPlusTwo) {

@@ -55,6 +55,7 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   hello.client_name = "viewer-1";
   hello.requested_role = Role::kPlayer;
   hello.access_token = AccessToken{1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16};
+  hello.resume_key = 0x0123456789ABCDEFull;
   v.emplace_back("hello", hello);
   Welcome welcome;
   welcome.client_id = 7;
