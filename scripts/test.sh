@@ -27,7 +27,7 @@ if [ -z "${DISPLAY:-}" ] && command -v xvfb-run >/dev/null; then xvfb=(xvfb-run 
 if [ "${LOAM_SKIP_FUZZ:-0}" != "1" ] && [ -f fuzz/CMakeLists.txt ]; then
   echo "== fuzz (clang 14 build of protocol/, ${LOAM_FUZZ_SECONDS:-30} s per target)"
   bash fuzz/run.sh all "${LOAM_FUZZ_SECONDS:-30}"
-  echo "== clang determinism (the golden stamp sequence built with clang 14)"
+  echo "== clang determinism (the golden stamp sequence and refinement built with clang 14)"
   ninja -C build-fuzz stamp_golden_check
   ./build-fuzz/fuzz/stamp_golden_check
 fi

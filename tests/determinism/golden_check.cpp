@@ -1,8 +1,10 @@
 // Built by the clang (fuzz) configuration and run by fuzz/run.sh: the golden stamp sequence
-// must reproduce the same world hash with clang as the GCC unit tests check.
+// and the golden refinement must reproduce the same hashes with clang as the GCC unit tests
+// check.
 #include <cstdio>
 #include <string>
 
+#include "tests/determinism/refinement_sequence.h"
 #include "tests/determinism/stamp_sequence.h"
 
 int main() {
@@ -16,5 +18,11 @@ int main() {
   std::printf("golden stamp sequence (clang %d.%d): world hash %016llx, expected %016llx: %s\n",
               __clang_major__, __clang_minor__, (unsigned long long)got,
               (unsigned long long)loam::determinism::kGoldenStampSequenceHash, ok ? "same" : "DIFFERENT");
-  return ok ? 0 : 1;
+  const uint64_t refined = loam::determinism::golden_refinement_hash();
+  const bool refined_ok = refined == loam::determinism::kGoldenRefinementHash;
+  std::printf("golden refinement (clang %d.%d): hash %016llx, expected %016llx: %s\n", __clang_major__,
+              __clang_minor__, (unsigned long long)refined,
+              (unsigned long long)loam::determinism::kGoldenRefinementHash,
+              refined_ok ? "same" : "DIFFERENT");
+  return ok && refined_ok ? 0 : 1;
 }

@@ -1,0 +1,281 @@
+// Suite `world-scale`: worlds of tens of kilometres. This part measures the refined default
+// world (dem/refined_default.h): the time to generate a 256^2 tile at every mip on one core
+// (target <= 1 ms, so a client flying at 300 m/s keeps up), and whether it looks like
+// terrain: slope histograms (Horn's method, as `gdaldem slope`) of the refined world at
+// 1, 8 and 64 m against real DEMs from ../shared/data at their own resolution, and against
+// the old whole-world default (the same crop squeezed to 2 m). Hillshades of the refined
+// world go beside the report.
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "bench/harness.h"
+#include "dem/default_terrain.h"
+#include "dem/dem_raster.h"
+#include "dem/refined_default.h"
+
+namespace loam::bench {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A height field in metres with its spacing, for slope statistics and hillshades.
+struct Field {
+  std::string name;
+  int64_t w = 0, h = 0;
+  double dx = 1, dy = 1;
+  std::vector<double> z;
+  double at(int64_t x, int64_t y) const { return z[size_t(y * w + x)]; }
+};
+
+constexpr int kSlopeBins = 9;
+constexpr double kSlopeEdges[kSlopeBins] = {2, 5, 10, 15, 20, 30, 40, 50, 90};
+
+struct SlopeStats {
+  int64_t n = 0;
+  double hist[kSlopeBins] = {};
+  double mean = 0, p50 = 0, p90 = 0, p99 = 0;
+};
+
+// Horn's 3x3 gradient (gdaldem slope -alg Horn) over interior samples.
+void add_slopes(const Field& f, std::vector<double>& slopes) {
+  for (int64_t y = 1; y + 1 < f.h; ++y) {
+    for (int64_t x = 1; x + 1 < f.w; ++x) {
+      const double gx = ((f.at(x + 1, y - 1) + 2 * f.at(x + 1, y) + f.at(x + 1, y + 1)) -
+                         (f.at(x - 1, y - 1) + 2 * f.at(x - 1, y) + f.at(x - 1, y + 1))) /
+                        (8 * f.dx);
+      const double gy = ((f.at(x - 1, y + 1) + 2 * f.at(x, y + 1) + f.at(x + 1, y + 1)) -
+                         (f.at(x - 1, y - 1) + 2 * f.at(x, y - 1) + f.at(x + 1, y - 1))) /
+                        (8 * f.dy);
+      slopes.push_back(std::atan(std::sqrt(gx * gx + gy * gy)) * 180.0 / M_PI);
+    }
+  }
+}
+
+SlopeStats stats_of(std::vector<double> slopes) {
+  SlopeStats s;
+  s.n = int64_t(slopes.size());
+  if (slopes.empty()) return s;
+  double sum = 0;
+  for (double v : slopes) {
+    sum += v;
+    int b = 0;
+    while (b + 1 < kSlopeBins && v >= kSlopeEdges[b]) ++b;
+    s.hist[b] += 1;
+  }
+  for (double& h : s.hist) h /= double(slopes.size());
+  s.mean = sum / double(slopes.size());
+  std::sort(slopes.begin(), slopes.end());
+  const auto q = [&](double p) {
+    return slopes[std::min(slopes.size() - 1, size_t(p * double(slopes.size())))];
+  };
+  s.p50 = q(0.5);
+  s.p90 = q(0.9);
+  s.p99 = q(0.99);
+  return s;
+}
+
+// A rect of the refined world at a mip, in metres.
+Field refined_field(const RefinedWorld& w, int32_t mip, const RectI& r) {
+  std::vector<uint16_t> q(size_t(r.area()));
+  w.base.generate(mip, r, q);
+  Field f{"",
+          r.width(),
+          r.height(),
+          std::ldexp(w.params.meters_per_sample, mip),
+          std::ldexp(w.params.meters_per_sample, mip),
+          {}};
+  f.z.resize(q.size());
+  for (size_t i = 0; i < q.size(); ++i) f.z[i] = w.params.height_meters(q[i]);
+  return f;
+}
+
+bool write_hillshade(const Field& f, const std::string& path) {
+  std::vector<uint8_t> px(size_t(f.w * f.h), 0);
+  const double az = 315.0 * M_PI / 180.0, alt = 45.0 * M_PI / 180.0;
+  for (int64_t y = 1; y + 1 < f.h; ++y) {
+    for (int64_t x = 1; x + 1 < f.w; ++x) {
+      const double gx = ((f.at(x + 1, y - 1) + 2 * f.at(x + 1, y) + f.at(x + 1, y + 1)) -
+                         (f.at(x - 1, y - 1) + 2 * f.at(x - 1, y) + f.at(x - 1, y + 1))) /
+                        (8 * f.dx);
+      const double gy = ((f.at(x - 1, y + 1) + 2 * f.at(x, y + 1) + f.at(x + 1, y + 1)) -
+                         (f.at(x - 1, y - 1) + 2 * f.at(x, y - 1) + f.at(x + 1, y - 1))) /
+                        (8 * f.dy);
+      const double slope = std::atan(std::sqrt(gx * gx + gy * gy));
+      const double aspect = std::atan2(gy, -gx);
+      const double shade = std::sin(alt) * std::cos(slope) +
+                           std::cos(alt) * std::sin(slope) * std::cos(az - M_PI / 2 - aspect);
+      px[size_t(y * f.w + x)] = uint8_t(std::clamp(shade, 0.0, 1.0) * 255.0);
+    }
+  }
+  auto out = OIIO::ImageOutput::create(path);
+  if (!out) return false;
+  OIIO::ImageSpec spec(int(f.w), int(f.h), 1, OIIO::TypeDesc::UINT8);
+  if (!out->open(path, spec)) return false;
+  const bool ok = out->write_image(OIIO::TypeDesc::UINT8, px.data());
+  return out->close() && ok;
+}
+
+std::string fmt(const char* f, double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+int run_world_scale(const Context& ctx, Report& report) {
+  auto world = load_refined_default();
+  if (!world) {
+    std::fprintf(stderr, "world-scale: %s\n", world.error().describe().c_str());
+    return 1;
+  }
+  const RefinedWorld& w = *world;
+  const int32_t mips = w.params.mip_count();
+
+  // --- Tile generation time per mip, over tiles spread across the world (one core). ---
+  Table gen("refined_tiles", {"mip", "spacing m", "tiles timed", "ms / tile (median)", "p99 ms", "max ms",
+                              "Msamples/s", "target <= 1 ms"});
+  std::vector<uint16_t> tile(static_cast<size_t>(kTileSamples));
+  Series gen_series{"median ms per 256^2 tile", {}};
+  int failures = 0;
+  uint64_t lcg = 99;
+  for (int32_t mip = 0; mip < mips; ++mip) {
+    const RectI range = w.params.tile_range(mip);
+    const int n = ctx.quick ? 20 : 400;
+    std::vector<double> times;
+    for (int i = 0; i < n + 5; ++i) {
+      lcg = lcg * 6364136223846793005ull + 1442695040888963407ull;
+      const int32_t tx = int32_t(range.x0 + int64_t((lcg >> 33) % uint64_t(range.width())));
+      const int32_t ty = int32_t(range.y0 + int64_t((lcg >> 13) % uint64_t(range.height())));
+      const auto t0 = std::chrono::steady_clock::now();
+      w.base.generate_tile(mip, tx, ty, tile);
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (i >= 5) times.push_back(s);  // the first calls size the scratch buffers
+    }
+    std::sort(times.begin(), times.end());
+    const double med = times[times.size() / 2],
+                 p99 = times[std::min(times.size() - 1, times.size() * 99 / 100)];
+    const bool ok = med <= 1e-3;
+    if (!ok && !ctx.quick && !ctx.sanitized) ++failures;
+    gen.add_row({std::to_string(mip), fmt("%.0f", std::ldexp(1.0, mip)), std::to_string(times.size()),
+                 fmt("%.3f", med * 1e3), fmt("%.3f", p99 * 1e3), fmt("%.3f", times.back() * 1e3),
+                 fmt("%.1f", kTileSamples / med / 1e6), ok ? "yes" : "NO"});
+    gen_series.points.push_back({double(mip), med * 1e3});
+  }
+
+  // --- Slopes: the refined world at three resolutions, the old default, real DEMs. ---
+  Table slopes("slopes", {"terrain", "spacing m", "samples", "mean deg", "median", "p90", "p99", "<2", "2-5",
+                          "5-10", "10-15", "15-20", "20-30", "30-40", "40-50", ">=50"});
+  const auto add_row = [&](const std::string& name, double spacing, const SlopeStats& s) {
+    std::vector<std::string> row = {name,
+                                    fmt("%.1f", spacing),
+                                    std::to_string(s.n),
+                                    fmt("%.1f", s.mean),
+                                    fmt("%.1f", s.p50),
+                                    fmt("%.1f", s.p90),
+                                    fmt("%.1f", s.p99)};
+    for (double h : s.hist) row.push_back(fmt("%.3f", h));
+    slopes.add_row(row);
+  };
+  // Sample windows spread over the whole refined world (land and sea floor alike).
+  for (int32_t mip : {0, 3, 6}) {
+    std::vector<double> all;
+    const int windows = ctx.quick ? 2 : 24;
+    const int64_t side = 256;
+    for (int i = 0; i < windows; ++i) {
+      lcg = lcg * 6364136223846793005ull + 1442695040888963407ull;
+      const int64_t wx = int64_t((lcg >> 33) % uint64_t((w.base.width() >> mip) - side));
+      const int64_t wy = int64_t((lcg >> 13) % uint64_t((w.base.height() >> mip) - side));
+      add_slopes(refined_field(w, mip, {wx, wy, wx + side, wy + side}), all);
+    }
+    add_row("refined default, mip " + std::to_string(mip), std::ldexp(1.0, mip), stats_of(std::move(all)));
+  }
+  if (auto old = load_default_terrain(); old) {
+    const World& ow = old->world;
+    const RectI r = ow.params().sample_rect();
+    Field f{"", r.width(), r.height(), ow.params().meters_per_sample, ow.params().meters_per_sample, {}};
+    std::vector<uint16_t> q(size_t(r.area()));
+    ow.read_coarse(r, q);
+    for (uint16_t v : q) f.z.push_back(ow.params().height_meters(v));
+    std::vector<double> s;
+    add_slopes(f, s);
+    add_row("old default (crop at 2 m)", f.dx, stats_of(std::move(s)));
+  }
+  int shared_rows = 0;
+  for (const char* name : {"msh_crater_2004-10-04", "kilauea_utm30m_857x793", "jacksboro_3s_403x344",
+                           "frontrange_srtm3_758", "rockies_30s_600"}) {
+    const std::string path = ctx.shared_data_dir + "/" + name + ".png";
+    if (!fs::exists(path)) continue;
+    auto dem = read_dem_file(path);
+    if (!dem) continue;
+    Field f{
+        name,       dem->width, dem->height, dem->meters_per_sample, dem->meters_per_sample * dem->anisotropy,
+        dem->meters};
+    for (double& z : f.z)
+      if (!std::isfinite(z)) z = 0;
+    std::vector<double> s;
+    add_slopes(f, s);
+    add_row(std::string(name) + " (real)", std::sqrt(f.dx * f.dy), stats_of(std::move(s)));
+    ++shared_rows;
+  }
+  if (shared_rows == 0) {
+    std::printf("world-scale: SKIPPING real DEMs: %s is absent\n", ctx.shared_data_dir.c_str());
+    report.paragraph("**Real DEMs skipped**: `" + ctx.shared_data_dir + "` is absent.");
+  }
+
+  // --- Hillshades: 512^2 samples at 1 m and 4 m on the Himalayan front, the whole world at 128 m. ---
+  fs::create_directories(ctx.out_dir);
+  const int64_t hs = ctx.quick ? 256 : 512;
+  const int64_t cx = w.base.width() * 45 / 100, cy = w.base.height() * 30 / 100;
+  const bool hs_ok =
+      write_hillshade(
+          refined_field(w, 2,
+                        {(cx >> 2) - hs / 2, (cy >> 2) - hs / 2, (cx >> 2) + hs / 2, (cy >> 2) + hs / 2}),
+          ctx.out_dir + "/world_scale_hillshade_4m.png") &&
+      write_hillshade(refined_field(w, 0, {cx - hs / 2, cy - hs / 2, cx + hs / 2, cy + hs / 2}),
+                      ctx.out_dir + "/world_scale_hillshade_1m.png") &&
+      write_hillshade(refined_field(w, 7, {0, 0, w.base.width() >> 7, w.base.height() >> 7}),
+                      ctx.out_dir + "/world_scale_hillshade_128m.png");
+  if (!hs_ok) {
+    std::fprintf(stderr, "world-scale: could not write the hillshades\n");
+    ++failures;
+  }
+
+  report.paragraph(
+      "The refined default world: " + w.description + ", " + std::to_string(w.params.tiles_x) + " x " +
+      std::to_string(w.params.tiles_y) + " tiles, " + std::to_string(mips) +
+      " mips. Untouched tiles are generated, never stored or sent (docs/world.md, \"Refined "
+      "worlds\"). Generation time of one 256^2 tile per mip on one core, over tiles drawn across "
+      "the world; mips at and above 7 are the crop itself.");
+  report.table(gen);
+  report.plot(Plot{"world_scale_tile_time.png",
+                   "Refined tile generation",
+                   "mip",
+                   "ms per 256^2 tile",
+                   false,
+                   false,
+                   {gen_series},
+                   {{"target 1 ms", 1.0}}});
+  report.paragraph(
+      "Slope histograms (Horn's method, degrees; fraction of samples per bin) of the refined world over "
+      "256^2 windows spread across it (land and sea floor alike), at 1, 8 and 64 m, beside real DEMs at "
+      "their own resolution and the old default (the same crop squeezed to 2 m per sample). Hillshades: "
+      "![1 m](world_scale_hillshade_1m.png) 512 m at 1 m, ![4 m](world_scale_hillshade_4m.png) 2 km at 4 m "
+      "(both on the Himalayan front), ![128 m](world_scale_hillshade_128m.png) the whole world at 128 m.");
+  report.table(slopes);
+  return failures;
+}
+
+}  // namespace
+
+// Registered by hand: the suite's name has a hyphen.
+static SuiteRegistration world_scale_registration(
+    "world-scale", "worlds of tens of km: refined tile generation time, slopes against real DEMs",
+    run_world_scale);
+
+}  // namespace loam::bench
