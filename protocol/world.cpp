@@ -12,22 +12,18 @@
 
 namespace loam {
 
-World::World(const WorldParams& params, uint16_t fill)
-    : params_(params), samples_(params.sample_rect()), detail_samples_(params.detail_sample_rect()) {
+World::World(const WorldParams& params, uint16_t fill) : World(params, std::make_shared<FillBase>(fill)) {}
+
+World::World(const WorldParams& params, std::shared_ptr<const TileBase> base)
+    : params_(params),
+      samples_(params.sample_rect()),
+      detail_samples_(params.detail_sample_rect()),
+      base_(std::move(base)) {
   assert(params.validate().ok());
+  assert(base_);
   const int32_t mips = params_.mip_count();
   mips_.resize(size_t(mips));
-  const uint64_t fill_hash = [&] {
-    std::vector<uint16_t> t(kTileSamples, fill);
-    return hash_coarse_tile(t);
-  }();
-  for (int32_t m = 0; m < mips; ++m) {
-    CoarseMip& mip = mips_[size_t(m)];
-    mip.tiles = params_.tile_range(m);
-    const size_t count = size_t(mip.tiles.area());
-    mip.data.assign(count, std::vector<uint16_t>(kTileSamples, fill));
-    mip.state.assign(count, TileState{0, fill_hash});
-  }
+  for (int32_t m = 0; m < mips; ++m) mips_[size_t(m)].tiles = params_.tile_range(m);
 }
 
 Result<World> World::from_samples(const WorldParams& params, std::span<const uint16_t> samples) {
@@ -50,16 +46,107 @@ bool World::tile_in_range(int32_t mip, int32_t tx, int32_t ty) const {
   return mips_[size_t(mip)].tiles.contains(tx, ty);
 }
 
-size_t World::tile_index(int32_t mip, int32_t tx, int32_t ty) const {
-  const RectI& t = mips_[size_t(mip)].tiles;
-  return size_t((ty - t.y0) * t.width() + (tx - t.x0));
+World::CachedTile& World::base_tile(int32_t mip, int32_t tx, int32_t ty) const {
+  if (base_->uniform()) {
+    if (uniform_.data.empty()) {
+      uniform_.data.resize(kTileSamples);
+      base_->coarse_tile(0, 0, 0, uniform_.data);
+      uniform_.hash = hash_coarse_tile(uniform_.data);
+      uniform_.hashed = true;
+      ++base_generated_;
+    }
+    return uniform_;
+  }
+  auto [it, added] = cache_.try_emplace(TileCoord{Layer::kCoarse, uint8_t(mip), tx, ty});
+  CachedTile& t = it->second;
+  if (added) {
+    t.data.resize(kTileSamples);
+    base_->coarse_tile(mip, tx, ty, t.data);
+    cache_bytes_ += t.data.size() * sizeof(uint16_t);
+    ++base_generated_;
+  }
+  t.last_use = ++cache_clock_;
+  return t;
+}
+
+uint64_t World::base_tile_hash(int32_t mip, int32_t tx, int32_t ty) const {
+  CachedTile& t = base_tile(mip, tx, ty);
+  if (!t.hashed) {
+    t.hash = hash_coarse_tile(t.data);
+    t.hashed = true;
+  }
+  return t.hash;
+}
+
+const World::EditedTile* World::edited(int32_t mip, int32_t tx, int32_t ty) const {
+  const auto& e = mips_[size_t(mip)].edited;
+  const auto it = e.find(key(tx, ty));
+  return it == e.end() ? nullptr : &it->second;
+}
+
+World::EditedTile& World::materialize(int32_t mip, int32_t tx, int32_t ty) {
+  auto [it, added] = mips_[size_t(mip)].edited.try_emplace(key(tx, ty));
+  EditedTile& e = it->second;
+  if (added) {
+    const CachedTile& b = base_tile(mip, tx, ty);
+    e.data = b.data;
+    e.base_hash = base_tile_hash(mip, tx, ty);
+    e.state = TileState{0, e.base_hash};
+    if (mip == 0 && memo_.data && memo_.tx == tx && memo_.ty == ty) memo_.data = nullptr;
+  }
+  return e;
+}
+
+const uint16_t* World::mip0_tile(int32_t tx, int32_t ty) const {
+  if (memo_.data && memo_.tx == tx && memo_.ty == ty) return memo_.data;
+  const EditedTile* e = edited(0, tx, ty);
+  const uint16_t* d = e ? e->data.data() : base_tile(0, tx, ty).data.data();
+  memo_.tx = tx;
+  memo_.ty = ty;
+  memo_.data = d;
+  return d;
+}
+
+void World::trim_base_cache() {
+  memo_.data = nullptr;
+  if (cache_bytes_ <= cache_budget_) return;
+  std::vector<std::pair<uint64_t, TileCoord>> order;
+  order.reserve(cache_.size());
+  for (const auto& [c, t] : cache_) order.push_back({t.last_use, c});
+  std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [use, c] : order) {
+    if (cache_bytes_ <= cache_budget_) break;
+    const auto it = cache_.find(c);
+    cache_bytes_ -= it->second.data.size() * sizeof(uint16_t);
+    cache_.erase(it);
+  }
+}
+
+std::vector<TileCoord> World::edited_coarse_tiles(int32_t mip) const {
+  std::vector<TileCoord> out;
+  if (mip < 0 || size_t(mip) >= mips_.size()) return out;
+  for (const auto& [k, e] : mips_[size_t(mip)].edited)
+    out.push_back(
+        TileCoord{Layer::kCoarse, uint8_t(mip), int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
+  std::sort(out.begin(), out.end(),
+            [](const TileCoord& a, const TileCoord& b) { return a.ty != b.ty ? a.ty < b.ty : a.tx < b.tx; });
+  return out;
+}
+
+size_t World::edited_coarse_tile_count() const {
+  size_t n = 0;
+  for (const CoarseMip& m : mips_) n += m.edited.size();
+  return n;
+}
+
+size_t World::edited_bytes() const {
+  return edited_coarse_tile_count() * kTileSamples * sizeof(uint16_t) + detail_.size() * kTileSamples;
 }
 
 uint16_t World::coarse(int64_t gx, int64_t gy) const {
   gx = std::clamp(gx, samples_.x0, samples_.x1 - 1);
   gy = std::clamp(gy, samples_.y0, samples_.y1 - 1);
-  const int32_t tx = int32_t(gx >> kTileShift), ty = int32_t(gy >> kTileShift);
-  const auto& tile = mips_[0].data[tile_index(0, tx, ty)];
+  const uint16_t* tile = mip0_tile(int32_t(gx >> kTileShift), int32_t(gy >> kTileShift));
   return tile[size_t((gy & (kTileSize - 1)) * kTileSize + (gx & (kTileSize - 1)))];
 }
 
@@ -83,8 +170,8 @@ void World::read_coarse(const RectI& r, std::span<uint16_t> out) const {
     while (x < std::min(r.x1, samples_.x1)) {
       const int32_t tx = int32_t(x >> kTileShift);
       const int64_t run_end = std::min({r.x1, samples_.x1, (int64_t(tx) + 1) * kTileSize});
-      const auto& tile = mips_[0].data[tile_index(0, tx, int32_t(cy >> kTileShift))];
-      std::memcpy(row + (x - r.x0), tile.data() + (cy & (kTileSize - 1)) * kTileSize + (x & (kTileSize - 1)),
+      const uint16_t* tile = mip0_tile(tx, int32_t(cy >> kTileShift));
+      std::memcpy(row + (x - r.x0), tile + (cy & (kTileSize - 1)) * kTileSize + (x & (kTileSize - 1)),
                   size_t(run_end - x) * sizeof(uint16_t));
       x = run_end;
     }
@@ -108,15 +195,18 @@ int64_t World::write_coarse(const RectI& r, std::span<const uint16_t> in) {
   for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
     for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
       const RectI part = clipped.intersect(tile_rect(int32_t(tx), int32_t(ty)));
-      auto& tile = mips_[0].data[tile_index(0, int32_t(tx), int32_t(ty))];
+      // Compare against what the tile holds now; copy it out of the base only on a change.
+      const uint16_t* now = mip0_tile(int32_t(tx), int32_t(ty));
+      uint16_t* tile = nullptr;
       RectI dirty;
       for (int64_t y = part.y0; y < part.y1; ++y) {
         const uint16_t* src = in.data() + (y - r.y0) * r.width() + (part.x0 - r.x0);
-        uint16_t* dst = tile.data() + (y - ty * kTileSize) * kTileSize + (part.x0 - tx * kTileSize);
+        const size_t at = size_t((y - ty * kTileSize) * kTileSize + (part.x0 - tx * kTileSize));
         int64_t first = -1, last = -1;
         for (int64_t i = 0; i < part.width(); ++i) {
-          if (dst[i] != src[i]) {
-            dst[i] = src[i];
+          if ((tile ? tile : now)[at + size_t(i)] != src[i]) {
+            if (!tile) tile = materialize(0, int32_t(tx), int32_t(ty)).data.data();
+            tile[at + size_t(i)] = src[i];
             if (first < 0) first = i;
             last = i;
             ++changed;
@@ -162,12 +252,14 @@ int64_t World::write_detail(const RectI& r, std::span<const int8_t> in) {
 
 std::span<const uint16_t> World::coarse_tile(int32_t mip, int32_t tx, int32_t ty) const {
   if (!tile_in_range(mip, tx, ty)) return {};
-  return mips_[size_t(mip)].data[tile_index(mip, tx, ty)];
+  if (mip == 0) return {mip0_tile(tx, ty), size_t(kTileSamples)};
+  if (const EditedTile* e = edited(mip, tx, ty)) return e->data;
+  return base_tile(mip, tx, ty).data;
 }
 
 std::span<uint16_t> World::coarse_tile_mut(int32_t tx, int32_t ty) {
   if (!tile_in_range(0, tx, ty)) return {};
-  return mips_[0].data[tile_index(0, tx, ty)];
+  return materialize(0, tx, ty).data;
 }
 
 std::span<const int8_t> World::detail_tile(int32_t tx, int32_t ty) const {
@@ -200,7 +292,6 @@ void World::mark_dirty(Layer layer, const RectI& global_rect) {
 // every sample beyond the edge, which repeats the edge sample.
 void World::update_mips(const RectI& dirty0, std::unordered_map<TileCoord, RectI, TileCoordHash>& changed) {
   for (int32_t m = 1; m < int32_t(mips_.size()); ++m) {
-    CoarseMip& mip = mips_[size_t(m)];
     const int64_t step = int64_t(1) << m;
     const RectI affected = mip_samples_reaching(params_, m, dirty0);
     // No early exit: a coarser mip can have samples beyond the edge that a finer one lacks.
@@ -209,14 +300,20 @@ void World::update_mips(const RectI& dirty0, std::unordered_map<TileCoord, RectI
     for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
       for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
         const RectI part = affected.intersect(tile_rect(int32_t(tx), int32_t(ty)));
-        auto& tile = mip.data[tile_index(m, int32_t(tx), int32_t(ty))];
+        uint16_t* tile = nullptr;
         RectI dirty;
         for (int64_t j = part.y0; j < part.y1; ++j) {
           for (int64_t i = part.x0; i < part.x1; ++i) {
             const uint16_t v = coarse(i * step, j * step);
-            uint16_t& dst = tile[size_t((j - ty * kTileSize) * kTileSize + (i - tx * kTileSize))];
-            if (dst != v) {
-              dst = v;
+            const size_t at = size_t((j - ty * kTileSize) * kTileSize + (i - tx * kTileSize));
+            if (!tile) {
+              const EditedTile* e = edited(m, int32_t(tx), int32_t(ty));
+              const uint16_t now = e ? e->data[at] : base_tile(m, int32_t(tx), int32_t(ty)).data[at];
+              if (now == v) continue;
+              tile = materialize(m, int32_t(tx), int32_t(ty)).data.data();
+            }
+            if (tile[at] != v) {
+              tile[at] = v;
               dirty = dirty.unite({i, j, i + 1, j + 1});
             }
           }
@@ -245,11 +342,10 @@ std::vector<TileChange> World::commit(uint64_t seq) {
   for (const auto& [c, r] : changed) {
     TileChange change{c, r, 0, seq};
     if (c.layer == Layer::kCoarse) {
-      const size_t i = tile_index(c.mip, c.tx, c.ty);
-      TileState& st = mips_[c.mip].state[i];
-      change.base_version = st.version;
-      st.version = seq;
-      st.hash = hash_coarse_tile(mips_[c.mip].data[i]);
+      EditedTile& e = materialize(c.mip, c.tx, c.ty);
+      change.base_version = e.state.version;
+      e.state.version = seq;
+      e.state.hash = hash_coarse_tile(e.data);
     } else {
       TileState& st = detail_state_[key(c.tx, c.ty)];
       change.base_version = st.version;
@@ -273,7 +369,8 @@ std::vector<TileChange> World::commit(uint64_t seq) {
 TileState World::tile_state(const TileCoord& c) const {
   if (c.layer == Layer::kCoarse) {
     if (!tile_in_range(c.mip, c.tx, c.ty)) return {};
-    return mips_[c.mip].state[tile_index(c.mip, c.tx, c.ty)];
+    if (const EditedTile* e = edited(c.mip, c.tx, c.ty)) return e->state;
+    return TileState{0, base_tile_hash(c.mip, c.tx, c.ty)};
   }
   if (c.mip != 0) return {};
   const auto it = detail_state_.find(key(c.tx, c.ty));
@@ -284,7 +381,8 @@ TileState World::tile_state(const TileCoord& c) const {
 bool World::restore_version(const TileCoord& c, uint64_t version) {
   if (c.layer == Layer::kCoarse) {
     if (!tile_in_range(c.mip, c.tx, c.ty)) return false;
-    mips_[c.mip].state[tile_index(c.mip, c.tx, c.ty)].version = version;
+    if (version == 0 && !edited(c.mip, c.tx, c.ty)) return true;  // untouched stays untouched
+    materialize(c.mip, c.tx, c.ty).state.version = version;
     return true;
   }
   if (c.mip != 0 || !tiles_overlapping(detail_samples_).contains(c.tx, c.ty)) return false;
@@ -319,16 +417,16 @@ uint64_t world_hash_of(const WorldParams& p, uint64_t content_hash) {
 }
 
 uint64_t World::world_hash() const { return world_hash_of(params_, content_hash()); }
+uint64_t World::legacy_world_hash() const { return world_hash_of(params_, legacy_content_hash()); }
 
-uint64_t World::content_hash() const {
-  WorldHasher h;
-  const CoarseMip& m0 = mips_[0];
-  for (int64_t ty = m0.tiles.y0; ty < m0.tiles.y1; ++ty) {
-    for (int64_t tx = m0.tiles.x0; tx < m0.tiles.x1; ++tx) {
-      h.add(uint8_t(Layer::kCoarse), int32_t(tx), int32_t(ty),
-            m0.state[tile_index(0, int32_t(tx), int32_t(ty))].hash);
-    }
-  }
+namespace {
+
+// The "layer" byte of the base's record in the content hash (layers are 0 and 1).
+constexpr uint8_t kBaseRecord = 0xB0;
+
+}  // namespace
+
+void World::add_detail_hashes(WorldHasher& h) const {
   // Detail tiles by committed state, so a tile created but never changed counts as absent.
   std::vector<std::pair<TileCoord, uint64_t>> detail;
   for (const auto& [k, st] : detail_state_) {
@@ -340,6 +438,37 @@ uint64_t World::content_hash() const {
     return a.first.ty != b.first.ty ? a.first.ty < b.first.ty : a.first.tx < b.first.tx;
   });
   for (const auto& [c, hash] : detail) h.add(uint8_t(Layer::kDetail), c.tx, c.ty, hash);
+}
+
+uint64_t World::content_hash() const {
+  WorldHasher h;
+  const uint64_t id = base_->identity();
+  h.add(kBaseRecord, int32_t(uint32_t(id >> 32)), int32_t(uint32_t(id)), id);
+  for (const TileCoord& c : edited_coarse_tiles(0)) {
+    const EditedTile* e = edited(0, c.tx, c.ty);
+    if (e->state.hash != e->base_hash) h.add(uint8_t(Layer::kCoarse), c.tx, c.ty, e->state.hash);
+  }
+  add_detail_hashes(h);
+  return h.finish();
+}
+
+bool World::matches_recorded_hash(uint64_t recorded) const {
+  const uint64_t content = content_hash();
+  if (recorded == content || recorded == world_hash_of(params_, content)) return true;
+  if (!base_->uniform()) return false;
+  const uint64_t legacy = legacy_content_hash();
+  return recorded == legacy || recorded == world_hash_of(params_, legacy);
+}
+
+uint64_t World::legacy_content_hash() const {
+  WorldHasher h;
+  const RectI t0 = mips_[0].tiles;
+  for (int64_t ty = t0.y0; ty < t0.y1; ++ty) {
+    for (int64_t tx = t0.x0; tx < t0.x1; ++tx)
+      h.add(uint8_t(Layer::kCoarse), int32_t(tx), int32_t(ty),
+            tile_state(TileCoord{Layer::kCoarse, 0, int32_t(tx), int32_t(ty)}).hash);
+  }
+  add_detail_hashes(h);
   return h.finish();
 }
 

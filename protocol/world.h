@@ -6,6 +6,14 @@
 // sparse: an all-zero detail tile is not stored. Writers change mip-0 samples and mark the
 // rects they changed; commit(seq) then brings mips, hashes and versions up to date and
 // reports, per tile, the rect that changed. Pure data: no I/O, no GL.
+//
+// A world is a read-only base (protocol/base/tile_base.h) plus edits. Coarse tiles ever
+// written (at any mip) are held as edited tiles; every other tile is asked of the base when
+// read and kept in a cache of clean tiles, which trim_base_cache() brings back under its
+// budget, least recently used first. Spans returned by the readers stay valid until the next
+// trim_base_cache() (or the world's destruction); writes never invalidate them. The world
+// hash covers the base's identity and the edited tiles, so it needs no pass over the world.
+// Not thread-safe, even for const calls (the cache and a one-tile lookup memo change).
 #pragma once
 
 #include <cstdint>
@@ -14,10 +22,13 @@
 #include <unordered_map>
 #include <vector>
 
+#include "protocol/base/tile_base.h"
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 
 namespace loam {
+
+class WorldHasher;
 
 struct TileState {
   uint64_t version = 0;  // sequence number of the last stamp that changed the tile
@@ -36,6 +47,8 @@ class World {
  public:
   // A world with every coarse sample at `fill` and no detail. `params` must validate.
   explicit World(const WorldParams& params, uint16_t fill = 0);
+  // A world whose untouched tiles come from `base` (made for these params).
+  World(const WorldParams& params, std::shared_ptr<const TileBase> base);
 
   // A world from row-major coarse samples covering params.sample_rect() exactly.
   static Result<World> from_samples(const WorldParams& params, std::span<const uint16_t> samples);
@@ -86,27 +99,93 @@ class World {
   uint64_t world_hash() const;
   // Hash of every mip-0 coarse tile and every stored detail tile, in canonical order: the
   // content alone (what version 1 logs and older snapshots recorded as the world hash).
+  //
+  // The content hash is the base's identity, then every mip-0 coarse tile whose committed
+  // content differs from the base's, then every stored detail tile, in canonical order
+  // (docs/world.md, "World hash"): O(edited tiles), never a pass over the world.
   uint64_t content_hash() const;
+  // The hash older logs and snapshots recorded: every mip-0 coarse tile in canonical order,
+  // then the stored detail tiles. A pass over the whole world: only for checking old files.
+  uint64_t legacy_content_hash() const;
+  uint64_t legacy_world_hash() const;
+  // Whether a hash a log or snapshot recorded for this world matches under any definition
+  // Loam has written: world or content hash, current or legacy (the legacy ones only for
+  // worlds on a uniform base, the only kind older files describe).
+  bool matches_recorded_hash(uint64_t recorded) const;
   size_t detail_tile_count() const { return detail_.size(); }
   std::vector<TileCoord> stored_detail_tiles() const;
 
+  // --- Base and edits ---
+  const TileBase& base() const { return *base_; }
+  const std::shared_ptr<const TileBase>& base_ptr() const { return base_; }
+  // Coarse tiles held as edited at a mip (written since the base, even if written back to the
+  // base's content), sorted by (ty, tx).
+  std::vector<TileCoord> edited_coarse_tiles(int32_t mip) const;
+  size_t edited_coarse_tile_count() const;
+  // Bytes of samples held for edited coarse tiles and stored detail tiles.
+  size_t edited_bytes() const;
+  // The clean-tile cache: its budget (bytes of samples), what it holds, how many tiles the
+  // base was asked for so far, and the trim that brings it under budget (LRU first).
+  void set_base_cache_budget(size_t bytes) { cache_budget_ = bytes; }
+  size_t base_cache_budget() const { return cache_budget_; }
+  size_t base_cache_bytes() const { return cache_bytes_; }
+  uint64_t base_tiles_generated() const { return base_generated_; }
+  void trim_base_cache();
+
  private:
+  struct EditedTile {
+    std::vector<uint16_t> data;
+    TileState state;
+    uint64_t base_hash = 0;  // hash of the base's tile: equal content hashes as untouched
+  };
+  struct CachedTile {
+    std::vector<uint16_t> data;
+    uint64_t hash = 0;
+    bool hashed = false;
+    uint64_t last_use = 0;
+  };
   struct CoarseMip {
     RectI tiles;  // tile range at this mip
-    std::vector<std::vector<uint16_t>> data;
-    std::vector<TileState> state;
+    std::unordered_map<int64_t, EditedTile> edited;
   };
   static int64_t key(int32_t tx, int32_t ty) {
     return int64_t((uint64_t(uint32_t(tx)) << 32) | uint32_t(ty));
   }
-  size_t tile_index(int32_t mip, int32_t tx, int32_t ty) const;
   bool tile_in_range(int32_t mip, int32_t tx, int32_t ty) const;
   void update_mips(const RectI& dirty0, std::unordered_map<TileCoord, RectI, TileCoordHash>& changed);
+  // The base's tile, from the cache or generated into it (uniform bases share one tile).
+  CachedTile& base_tile(int32_t mip, int32_t tx, int32_t ty) const;
+  uint64_t base_tile_hash(int32_t mip, int32_t tx, int32_t ty) const;
+  // The edited tile, copied from the base on first use.
+  EditedTile& materialize(int32_t mip, int32_t tx, int32_t ty);
+  const EditedTile* edited(int32_t mip, int32_t tx, int32_t ty) const;
+  // Mip-0 samples of a tile in range, edited or base (through the one-tile memo).
+  const uint16_t* mip0_tile(int32_t tx, int32_t ty) const;
+  void add_detail_hashes(WorldHasher& h) const;
 
   WorldParams params_;
   RectI samples_;         // params_.sample_rect()
   RectI detail_samples_;  // params_.detail_sample_rect()
+  std::shared_ptr<const TileBase> base_;
   std::vector<CoarseMip> mips_;
+  mutable std::unordered_map<TileCoord, CachedTile, TileCoordHash> cache_;
+  mutable CachedTile uniform_;  // the one tile of a uniform base
+  mutable size_t cache_bytes_ = 0;
+  mutable uint64_t cache_clock_ = 0;
+  mutable uint64_t base_generated_ = 0;
+  size_t cache_budget_ = size_t(64) << 20;
+  // Points into this world's own tiles, so a copied or moved world starts without it.
+  struct Memo {
+    int32_t tx = 0, ty = 0;
+    const uint16_t* data = nullptr;
+    Memo() = default;
+    Memo(const Memo&) {}
+    Memo& operator=(const Memo&) {
+      data = nullptr;
+      return *this;
+    }
+  };
+  mutable Memo memo_;
   std::unordered_map<int64_t, std::vector<int8_t>> detail_;
   std::unordered_map<int64_t, TileState> detail_state_;  // tiles ever changed
   // Pending dirty rects per mip-0 tile (tile-local coordinates), merged per tile.

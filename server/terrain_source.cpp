@@ -116,8 +116,9 @@ Result<World> load_described_terrain(const log::InitialTerrain& initial, const W
         "the initial terrain now loads with other parameters than the log recorded (" + diff +
             "): was the DEM or its sidecar changed? Replay needs the terrain the session began on");
   }
-  // Version 1 logs recorded the content hash; with the parameters equal, either identifies it.
-  if (world->world_hash() != initial.world_hash && world->content_hash() != initial.world_hash) {
+  // Version 1 logs recorded the content hash, and logs before tiled bases the legacy hash;
+  // with the parameters equal, any of them identifies the terrain.
+  if (!world->matches_recorded_hash(initial.world_hash)) {
     char buf[160];
     std::snprintf(buf, sizeof buf, "initial terrain hash %016llx differs from the log's %016llx",
                   (unsigned long long)world->world_hash(), (unsigned long long)initial.world_hash);

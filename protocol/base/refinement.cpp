@@ -1,5 +1,7 @@
 #include "protocol/base/refinement.h"
 
+#include <xxhash.h>
+
 #include <algorithm>
 #include <cassert>
 #include <string>
@@ -134,6 +136,18 @@ Result<RefinedBase> RefinedBase::create(int32_t width, int32_t height, std::span
   }
   for (int32_t l = 0; l < kMaxRefineLevels; ++l)
     base.level_seed_[size_t(l)] = mix64(params.seed ^ mix64(uint64_t(l) + 0x9e3779b97f4a7c15ull));
+  // Identity: method tag, parameters and source as little-endian integers (x86 and ARM alike).
+  std::vector<int64_t> id = {0x3176657266656e69 /* "inefref1" */,
+                             width,
+                             height,
+                             params.levels,
+                             int64_t(params.seed),
+                             params.roughness_base,
+                             params.roughness_gain,
+                             params.roughness_max};
+  for (int32_t a : params.amplitude) id.push_back(a);
+  for (int32_t v : base.source16_) id.push_back(v);
+  base.identity_ = XXH3_64bits(id.data(), id.size() * sizeof(int64_t));
   return base;
 }
 

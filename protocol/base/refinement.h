@@ -60,6 +60,9 @@ class RefinedBase {
   const RefinementParams& params() const { return params_; }
   int32_t source_width() const { return width_; }
   int32_t source_height() const { return height_; }
+  // A hash of the method's version, the parameters and the source: equal identities give
+  // equal worlds.
+  uint64_t identity() const { return identity_; }
   // Size of the refined world in mip-0 samples: source size << levels.
   int64_t width() const { return int64_t(width_) << params_.levels; }
   int64_t height() const { return int64_t(height_) << params_.levels; }
@@ -81,6 +84,7 @@ class RefinedBase {
   std::vector<int32_t> source16_;   // source in 1/16 height units, clamped
   std::vector<int32_t> roughness_;  // per source sample, 1/256
   std::array<uint64_t, kMaxRefineLevels> level_seed_{};
+  uint64_t identity_ = 0;
 };
 
 }  // namespace loam

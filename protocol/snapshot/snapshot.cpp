@@ -139,17 +139,16 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
     append_le<uint32_t>(bin, uint32_t(payload.size()));
     put(bin, payload.data(), payload.size());
   };
-  // Section 1: mip-0 coarse tiles with samples.
-  const RectI t0 = p.tile_range(0);
-  append_le<uint32_t>(bin, uint32_t(t0.area()));
-  for (int64_t ty = t0.y0; ty < t0.y1; ++ty) {
-    for (int64_t tx = t0.x0; tx < t0.x1; ++tx) {
-      const auto samples = world.coarse_tile(0, int32_t(tx), int32_t(ty));
-      auto enc = encode_region(RegionEncoding::kFast, samples, kTileSize, kTileSize);
-      if (!enc) return enc.error();
-      put_tile({Layer::kCoarse, 0, int32_t(tx), int32_t(ty)}, *enc);
-      ++coarse;
-    }
+  // Section 1: mip-0 coarse tiles with samples: the edited ones (tiles never written are the
+  // base's, which the manifest names).
+  const auto edited0 = world.edited_coarse_tiles(0);
+  append_le<uint32_t>(bin, uint32_t(edited0.size()));
+  for (const TileCoord& c : edited0) {
+    const auto samples = world.coarse_tile(0, c.tx, c.ty);
+    auto enc = encode_region(RegionEncoding::kFast, samples, kTileSize, kTileSize);
+    if (!enc) return enc.error();
+    put_tile(c, *enc);
+    ++coarse;
   }
   // Section 2: stored detail tiles with samples.
   const auto dtiles = world.stored_detail_tiles();
@@ -160,14 +159,11 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
     put_tile(c, *enc);
     ++detail;
   }
-  // Section 3: versions of every mip > 0 tile (content is derived from mip 0).
+  // Section 3: versions of the edited mip > 0 tiles (content is derived from mip 0).
   std::vector<TileCoord> mip_tiles;
   for (int32_t m = 1; m < p.mip_count(); ++m) {
-    const RectI t = p.tile_range(m);
-    for (int64_t ty = t.y0; ty < t.y1; ++ty) {
-      for (int64_t tx = t.x0; tx < t.x1; ++tx)
-        mip_tiles.push_back({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)});
-    }
+    const auto edited = world.edited_coarse_tiles(m);
+    mip_tiles.insert(mip_tiles.end(), edited.begin(), edited.end());
   }
   append_le<uint32_t>(bin, uint32_t(mip_tiles.size()));
   for (const TileCoord& c : mip_tiles) put_tile(c, {});
@@ -195,6 +191,8 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
       {"tiles_bytes", bin.size()},
       {"world", world_json(p)},
       {"world_hash_covers_params", true},
+      {"base_identity", world.base().identity()},
+      {"base", world.base().describe()},
       {"tick", session.tick},
       {"limits",
        {{"max_radius_samples", session.limits.max_radius_samples},
@@ -267,6 +265,8 @@ Result<SnapshotManifest> read_snapshot_manifest(const std::string& path) {
     m.detail_tiles = j.at("detail_tiles").get<size_t>();
     m.tiles_bytes = j.at("tiles_bytes").get<uint64_t>();
     m.hash_covers_params = j.value("world_hash_covers_params", false);
+    m.base_identity = j.value("base_identity", FillBase(0).identity());
+    m.base_description = j.value("base", std::string("fill 0"));
     if (j.contains("limits")) {
       const nlohmann::json& l = j.at("limits");
       m.has_session = true;
@@ -286,7 +286,7 @@ Result<SnapshotManifest> read_snapshot_manifest(const std::string& path) {
   return m;
 }
 
-Result<LoadedSnapshot> read_snapshot(const std::string& path) {
+Result<LoadedSnapshot> read_snapshot(const std::string& path, std::shared_ptr<const TileBase> base) {
   auto manifest = read_snapshot_manifest(path);
   if (!manifest) return manifest.error();
   const std::string tpath = (fs::path(path) / "tiles.bin").string();
@@ -309,7 +309,12 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path) {
   if (!fmt) return fmt.error();
   if (*fmt != kFormat) return make_error(ErrorCode::kUnsupported, tpath, "unknown tiles format");
 
-  World world(manifest->world, 0);
+  if (!base) base = std::make_shared<FillBase>(0);
+  if (base->identity() != manifest->base_identity)
+    return make_error(ErrorCode::kUnsupported, (fs::path(path) / "manifest.json").string(),
+                      "the snapshot edits the base '" + manifest->base_description +
+                          "', not the session's base '" + base->describe() + "'");
+  World world(manifest->world, std::move(base));
   struct Versioned {
     TileCoord c;
     uint64_t version, hash;
@@ -390,8 +395,8 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path) {
     if (world.tile_state(v.c).hash != v.hash)
       return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(v.c) + " hash mismatch");
   }
-  const uint64_t hash = manifest->hash_covers_params ? world.world_hash() : world.content_hash();
-  if (hash != manifest->world_hash) return make_error(ErrorCode::kCorrupt, tpath, "world hash mismatch");
+  if (!world.matches_recorded_hash(manifest->world_hash))
+    return make_error(ErrorCode::kCorrupt, tpath, "world hash mismatch");
   return LoadedSnapshot{*manifest, std::move(world), path, std::move(images)};
 }
 

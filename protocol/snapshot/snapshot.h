@@ -41,6 +41,10 @@ struct SnapshotManifest {
   // world_hash is World::world_hash (parameters included); false in older snapshots, whose
   // world_hash is World::content_hash.
   bool hash_covers_params = false;
+  // The base the tiles are edits of (TileBase::identity and describe); snapshots written
+  // before bases list every tile over a fill of 0.
+  uint64_t base_identity = 0;
+  std::string base_description;
 };
 
 // What a snapshot records of the session besides the terrain.
@@ -68,7 +72,10 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
 size_t remove_partial_snapshots(const std::string& data_dir);
 
 // Reads and fully verifies one snapshot folder.
-Result<LoadedSnapshot> read_snapshot(const std::string& path);
+// `base` is the base the session runs on; the snapshot's tiles are edits of it, and its
+// identity must be the one the manifest records. Without one, the snapshot's base must be a
+// fill of 0 (every snapshot written before bases).
+Result<LoadedSnapshot> read_snapshot(const std::string& path, std::shared_ptr<const TileBase> base = nullptr);
 // Reads only the manifest (for `snapshot info` and listing).
 Result<SnapshotManifest> read_snapshot_manifest(const std::string& path);
 

@@ -44,7 +44,9 @@ uint64_t golden_stamp_sequence_hash(std::string* error) {
       *error = "stamp " + std::to_string(seq) + ": " + applied.error().describe();
     w.commit(seq);
   }
-  return w.content_hash();  // the content: the stamp arithmetic is what this pins
+  // Every tile in canonical order (the hash this constant was first recorded with): the
+  // stamp arithmetic is what this pins, not the world-hash definition.
+  return w.legacy_content_hash();
 }
 
 }  // namespace loam::determinism

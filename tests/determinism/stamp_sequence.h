@@ -13,7 +13,7 @@ namespace loam::determinism {
 
 inline constexpr uint64_t kGoldenStampSequenceHash = 0xc875caa4907e2017ull;
 
-// Content hash (World::content_hash) after the sequence; `error` gets the first stamp that failed (should be
+// Content hash (World::legacy_content_hash: every tile) after the sequence; `error` gets the first stamp that failed (should be
 // none).
 uint64_t golden_stamp_sequence_hash(std::string* error);
 

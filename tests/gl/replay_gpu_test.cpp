@@ -16,9 +16,10 @@ TEST(ReplayGpu, CommittedLogsReplayToCommittedWorldHashesWithTheGpuBackend) {
   const std::string dir = std::string(LOAM_SOURCE_DIR) + "/tests/golden/replay";
   std::ifstream expected(dir + "/expected.txt");
   ASSERT_TRUE(expected) << "missing " << dir << "/expected.txt";
-  std::string name, content, hash;
+  // Per line: log, legacy content and world hashes, current content and world hashes.
+  std::string name, legacy_content, legacy_hash, content, hash;
   int checked = 0;
-  while (expected >> name >> content >> hash) {
+  while (expected >> name >> legacy_content >> legacy_hash >> content >> hash) {
     auto r = server::replay_log({dir + "/" + name}, dir, std::numeric_limits<uint64_t>::max(),
                                 gpu::BackendKind::kGpu);
     ASSERT_TRUE(r.ok()) << name << ": " << r.error().describe();

@@ -1,6 +1,6 @@
 // Writes the small deformation logs committed under tests/golden/replay/: one log per seed,
 // each a segment 0 over the embedded default terrain holding seeded random stamps of every
-// kind (the same stamps a session would log), and prints `name world_hash` lines for
+// kind (the same stamps a session would log), and prints `name legacy_content legacy_world content world` hash lines for
 // expected.txt. Run through tests/golden/replay/regenerate.sh.
 #include <cstdio>
 #include <filesystem>
@@ -73,8 +73,11 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s\n", replayed.error().describe().c_str());
       return 1;
     }
-    std::printf("%s %016llx %016llx\n", name.c_str(), (unsigned long long)replayed->world.content_hash(),
-                (unsigned long long)replayed->world.world_hash());
+    // Legacy hashes (every tile: what the logs were first pinned with) and current ones.
+    std::printf("%s %016llx %016llx %016llx %016llx\n", name.c_str(),
+                (unsigned long long)replayed->world.legacy_content_hash(),
+                (unsigned long long)replayed->world.legacy_world_hash(),
+                (unsigned long long)replayed->world.content_hash(), (unsigned long long)replayed->world.world_hash());
   }
   return 0;
 }

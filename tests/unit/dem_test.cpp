@@ -267,10 +267,12 @@ std::vector<fs::path> dems_in(const fs::path& dir) {
 TEST(DefaultTerrain, WorldHashIsTheOneTheGoldenReplayLogsStartFrom) {
   auto w = load_default_terrain();
   ASSERT_TRUE(w.ok()) << w.error().describe();
-  // The committed replay logs (format 1) recorded the content hash; the world hash adds the
-  // parameters.
-  EXPECT_EQ(w->world.content_hash(), 0xba2054acb5359522ull);
-  EXPECT_EQ(w->world.world_hash(), 0x1174153942df9446ull);
+  // The committed replay logs (format 1) recorded the legacy content hash (every tile); the
+  // world hash adds the parameters; the current hashes cover the base and the edited tiles.
+  EXPECT_EQ(w->world.legacy_content_hash(), 0xba2054acb5359522ull);
+  EXPECT_EQ(w->world.legacy_world_hash(), 0x1174153942df9446ull);
+  EXPECT_EQ(w->world.content_hash(), 0xf496d4c8105e0c43ull);
+  EXPECT_EQ(w->world.world_hash(), 0x0363dc25e28241acull);
   EXPECT_FALSE(w->report.padded);
 }
 
