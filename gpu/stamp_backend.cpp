@@ -83,7 +83,13 @@ Result<std::unique_ptr<StampBackend>> make_stamp_backend(BackendKind kind, const
     case BackendDecision::kGpu: break;
   }
   auto stamper = GpuStamper::create(world, textures, limits);
-  if (!stamper) return stamper.error();
+  if (!stamper) {
+    // auto falls back where the GPU cannot hold the world (a layer over GL_MAX_TEXTURE_SIZE).
+    if (kind != BackendKind::kAuto) return stamper.error();
+    std::fprintf(stderr, "stamp backend: cpu (asked for auto; the gpu cannot hold this world: %s)\n",
+                 stamper.error().describe().c_str());
+    return std::unique_ptr<StampBackend>(new CpuBackend(textures, limits));
+  }
   std::fprintf(stderr, "stamp backend: gpu (asked for %s): %s via EGL %s platform, %s\n", to_string(kind),
                context->renderer().c_str(), context->platform().c_str(), context->version().c_str());
   return std::unique_ptr<StampBackend>(new GpuBackend(std::move(*context), std::move(*stamper)));

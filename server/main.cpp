@@ -43,8 +43,9 @@ int serve(const server::ServerConfig& config) {
   const auto access = server::load_access_tokens(config);
   if (!access) die(access.error());
   auto opened = server::open_storage(config.data_dir, config.dem_path, config.stamp_limits,
-                                     config.stamp_images, config.dem_band);
+                                     config.stamp_images, config.dem_band, config.terrain);
   if (!opened) die(opened.error());
+  opened->terrain.mutable_world().set_base_cache_budget(size_t(config.cache_mb) << 20);
   // Recovery replays on the CPU; the backend then starts from the recovered world.
   auto backend = gpu::make_stamp_backend(*kind, opened->terrain.world(), &opened->terrain.textures(),
                                          config.stamp_limits);
@@ -133,6 +134,18 @@ int main(int argc, char** argv) {
   serve_cmd->add_option("--dem", config.dem_path,
                         "Initial terrain DEM: GeoTIFF, PNG, SRTM .hgt, ESRI .asc, VRT or EXR (default: the "
                         "embedded terrain)");
+  serve_cmd
+      ->add_option("--terrain", config.terrain,
+                   "Embedded terrain without --dem: crop (ETOPO5 crop at 2 m) or refined (the crop refined "
+                   "to 131 x 98 km at 1 m, generated on demand)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"crop", "refined"}));
+  serve_cmd
+      ->add_option("--cache-mb", config.cache_mb,
+                   "Clean base tiles kept in memory, MiB (tiles never edited, generated or read again "
+                   "when needed)")
+      ->capture_default_str()
+      ->check(cli::IntRange(1, int64_t(1) << 20));
   serve_cmd->add_option("--dem-band", config.dem_band, "The DEM's height band, 1-based (0: its only band)")
       ->capture_default_str()
       ->check(cli::IntRange(0, 65535));

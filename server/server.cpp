@@ -95,6 +95,9 @@ Status Server::start() {
                           {"tick_hz", std::to_string(config_.tick_hz)},
                           {"last_seq", std::to_string(core_.terrain().last_seq())},
                           {"world_hash", hex64(core_.terrain().world().world_hash())},
+                          {"world_tiles", std::to_string(core_.terrain().world().params().tiles_x) + "x" +
+                                              std::to_string(core_.terrain().world().params().tiles_y)},
+                          {"base", core_.terrain().world().base().describe()},
                           {"access", access.required() ? "tokens" : "open"},
                           {"editor_tokens", std::to_string(access.editors.size())},
                           {"viewer_tokens", std::to_string(access.viewers.size())},

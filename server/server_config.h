@@ -16,7 +16,9 @@ struct ServerConfig {
   uint16_t port = 7878;                   // 0: an ephemeral port (see port_file)
   std::string port_file;                  // when set, the bound port is written there once listening
   std::string metrics_bind;               // HOST:PORT of the Prometheus /metrics endpoint; empty: none
-  std::string dem_path;                   // empty: the embedded default terrain
+  std::string dem_path;                   // empty: the embedded terrain `terrain` names
+  std::string terrain = "crop";           // crop | refined (server/terrain_source.h)
+  uint64_t cache_mb = 256;                // clean base tiles kept in memory (World's base cache)
   int dem_band = 0;                       // the DEM's height band (1-based); 0: its only band
   std::vector<std::string> stamp_images;  // texture-stamp image files to register
   std::string data_dir = "loam-data";

@@ -119,7 +119,7 @@ struct StorageOpener {
 
   static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path,
                                     const StampLimits& limits, const std::vector<std::string>& stamp_images,
-                                    int dem_band, bool read_only) {
+                                    int dem_band, const std::string& terrain_kind, bool read_only) {
     LOAM_TRY(validate_limits(limits));
     if (read_only) {
       if (list_segments(data_dir).empty())
@@ -140,7 +140,7 @@ struct StorageOpener {
                           "snapshots without a log: refusing to guess the session");
       }
       log::InitialTerrain initial;
-      auto world = load_initial_terrain(dem_path, &initial, dem_band);
+      auto world = load_initial_terrain(dem_path, &initial, dem_band, terrain_kind);
       if (!world) return world.error();
       TerrainState terrain(std::move(*world), 0, limits);
       LOAM_TRY(register_images(terrain, data_dir, stamp_images, report));
@@ -182,7 +182,14 @@ struct StorageOpener {
     std::optional<LoadedSnapshot> snap;
     size_t start = 0;
     for (const std::string& path : list_snapshots(data_dir)) {
-      auto loaded = read_snapshot(path);
+      // A snapshot holds the edits of a base it names; rebuild that base first.
+      auto loaded = [&]() -> Result<LoadedSnapshot> {
+        auto manifest = read_snapshot_manifest(path);
+        if (!manifest) return manifest.error();
+        auto snap_base = known_base(manifest->base_identity);
+        if (!snap_base) return snap_base.error();
+        return read_snapshot(path, *snap_base);
+      }();
       if (!loaded) {
         report.skipped.push_back(path + ": " + loaded.error().describe());
         continue;
@@ -313,12 +320,12 @@ struct StorageOpener {
 
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
                                    const StampLimits& limits, const std::vector<std::string>& stamp_images,
-                                   int dem_band) {
-  return StorageOpener::open(data_dir, dem_path, limits, stamp_images, dem_band, false);
+                                   int dem_band, const std::string& terrain) {
+  return StorageOpener::open(data_dir, dem_path, limits, stamp_images, dem_band, terrain, false);
 }
 
 Result<OpenedStorage> read_session(const std::string& data_dir) {
-  return StorageOpener::open(data_dir, "", StampLimits{}, {}, 0, true);
+  return StorageOpener::open(data_dir, "", StampLimits{}, {}, 0, kTerrainCrop, true);
 }
 
 Status Storage::resume(uint64_t last_seq) {

@@ -17,6 +17,7 @@
 
 #include "protocol/log/log_file.h"
 #include "protocol/result.h"
+#include "server/terrain_source.h"
 #include "server/terrain_state.h"
 
 namespace loam::server {
@@ -96,10 +97,11 @@ struct OpenedStorage {
 // under the recorded ones and records these for what follows. `stamp_images` are texture-stamp
 // image files to register; they are stored in the folder, and every image stored there (and in
 // the loaded snapshot) is registered before any replay. `dem_band` names the DEM's height band
-// (0: its only band).
+// (0: its only band). `terrain` names the embedded terrain used without a DEM (terrain_source.h).
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
                                    const StampLimits& limits,
-                                   const std::vector<std::string>& stamp_images = {}, int dem_band = 0);
+                                   const std::vector<std::string>& stamp_images = {}, int dem_band = 0,
+                                   const std::string& terrain = kTerrainCrop);
 
 // The session's current world without changing the folder (export, inspection): like a
 // recovery, but a damaged tail is left alone (its records before the damage count), nothing is

@@ -5,12 +5,14 @@
 
 #include "dem/default_terrain.h"
 #include "dem/dem_import.h"
+#include "dem/refined_default.h"
 #include "protocol/snapshot/snapshot.h"
 
 namespace loam::server {
 
 namespace {
 constexpr const char* kDefaultParams = "embedded default terrain";
+constexpr const char* kRefinedParams = "embedded default terrain refined";
 constexpr const char* kDemParams = "default import options";
 constexpr const char* kBandPrefix = "default import options, band ";
 
@@ -30,9 +32,44 @@ Result<int> band_of(const std::string& params) {
   }
   return make_error(ErrorCode::kUnsupported, "log.initial", "unknown DEM import parameters '" + params + "'");
 }
+Result<World> load_refined_world() {
+  auto rw = load_refined_default();
+  if (!rw) return rw.error();
+  auto base = RefinedTileBase::create(std::move(rw->base), rw->params);
+  if (!base) return base.error();
+  return World(rw->params, std::move(*base));
+}
 }  // namespace
 
-Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band) {
+Result<std::shared_ptr<const TileBase>> known_base(uint64_t identity) {
+  auto fill = std::make_shared<FillBase>(0);
+  if (identity == fill->identity()) return std::shared_ptr<const TileBase>(std::move(fill));
+  auto refined = load_refined_world();
+  if (!refined) return refined.error();
+  if (refined->base().identity() == identity) return refined->base_ptr();
+  char buf[20];
+  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)identity);
+  return make_error(ErrorCode::kNotFound, "base",
+                    std::string("no known base has identity ") + buf +
+                        " (a fill of 0 or the refined default of this version)");
+}
+
+Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band,
+                                   const std::string& terrain) {
+  if (dem_path.empty() && terrain == kTerrainRefined) {
+    auto world = load_refined_world();
+    if (!world) return world.error();
+    if (described) {
+      *described = {};
+      described->world_hash = world->world_hash();
+      described->source = log::InitialSource::kGenerated;
+      described->import_params = kRefinedParams;
+    }
+    return world;
+  }
+  if (dem_path.empty() && terrain != kTerrainCrop)
+    return make_error(ErrorCode::kInvalidArgument, "terrain",
+                      "unknown embedded terrain '" + terrain + "' (crop or refined)");
   Result<ImportedWorld> imported = [&]() -> Result<ImportedWorld> {
     if (dem_path.empty()) return load_default_terrain();
     DemScaleOptions options;
@@ -89,6 +126,7 @@ Result<World> load_described_terrain(const log::InitialTerrain& initial, const W
   Result<World> world = [&]() -> Result<World> {
     switch (initial.source) {
       case log::InitialSource::kGenerated:
+        if (initial.import_params == kRefinedParams) return load_refined_world();
         if (initial.import_params != kDefaultParams) {
           return make_error(ErrorCode::kUnsupported, "log.initial",
                             "unknown generated terrain '" + initial.import_params + "'");
@@ -102,7 +140,11 @@ Result<World> load_described_terrain(const log::InitialTerrain& initial, const W
       case log::InitialSource::kSnapshot: {
         const auto path =
             std::filesystem::path(data_dir) / "snapshots" / snapshot_dir_name(initial.snapshot_id);
-        auto snap = read_snapshot(path.string());
+        auto manifest = read_snapshot_manifest(path.string());
+        if (!manifest) return manifest.error();
+        auto base = known_base(manifest->base_identity);
+        if (!base) return base.error();
+        auto snap = read_snapshot(path.string(), *base);
         if (!snap) return snap.error();
         return std::move(snap->world);
       }

@@ -1,5 +1,6 @@
 // Where a session's initial terrain comes from, and how replay finds it again: the embedded
-// default, a DEM file, or a snapshot. The description is stored in the log's header
+// default (the ETOPO5 crop at 2 m, or the same crop refined to a 131 km world), a DEM file, or
+// a snapshot. The description is stored in the log's header
 // (log::InitialTerrain) so `loam-server replay` can rebuild the world from the log alone.
 #pragma once
 
@@ -11,9 +12,18 @@
 
 namespace loam::server {
 
-// Loads the embedded default terrain (dem_path empty) or a DEM file, and describes it.
+// The embedded terrains `--terrain` names when no DEM is given.
+inline constexpr const char* kTerrainCrop = "crop";        // the ETOPO5 crop at 2 m (2 x 1.5 km)
+inline constexpr const char* kTerrainRefined = "refined";  // the crop refined 128x (131 x 98 km at 1 m)
+
+// Loads a DEM file, or without one the embedded terrain `terrain` names, and describes it.
 // `band` names the DEM's height band (0: its only band); the description records it.
-Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band = 0);
+Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band = 0,
+                                   const std::string& terrain = kTerrainCrop);
+
+// The base whose TileBase::identity() is `identity`, among those Loam can rebuild: a fill of
+// 0 (worlds built from samples) and the refined default. For snapshots, which name their base.
+Result<std::shared_ptr<const TileBase>> known_base(uint64_t identity);
 
 // Rebuilds the initial terrain a log header describes and checks it against the log: its
 // parameters must equal `logged` (the header's world: a DEM whose sidecar changed since would

@@ -6,6 +6,11 @@
 // the old whole-world default (the same crop squeezed to 2 m). Hillshades of the refined
 // world go beside the report.
 #include <OpenImageIO/imageio.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -16,9 +21,13 @@
 #include <vector>
 
 #include "bench/harness.h"
+#include "bench/server_stats.h"
 #include "dem/default_terrain.h"
 #include "dem/dem_raster.h"
 #include "dem/refined_default.h"
+#include "tests/integration/server_process.h"
+
+extern char** environ;
 
 namespace loam::bench {
 namespace {
@@ -126,6 +135,90 @@ std::string fmt(const char* f, double v) {
   char b[64];
   std::snprintf(b, sizeof b, f, v);
   return b;
+}
+
+// Peak resident set (VmHWM) of a live process, MiB; 0 when unreadable.
+double peak_rss_mib(pid_t pid) {
+  std::FILE* f = std::fopen(("/proc/" + std::to_string(pid) + "/status").c_str(), "r");
+  if (!f) return 0;
+  char line[256];
+  double kib = 0;
+  while (std::fgets(line, sizeof line, f))
+    if (std::sscanf(line, "VmHWM: %lf kB", &kib) == 1) break;
+  std::fclose(f);
+  return kib / 1024.0;
+}
+
+struct ServeResult {
+  bool ran = false;
+  int bots = 0, bots_ok = 0;
+  double seconds = 0;
+  double server_rss_mib = 0, bot_rss_max_mib = 0;
+  uint64_t accepted = 0, bytes_out = 0;
+  double tick_p99_ms = 0, tick_p50_ms = 0;
+  std::string note;
+};
+
+// A loam-server on the refined world and `bots` roaming `loam-client bot` processes, each
+// stamping near itself and checking its tiles' hashes; peak RSS of every process.
+ServeResult serve_refined(int bots, double seconds, double rate, uint64_t cache_mb) {
+  ServeResult r;
+#ifndef LOAM_CLIENT_BINARY
+  (void)bots, (void)seconds, (void)rate, (void)cache_mb;
+  r.note = "loam-client was not built";
+  return r;
+#else
+  const std::string dir =
+      (fs::temp_directory_path() / ("loam_bench_world_scale_" + std::to_string(::getpid()))).string();
+  fs::remove_all(dir);
+  test::ServerProcess server;
+  if (!server.start(dir, {"--terrain", "refined", "--cache-mb", std::to_string(cache_mb), "--client-budget",
+                          std::to_string(128 << 10)})) {
+    r.note = "the server did not start: " + server.log();
+    return r;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<pid_t> pids;
+  const std::string stamps = std::to_string(int(seconds * rate));
+  for (int i = 0; i < bots; ++i) {
+    std::vector<std::string> args = {LOAM_CLIENT_BINARY, "bot",
+                                     "--port",           std::to_string(server.port()),
+                                     "--name",           "roamer" + std::to_string(i),
+                                     "--roam",           "30",
+                                     "--stamps",         stamps,
+                                     "--rate",           std::to_string(rate),
+                                     "--seed",           std::to_string(i + 1)};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+    pid_t pid = 0;
+    if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) == 0) pids.push_back(pid);
+    posix_spawn_file_actions_destroy(&actions);
+  }
+  r.bots = int(pids.size());
+  for (pid_t pid : pids) {
+    int status = 0;
+    rusage usage{};
+    if (wait4(pid, &status, 0, &usage) != pid) continue;
+    r.bot_rss_max_mib = std::max(r.bot_rss_max_mib, double(usage.ru_maxrss) / 1024.0);
+    r.bots_ok += WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (auto st = server_stats(server.port())) {
+    r.accepted = st->deforms_accepted;
+    r.bytes_out = st->bytes_out;
+    r.tick_p99_ms = st->tick_p99_us / 1000.0;
+    r.tick_p50_ms = st->tick_p50_us / 1000.0;
+  }
+  r.server_rss_mib = peak_rss_mib(server.pid());
+  server.terminate();
+  fs::remove_all(dir);
+  r.ran = true;
+  return r;
+#endif
 }
 
 int run_world_scale(const Context& ctx, Report& report) {
@@ -268,6 +361,37 @@ int run_world_scale(const Context& ctx, Report& report) {
       "![1 m](world_scale_hillshade_1m.png) 512 m at 1 m, ![4 m](world_scale_hillshade_4m.png) 2 km at 4 m "
       "(both on the Himalayan front), ![128 m](world_scale_hillshade_128m.png) the whole world at 128 m.");
   report.table(slopes);
+
+  // --- Serving the refined world to roaming bots. ---
+  const uint64_t cache_mb = ctx.quick ? 16 : 256;
+  const ServeResult sr =
+      serve_refined(ctx.quick ? 2 : 16, ctx.quick ? 8.0 : 300.0, ctx.quick ? 2.0 : 2.0, cache_mb);
+  if (!sr.ran) {
+    std::printf("world-scale: SKIPPING serving: %s\n", sr.note.c_str());
+    report.paragraph("**Serving skipped**: " + sr.note);
+  } else {
+    // Sanitizers inflate memory several times: a sanitized run checks convergence only.
+    const bool ok = sr.bots_ok == sr.bots && (ctx.sanitized || sr.server_rss_mib <= double(cache_mb) + 256.0);
+    if (!ok) ++failures;
+    Table serve("serving", {"world", "roaming bots", "seconds", "stamps accepted", "bots converged (exit 0)",
+                            "server peak RSS MiB", "--cache-mb", "bound (cache + 256)",
+                            "bot peak RSS MiB (max)", "tick p50 ms", "tick p99 ms", "server bytes out"});
+    serve.add_row({"refined default, 512x384 tiles", std::to_string(sr.bots), fmt("%.0f", sr.seconds),
+                   std::to_string(sr.accepted), std::to_string(sr.bots_ok) + "/" + std::to_string(sr.bots),
+                   fmt("%.0f", sr.server_rss_mib), std::to_string(cache_mb),
+                   fmt("%.0f", double(cache_mb) + 256.0), fmt("%.0f", sr.bot_rss_max_mib),
+                   fmt("%.2f", sr.tick_p50_ms), fmt("%.2f", sr.tick_p99_ms), std::to_string(sr.bytes_out)});
+    report.paragraph(
+        "A `loam-server serve --terrain refined` process and roaming `loam-client bot --roam 30` processes "
+        "(30 m/s loops, 2 stamps/s each near themselves, subscribing by distance as a viewer does, checking "
+        "every held tile's hash; exit 0 = every stamp accepted, 0 mismatches). Untouched tiles are generated "
+        "by the server on demand and still streamed to the bots (clients do not generate the base yet). "
+        "Peak RSS from /proc (server) and wait4 (bots); tick times from the server's Stats.");
+    report.table(serve);
+    std::printf(
+        "  serving: %d/%d bots converged, server peak %.0f MiB, bot peak %.0f MiB, tick p99 %.2f ms\n",
+        sr.bots_ok, sr.bots, sr.server_rss_mib, sr.bot_rss_max_mib, sr.tick_p99_ms);
+  }
   return failures;
 }
 

@@ -501,6 +501,9 @@ void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>
     }
   }
   maybe_snapshot(now, false);
+  // Clean base tiles read this tick (subscriptions, stamps' neighbourhoods) back under budget;
+  // nothing holds a span into them between ticks.
+  terrain_.mutable_world().trim_base_cache();
 }
 
 void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime now) {
@@ -759,6 +762,9 @@ void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
                       {"region_best_upgrades", std::to_string(rc.best_upgrades)},
                       {"region_best_bytes_saved", std::to_string(rc.best_bytes_saved)},
                       {"history_bytes", std::to_string(history_.bytes())},
+                      {"edited_tile_bytes", std::to_string(terrain_.world().edited_bytes())},
+                      {"base_cache_bytes", std::to_string(terrain_.world().base_cache_bytes())},
+                      {"base_tiles_generated", std::to_string(terrain_.world().base_tiles_generated())},
                       {"max_queue_bytes", std::to_string(max_queue_bytes)},
                       {"tick_p50_ms", std::to_string(last_p50_ms_)},
                       {"tick_p99_ms", std::to_string(last_p99_ms_)},
