@@ -10,6 +10,7 @@
 #include "client/net/terrain_client.h"
 #include "client/render/clipmap_interest.h"
 #include "client/view/roam_path.h"
+#include "dem/refined_default.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "tests/support/random_stamps.h"
 
@@ -57,6 +58,8 @@ int run_bot(const BotOptions& o) {
   const uint32_t stamps = o.stamps, seed = o.seed;
   const double rate = o.rate;
   client::TerrainClient c;
+  // Untouched tiles of a base this program can generate (the refined default) are made here.
+  c.set_base_provider(generate_known_base);
   if (const Status st = c.connect(host, port, name, wire::Role::kBot, o.token); !st.ok()) {
     std::fprintf(stderr, "loam-client bot: %s\n", st.error().describe().c_str());
     return kBotCannotJoin;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <mutex>
 #include <span>
 #include <vector>
 
@@ -97,6 +99,52 @@ Result<RefinedWorld> load_refined_default() {
       "the embedded ETOPO5 crop (Himalaya, Tibet, the Bay of Bengal) refined 128x: 131 x 98 km at 1 m, "
       "vertical scale 1/8 on land and 1/32 under the sea (1/32 m per height unit)";
   return w;
+}
+
+namespace {
+
+struct DefaultBase {
+  std::once_flag once;
+  Result<std::shared_ptr<const RefinedTileBase>> base = make_error(ErrorCode::kNotFound, "base", "not built");
+  WorldParams params;
+};
+
+DefaultBase& default_base() {
+  static DefaultBase d;
+  std::call_once(d.once, [] {
+    auto rw = load_refined_default();
+    if (!rw) {
+      d.base = rw.error();
+      return;
+    }
+    d.params = rw->params;
+    d.base = RefinedTileBase::create(std::move(rw->base), rw->params);
+  });
+  return d;
+}
+
+}  // namespace
+
+Result<std::shared_ptr<const RefinedTileBase>> refined_default_base() { return default_base().base; }
+
+const WorldParams& refined_default_params() { return default_base().params; }
+
+Result<std::shared_ptr<const TileBase>> known_base(uint64_t identity) {
+  auto fill = std::make_shared<FillBase>(0);
+  if (identity == fill->identity()) return std::shared_ptr<const TileBase>(std::move(fill));
+  auto refined = refined_default_base();
+  if (!refined) return refined.error();
+  if ((*refined)->identity() == identity) return std::shared_ptr<const TileBase>(*refined);
+  char buf[20];
+  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)identity);
+  return make_error(ErrorCode::kNotFound, "base",
+                    std::string("no base this program can generate has identity ") + buf +
+                        " (a fill of 0 or the refined default of this version)");
+}
+
+std::shared_ptr<const TileBase> generate_known_base(uint64_t identity) {
+  auto b = known_base(identity);
+  return b ? *b : nullptr;
 }
 
 }  // namespace loam

@@ -4,9 +4,11 @@
 // from the embedded crop, so untouched tiles are computed, never stored or sent.
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include "protocol/base/refinement.h"
+#include "protocol/base/tile_base.h"
 #include "protocol/geometry.h"
 
 namespace loam {
@@ -22,5 +24,16 @@ RefinementParams default_refinement_params();
 
 // Builds the refined default world from the embedded crop.
 Result<RefinedWorld> load_refined_default();
+
+// The refined default as a world's base (built once per process, then shared).
+Result<std::shared_ptr<const RefinedTileBase>> refined_default_base();
+const WorldParams& refined_default_params();
+
+// The bases this program can generate from nothing but itself: a fill of 0 and the refined
+// default. kNotFound for any other identity (a snapshot or server naming a base from another
+// version or an imported pack).
+Result<std::shared_ptr<const TileBase>> known_base(uint64_t identity);
+// known_base as a client::BaseProvider-shaped function: null where the base is unknown.
+std::shared_ptr<const TileBase> generate_known_base(uint64_t identity);
 
 }  // namespace loam

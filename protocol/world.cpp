@@ -337,6 +337,7 @@ std::vector<TileChange> World::commit(uint64_t seq) {
   }
   for (const RectI& r : coarse_dirty) update_mips(r, changed);
 
+  if (seq == 0 && !changed.empty()) initial_is_base_ = false;  // version 0 is not the base's
   std::vector<TileChange> out;
   out.reserve(changed.size());
   for (const auto& [c, r] : changed) {

@@ -122,6 +122,11 @@ class World {
   // base's content), sorted by (ty, tx).
   std::vector<TileCoord> edited_coarse_tiles(int32_t mip) const;
   size_t edited_coarse_tile_count() const;
+  // True when every tile's version 0 is the base's tile: nothing was ever committed at
+  // version 0 (a DEM's samples are, over a fill). Later edits do not change it, since they
+  // have later versions; loaders of a snapshot restore it from the manifest.
+  bool initial_is_base() const { return initial_is_base_; }
+  void set_initial_is_base(bool v) { initial_is_base_ = v; }
   // Bytes of samples held for edited coarse tiles and stored detail tiles.
   size_t edited_bytes() const;
   // The clean-tile cache: its budget (bytes of samples), what it holds, how many tiles the
@@ -174,6 +179,7 @@ class World {
   mutable uint64_t cache_clock_ = 0;
   mutable uint64_t base_generated_ = 0;
   size_t cache_budget_ = size_t(64) << 20;
+  bool initial_is_base_ = true;
   // Points into this world's own tiles, so a copied or moved world starts without it.
   struct Memo {
     int32_t tx = 0, ty = 0;

@@ -33,26 +33,11 @@ Result<int> band_of(const std::string& params) {
   return make_error(ErrorCode::kUnsupported, "log.initial", "unknown DEM import parameters '" + params + "'");
 }
 Result<World> load_refined_world() {
-  auto rw = load_refined_default();
-  if (!rw) return rw.error();
-  auto base = RefinedTileBase::create(std::move(rw->base), rw->params);
+  auto base = refined_default_base();
   if (!base) return base.error();
-  return World(rw->params, std::move(*base));
+  return World(refined_default_params(), *base);
 }
 }  // namespace
-
-Result<std::shared_ptr<const TileBase>> known_base(uint64_t identity) {
-  auto fill = std::make_shared<FillBase>(0);
-  if (identity == fill->identity()) return std::shared_ptr<const TileBase>(std::move(fill));
-  auto refined = load_refined_world();
-  if (!refined) return refined.error();
-  if (refined->base().identity() == identity) return refined->base_ptr();
-  char buf[20];
-  std::snprintf(buf, sizeof buf, "%016llx", (unsigned long long)identity);
-  return make_error(ErrorCode::kNotFound, "base",
-                    std::string("no known base has identity ") + buf +
-                        " (a fill of 0 or the refined default of this version)");
-}
 
 Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band,
                                    const std::string& terrain) {

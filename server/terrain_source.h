@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "dem/refined_default.h"
 #include "protocol/log/log_format.h"
 #include "protocol/result.h"
 #include "protocol/world.h"
@@ -21,9 +22,7 @@ inline constexpr const char* kTerrainRefined = "refined";  // the crop refined 1
 Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band = 0,
                                    const std::string& terrain = kTerrainCrop);
 
-// The base whose TileBase::identity() is `identity`, among those Loam can rebuild: a fill of
-// 0 (worlds built from samples) and the refined default. For snapshots, which name their base.
-Result<std::shared_ptr<const TileBase>> known_base(uint64_t identity);
+// known_base (dem/refined_default.h) rebuilds the base a snapshot names.
 
 // Rebuilds the initial terrain a log header describes and checks it against the log: its
 // parameters must equal `logged` (the header's world: a DEM whose sidecar changed since would

@@ -17,6 +17,12 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   auto w = connection_->connect(host, port, hello);
   if (!w) return w.error();
   welcome_ = *w;
+  // The base version 0 is, when this program can generate it: untouched tiles are made here.
+  base_.reset();
+  if (welcome_.base_identity != 0 && base_provider_) {
+    base_ = base_provider_(welcome_.base_identity);
+    if (base_ && base_->identity() != welcome_.base_identity) base_.reset();
+  }
   // Deforms in flight on a lost connection go again, first, when the server still knows our
   // resume key (answered once, applied once); after a restart it may have logged them
   // already, so they are dropped (at most once). Then the queued ones.
@@ -77,8 +83,18 @@ Status TerrainClient::subscribe(const std::vector<TileCoord>& tiles, std::option
   wire::Subscribe sub;
   sub.focus = focus;
   if (tiles.empty() && focus) return connection_->send(sub);  // the focus alone moved
+  std::vector<uint16_t> samples;
   for (const TileCoord& c : tiles) {
     store_->want(c);
+    const WorldParams& w = welcome_.world;
+    if (base_ && c.layer == Layer::kCoarse && c.mip < w.mip_count() &&
+        w.tile_range(c.mip).contains(c.tx, c.ty) && !store_->version(c).has_value()) {
+      // Version 0 of this tile is the base's: generate it and claim it, nothing to download.
+      samples.resize(size_t(kTileSamples));
+      base_->coarse_tile(c.mip, c.tx, c.ty, samples);
+      LOAM_TRY(store_->replace_coarse(c, 0, samples));
+      ++tiles_generated_;
+    }
     const auto held = store_->version(c);
     sub.entries.push_back({c, held.has_value(), held.value_or(0)});
     if (sub.entries.size() == wire::kMaxSubscribeEntries) {
@@ -202,7 +218,9 @@ Status TerrainClient::on_stamp_image(const wire::StampImageResponse& r) {
 
 Status TerrainClient::handle(wire::Message& m) {
   switch (wire::message_type(m)) {
-    case wire::MessageType::kRegionUpdate: return on_region_chunk(std::get<wire::RegionUpdate>(m));
+    case wire::MessageType::kRegionUpdate:
+      ++region_chunks_received_;
+      return on_region_chunk(std::get<wire::RegionUpdate>(m));
     case wire::MessageType::kDeformEvent: {
       const auto& e = std::get<wire::DeformEvent>(m);
       last_seen_seq_ = std::max(last_seen_seq_, e.global_seq);

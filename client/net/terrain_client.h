@@ -17,6 +17,7 @@
 #include "client/net/confirmed_store.h"
 #include "client/net/connection.h"
 #include "client/net/deform_pacer.h"
+#include "protocol/base/tile_base.h"
 
 namespace loam::client {
 
@@ -27,9 +28,22 @@ struct AckResult {
   std::string field;
 };
 
+// Returns the base of `identity` (TileBase::identity) when this program can generate it, else
+// null. The client asks it once per connection for Welcome's base_identity.
+using BaseProvider = std::function<std::shared_ptr<const TileBase>(uint64_t identity)>;
+
 class TerrainClient {
  public:
   TerrainClient() = default;
+
+  // Bases this client can generate (call before connect). Without one, or when the server's
+  // base is unknown to it, every tile is downloaded as before.
+  void set_base_provider(BaseProvider provider) { base_provider_ = std::move(provider); }
+  // The base the client generates untouched tiles from (null: none), and how many it made.
+  const TileBase* base() const { return base_.get(); }
+  uint64_t tiles_generated() const { return tiles_generated_; }
+  // RegionUpdate messages received (chunks of whole tiles or patches) since connect.
+  uint64_t region_chunks_received() const { return region_chunks_received_; }
 
   Status connect(const std::string& host, uint16_t port, const std::string& name,
                  wire::Role role = wire::Role::kPlayer, std::optional<wire::AccessToken> token = {});
@@ -107,6 +121,10 @@ class TerrainClient {
   uint64_t last_seen_seq_ = 0;
   uint64_t last_event_seq_ = 0;
   size_t tile_hash_messages_ = 0;
+  BaseProvider base_provider_;
+  std::shared_ptr<const TileBase> base_;
+  uint64_t tiles_generated_ = 0;
+  uint64_t region_chunks_received_ = 0;
 };
 
 }  // namespace loam::client

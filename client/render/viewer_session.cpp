@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "dem/refined_default.h"
+
 namespace loam::render {
 
 Camera overview_camera(const WorldParams& world) {
@@ -20,6 +22,7 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
                                                               const ViewerOptions& options,
                                                               std::optional<Camera> initial) {
   std::unique_ptr<ViewerSession> v(new ViewerSession());
+  v->client_.set_base_provider(generate_known_base);
   LOAM_TRY(v->client_.connect(host, port, options.name, options.role, options.token));
   const WorldParams& world = v->client_.welcome().world;
   // The coarsest mip first: a few tiles that show the whole world and set the materials.

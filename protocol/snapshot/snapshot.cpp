@@ -193,6 +193,7 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
       {"world_hash_covers_params", true},
       {"base_identity", world.base().identity()},
       {"base", world.base().describe()},
+      {"initial_is_base", world.initial_is_base()},
       {"tick", session.tick},
       {"limits",
        {{"max_radius_samples", session.limits.max_radius_samples},
@@ -267,6 +268,7 @@ Result<SnapshotManifest> read_snapshot_manifest(const std::string& path) {
     m.hash_covers_params = j.value("world_hash_covers_params", false);
     m.base_identity = j.value("base_identity", FillBase(0).identity());
     m.base_description = j.value("base", std::string("fill 0"));
+    m.initial_is_base = j.value("initial_is_base", false);
     if (j.contains("limits")) {
       const nlohmann::json& l = j.at("limits");
       m.has_session = true;
@@ -395,6 +397,7 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path, std::shared_ptr<co
     if (world.tile_state(v.c).hash != v.hash)
       return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(v.c) + " hash mismatch");
   }
+  world.set_initial_is_base(manifest->initial_is_base);
   if (!world.matches_recorded_hash(manifest->world_hash))
     return make_error(ErrorCode::kCorrupt, tpath, "world hash mismatch");
   return LoadedSnapshot{*manifest, std::move(world), path, std::move(images)};

@@ -45,6 +45,9 @@ struct SnapshotManifest {
   // before bases list every tile over a fill of 0.
   uint64_t base_identity = 0;
   std::string base_description;
+  // Every tile's version 0 is the base's tile (World::initial_is_base); false in snapshots
+  // written before it was recorded.
+  bool initial_is_base = false;
 };
 
 // What a snapshot records of the session besides the terrain.

@@ -14,6 +14,9 @@ namespace loam::wire {
 inline constexpr uint32_t kHelloMagic = 0x4D414F4Cu;
 // A peer with a different major version cannot parse our messages; minor versions only add
 // optional behaviour negotiated in Hello/Welcome, never change a layout.
+// 5.0: Welcome names the base the initial terrain is (its TileBase identity; 0: none a client
+// can rebuild), so a client that can generate that base claims every tile at version 0 and
+// only edited tiles travel.
 // 4.0: Hello carries a resume key: Deforms resent on a new connection with the same key
 // (same client_seq) are answered once and applied once, so a client that reconnects resends
 // what was never acknowledged without doubling it.
@@ -24,7 +27,7 @@ inline constexpr uint32_t kHelloMagic = 0x4D414F4Cu;
 // 2.0: Subscribe entries say whether a version is held (version 0, the initial terrain, can be
 // claimed); RegionUpdate patches (the changed samples of a tile over a held version); region
 // codec payloads of format 3. 1.1 had added StatsRequest / Stats.
-inline constexpr uint16_t kProtocolMajor = 4;
+inline constexpr uint16_t kProtocolMajor = 5;
 inline constexpr uint16_t kProtocolMinor = 0;
 
 // Frame header: u32 payload length, u16 message type (little-endian), then the payload.

@@ -205,6 +205,7 @@ Status serialize(S& s, Welcome& m) {
   LOAM_TRY(serialize_range<uint16_t>(s, m.tick_rate_hz, 1, 1000, "welcome.tick_rate_hz"));
   LOAM_TRY(serialize(s, m.limits));
   LOAM_TRY(s.boolean(m.resume_key_known, "welcome.resume_key_known"));
+  LOAM_TRY(s.bits(m.base_identity, "welcome.base_identity"));
   return {};
 }
 

@@ -113,6 +113,10 @@ struct Welcome {
   // they were given): Deforms sent and never answered may be sent again, and count once.
   // False: they may or may not have been applied; the client must not send them again.
   bool resume_key_known = false;
+  // The identity (TileBase::identity) of the base that every tile's version 0 is, when it is
+  // one: a client that can generate that base holds any tile at version 0 without a region,
+  // and subscribes claiming it. 0: version 0 must come from the server.
+  uint64_t base_identity = 0;
   friend bool operator==(const Welcome&, const Welcome&) = default;
 };
 

@@ -313,6 +313,9 @@ void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
   // After a restart the ledger is empty: the client must not resend what it never saw
   // answered, since the log may hold it already.
   w.resume_key_known = h.resume_key != 0 && ledger_.knows(h.resume_key);
+  // Version 0 of every tile is the base's tile when nothing was written at version 0 (a DEM's
+  // samples are edits at version 0 over a fill: those must travel).
+  w.base_identity = terrain_.world().initial_is_base() ? terrain_.world().base().identity() : 0;
   send(c, w);
   log_event("hello",
             {{"client", std::to_string(c.id)}, {"name", c.name}, {"role", wire::to_string(granted)}});

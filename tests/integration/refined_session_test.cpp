@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "dem/refined_default.h"
 #include "protocol/snapshot/snapshot.h"
 #include "tests/integration/integration_util.h"
 #include "tests/integration/server_process.h"
@@ -103,6 +104,79 @@ TEST(RefinedSession, ServesEditsSnapshotsOnlyEditedTilesRecoversAndReplays) {
   const std::string out = server_binary_output("replay " + dir);
   EXPECT_NE(out.find(std::string("world hash ") + hash), std::string::npos) << out;
   EXPECT_NE(out.find("exit 0"), std::string::npos) << out;
+}
+
+TEST(RefinedSession, AClientThatGeneratesTheBaseDownloadsOnlyEditedTilesAndConverges) {
+  const std::string dir = temp_data_dir("generates");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--terrain", "refined"})) << server.log();
+  const std::vector<TileCoord> tiles = {{Layer::kCoarse, 0, 300, 200},
+                                        {Layer::kCoarse, 0, 301, 200},
+                                        {Layer::kCoarse, 1, 150, 100},
+                                        {Layer::kCoarse, 4, 18, 12},
+                                        {Layer::kCoarse, 9, 0, 0}};
+  client::TerrainClient c;
+  c.set_base_provider(generate_known_base);
+  ASSERT_TRUE(c.connect("127.0.0.1", server.port(), "generates").ok());
+  ASSERT_NE(c.welcome().base_identity, 0u);
+  ASSERT_NE(c.base(), nullptr);
+  ASSERT_TRUE(c.subscribe(tiles).ok());
+  // Held at once, at version 0, without a region from the server.
+  EXPECT_EQ(c.store().held().size(), tiles.size());
+  EXPECT_EQ(c.tiles_generated(), tiles.size());
+  // A client without the base downloads the same tiles; both hold the same samples.
+  client::TerrainClient d;
+  ASSERT_TRUE(d.connect("127.0.0.1", server.port(), "downloads").ok());
+  EXPECT_EQ(d.base(), nullptr);
+  ASSERT_TRUE(d.subscribe(tiles).ok());
+  ASSERT_TRUE(d.wait_until([&] { return d.store().held().size() == tiles.size(); }, 60s));
+  EXPECT_GE(d.region_chunks_received(), tiles.size());
+  for (const TileCoord& t : tiles) EXPECT_EQ(c.store().hash(t), d.store().hash(t)) << to_string(t);
+  // Stamps on the held tiles reach the generating client as events, not regions.
+  const WorldParams& w = c.welcome().world;
+  std::vector<uint32_t> seqs;
+  seqs.push_back(*c.deform(stamp_at(w, StampKind::kCrater, 301 * 256, 200 * 256 + 100, 40, -3)));
+  seqs.push_back(*c.deform(stamp_at(w, StampKind::kGaussian, 300 * 256 + 50, 200 * 256 + 60, 25, 2)));
+  ASSERT_TRUE(c.wait_until([&] { return c.ack(seqs.back()).has_value(); }, 30s));
+  const uint64_t last = c.ack(seqs.back())->global_seq;
+  const World expected = replayed_world(dir, last);
+  EXPECT_TRUE(c.wait_until([&] { return bool(store_matches(c, expected)); }, 30s))
+      << store_matches(c, expected);
+  EXPECT_TRUE(d.wait_until([&] { return bool(store_matches(d, expected)); }, 30s))
+      << store_matches(d, expected);
+  EXPECT_EQ(c.region_chunks_received(), 0u);
+  EXPECT_EQ(c.hash_mismatches(), 0u);
+  // A later subscriber to an edited tile gets it from the server (only edits travel).
+  client::TerrainClient late;
+  late.set_base_provider(generate_known_base);
+  ASSERT_TRUE(late.connect("127.0.0.1", server.port(), "late").ok());
+  ASSERT_TRUE(late.subscribe({{Layer::kCoarse, 0, 301, 200}, {Layer::kCoarse, 0, 100, 100}}).ok());
+  EXPECT_TRUE(late.wait_until(
+      [&] { return bool(store_matches(late, expected)) && late.region_chunks_received() > 0; }, 30s))
+      << store_matches(late, expected);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
+TEST(RefinedSession, ACropSessionNamesNoBaseSoClientsDownloadVersionZero) {
+  const std::string dir = temp_data_dir("crop");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir)) << server.log();
+  // Even once a stamp has changed every tile (the bug this pins: version 0 was then taken for
+  // the fill base, and clients generated zeros where the crop's samples were).
+  client::TerrainClient editor;
+  ASSERT_TRUE(editor.connect("127.0.0.1", server.port(), "editor").ok());
+  const WorldParams& w = editor.welcome().world;
+  const RectI r = w.sample_rect();
+  const uint32_t s =
+      *editor.deform(stamp_at(w, StampKind::kGaussian, double(r.x1) / 2, double(r.y1) / 2, 2000, 1));
+  ASSERT_TRUE(editor.wait_until([&] { return editor.ack(s).has_value(); }, 30s));
+  ASSERT_TRUE(editor.ack(s)->accepted);
+  client::TerrainClient c;
+  c.set_base_provider(generate_known_base);
+  ASSERT_TRUE(c.connect("127.0.0.1", server.port(), "crop").ok());
+  EXPECT_EQ(c.welcome().base_identity, 0u) << "the crop's samples are edits at version 0 over a fill";
+  EXPECT_EQ(c.base(), nullptr);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 
 }  // namespace

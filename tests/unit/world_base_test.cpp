@@ -164,6 +164,22 @@ TEST(WorldBase, WritingTheBaseSamplesBackHashesAsUntouched) {
   EXPECT_EQ(w.tile_state({Layer::kCoarse, 0, 0, 0}).version, 2u);
 }
 
+TEST(WorldBase, VersionZeroIsTheBaseOnlyWhenNothingWasCommittedAtVersionZero) {
+  const SmallRefined s = small_refined();
+  World based(s.params, s.base);
+  EXPECT_TRUE(based.initial_is_base());
+  ASSERT_TRUE(apply_stamp(based, crater_at(256, 128, 300, -300)).ok());  // every tile, every mip
+  based.commit(1);
+  EXPECT_TRUE(based.initial_is_base()) << "later edits keep version 0 the base's";
+  // Samples written at version 0 over a fill (an imported DEM) are not the base, even once
+  // every tile has been edited since.
+  World dense = dense_copy(World(s.params, s.base));
+  EXPECT_FALSE(dense.initial_is_base());
+  ASSERT_TRUE(apply_stamp(dense, crater_at(256, 128, 300, -300)).ok());
+  dense.commit(1);
+  EXPECT_FALSE(dense.initial_is_base());
+}
+
 TEST(WorldBase, ACopiedWorldIsIndependentOfItsOriginal) {
   const SmallRefined s = small_refined();
   World a(s.params, s.base);
@@ -193,6 +209,7 @@ TEST(WorldBase, ASnapshotHoldsOnlyEditedTilesAndNeedsItsBase) {
   auto loaded = read_snapshot(*path, s.base);
   ASSERT_TRUE(loaded.ok()) << loaded.error().describe();
   EXPECT_EQ(loaded->world.world_hash(), w.world_hash());
+  EXPECT_TRUE(loaded->world.initial_is_base()) << "recorded in the manifest";
   expect_every_mip_tile_equal(loaded->world, w);
   auto without = read_snapshot(*path);
   ASSERT_FALSE(without.ok());
