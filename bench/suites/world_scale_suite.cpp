@@ -22,6 +22,7 @@
 
 #include "bench/harness.h"
 #include "bench/server_stats.h"
+#include "client/net/terrain_client.h"
 #include "dem/default_terrain.h"
 #include "dem/dem_raster.h"
 #include "dem/refined_default.h"
@@ -151,6 +152,9 @@ double peak_rss_mib(pid_t pid) {
 
 struct ServeResult {
   bool ran = false;
+  size_t view_tiles = 0;  // the whole-world coarse view: every tile of mips 6 and up
+  double join_generated_s = -1, join_downloaded_s = -1;
+  uint64_t join_generated_chunks = 0, join_downloaded_chunks = 0;
   int bots = 0, bots_ok = 0;
   double seconds = 0;
   double server_rss_mib = 0, bot_rss_max_mib = 0;
@@ -161,10 +165,10 @@ struct ServeResult {
 
 // A loam-server on the refined world and `bots` roaming `loam-client bot` processes, each
 // stamping near itself and checking its tiles' hashes; peak RSS of every process.
-ServeResult serve_refined(int bots, double seconds, double rate, uint64_t cache_mb) {
+ServeResult serve_refined(int bots, double seconds, double rate, uint64_t cache_mb, bool download_join) {
   ServeResult r;
 #ifndef LOAM_CLIENT_BINARY
-  (void)bots, (void)seconds, (void)rate, (void)cache_mb;
+  (void)bots, (void)seconds, (void)rate, (void)cache_mb, (void)download_join;
   r.note = "loam-client was not built";
   return r;
 #else
@@ -177,6 +181,30 @@ ServeResult serve_refined(int bots, double seconds, double rate, uint64_t cache_
     r.note = "the server did not start: " + server.log();
     return r;
   }
+  // Joins at 128 KiB/s: the time until the whole-world coarse view is held, by a client that
+  // generates the base and by one that downloads it.
+  const auto join = [&](bool generate, double& held_after_s, uint64_t& chunks) {
+    client::TerrainClient c;
+    if (generate) c.set_base_provider(generate_known_base);
+    const auto start = std::chrono::steady_clock::now();
+    if (!c.connect("127.0.0.1", server.port(), generate ? "join-generates" : "join-downloads").ok()) return;
+    std::vector<TileCoord> view;
+    const WorldParams& w = c.welcome().world;
+    for (int32_t m = 6; m < w.mip_count(); ++m) {
+      const RectI t = w.tile_range(m);
+      for (int64_t ty = t.y0; ty < t.y1; ++ty)
+        for (int64_t tx = t.x0; tx < t.x1; ++tx)
+          view.push_back({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)});
+    }
+    r.view_tiles = view.size();
+    if (!c.subscribe(view).ok()) return;
+    if (c.wait_until([&] { return c.store().held().size() == view.size(); }, std::chrono::seconds(120)))
+      held_after_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    chunks = c.region_chunks_received();
+  };
+  join(true, r.join_generated_s, r.join_generated_chunks);
+  if (download_join) join(false, r.join_downloaded_s, r.join_downloaded_chunks);  // ~35 s at 128 KiB/s
+
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<pid_t> pids;
   const std::string stamps = std::to_string(int(seconds * rate));
@@ -365,7 +393,7 @@ int run_world_scale(const Context& ctx, Report& report) {
   // --- Serving the refined world to roaming bots. ---
   const uint64_t cache_mb = ctx.quick ? 16 : 256;
   const ServeResult sr =
-      serve_refined(ctx.quick ? 2 : 16, ctx.quick ? 8.0 : 300.0, ctx.quick ? 2.0 : 2.0, cache_mb);
+      serve_refined(ctx.quick ? 2 : 16, ctx.quick ? 8.0 : 300.0, 2.0, cache_mb, !ctx.quick);
   if (!sr.ran) {
     std::printf("world-scale: SKIPPING serving: %s\n", sr.note.c_str());
     report.paragraph("**Serving skipped**: " + sr.note);
@@ -384,10 +412,22 @@ int run_world_scale(const Context& ctx, Report& report) {
     report.paragraph(
         "A `loam-server serve --terrain refined` process and roaming `loam-client bot --roam 30` processes "
         "(30 m/s loops, 2 stamps/s each near themselves, subscribing by distance as a viewer does, checking "
-        "every held tile's hash; exit 0 = every stamp accepted, 0 mismatches). Untouched tiles are generated "
-        "by the server on demand and still streamed to the bots (clients do not generate the base yet). "
-        "Peak RSS from /proc (server) and wait4 (bots); tick times from the server's Stats.");
+        "every held tile's hash; exit 0 = every stamp accepted, 0 mismatches). The bots generate untouched "
+        "tiles themselves (Welcome names the base) and download only edited ones. Peak RSS from /proc "
+        "(server) and wait4 (bots); tick times from the server's Stats.");
     report.table(serve);
+    Table joins("join", {"client", "whole-world coarse view (tiles, mips 6+)", "held after s",
+                         "region chunks received"});
+    joins.add_row({"generates the base", std::to_string(sr.view_tiles), fmt("%.3f", sr.join_generated_s),
+                   std::to_string(sr.join_generated_chunks)});
+    if (sr.join_downloaded_s >= 0)  // not in quick runs: about 35 s at 128 KiB/s
+      joins.add_row({"downloads the base (no provider)", std::to_string(sr.view_tiles),
+                     fmt("%.3f", sr.join_downloaded_s), std::to_string(sr.join_downloaded_chunks)});
+    report.paragraph(
+        "Joining the refined world at 128 KiB/s (`--client-budget`): time from connect until every tile "
+        "of mips 6 and up (the whole world, 64 m per sample and coarser) is held.");
+    report.table(joins);
+    if (!ctx.sanitized && !(sr.join_generated_s >= 0 && sr.join_generated_s <= 1.0)) ++failures;
     std::printf(
         "  serving: %d/%d bots converged, server peak %.0f MiB, bot peak %.0f MiB, tick p99 %.2f ms\n",
         sr.bots_ok, sr.bots, sr.server_rss_mib, sr.bot_rss_max_mib, sr.tick_p99_ms);
