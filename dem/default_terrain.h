@@ -9,4 +9,7 @@ namespace loam {
 // Loads and imports the embedded default terrain.
 Result<ImportedWorld> load_default_terrain(const ImportOptions& options = {});
 
+// Reads the embedded crop as a raster (metres at the sidecar's game scale), unimported.
+Result<DemRaster> read_default_terrain_raster();
+
 }  // namespace loam

@@ -8,14 +8,7 @@
 #include <span>
 #include <vector>
 
-#include "dem/dem_raster.h"
-
-extern "C" {
-extern const uint8_t loam_default_terrain_png_data[];
-extern const uint64_t loam_default_terrain_png_size;
-extern const uint8_t loam_default_terrain_json_data[];
-extern const uint64_t loam_default_terrain_json_size;
-}
+#include "dem/default_terrain.h"
 
 namespace loam {
 
@@ -48,10 +41,7 @@ RefinementParams default_refinement_params() {
 }
 
 Result<RefinedWorld> load_refined_default() {
-  const std::span<const uint8_t> png(loam_default_terrain_png_data, size_t(loam_default_terrain_png_size));
-  const std::string json(reinterpret_cast<const char*>(loam_default_terrain_json_data),
-                         size_t(loam_default_terrain_json_size));
-  auto dem = read_dem_memory(png, "default_terrain.png", json);
+  auto dem = read_default_terrain_raster();
   if (!dem) return dem.error();
   // The sidecar maps ETOPO5 values v to game meters as -207.52 + 0.02 v; recover v exactly.
   const double offset = -207.52, scale = 0.02;

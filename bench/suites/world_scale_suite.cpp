@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bench/harness.h"
@@ -53,16 +54,22 @@ struct SlopeStats {
   double mean = 0, p50 = 0, p90 = 0, p99 = 0;
 };
 
-// Horn's 3x3 gradient (gdaldem slope -alg Horn) over interior samples.
+// Horn's 3x3 gradient (gdaldem slope -alg Horn) at an interior sample, in m/m.
+std::pair<double, double> horn_gradient(const Field& f, int64_t x, int64_t y) {
+  const double gx = ((f.at(x + 1, y - 1) + 2 * f.at(x + 1, y) + f.at(x + 1, y + 1)) -
+                     (f.at(x - 1, y - 1) + 2 * f.at(x - 1, y) + f.at(x - 1, y + 1))) /
+                    (8 * f.dx);
+  const double gy = ((f.at(x - 1, y + 1) + 2 * f.at(x, y + 1) + f.at(x + 1, y + 1)) -
+                     (f.at(x - 1, y - 1) + 2 * f.at(x, y - 1) + f.at(x + 1, y - 1))) /
+                    (8 * f.dy);
+  return {gx, gy};
+}
+
+// Slopes in degrees over interior samples.
 void add_slopes(const Field& f, std::vector<double>& slopes) {
   for (int64_t y = 1; y + 1 < f.h; ++y) {
     for (int64_t x = 1; x + 1 < f.w; ++x) {
-      const double gx = ((f.at(x + 1, y - 1) + 2 * f.at(x + 1, y) + f.at(x + 1, y + 1)) -
-                         (f.at(x - 1, y - 1) + 2 * f.at(x - 1, y) + f.at(x - 1, y + 1))) /
-                        (8 * f.dx);
-      const double gy = ((f.at(x - 1, y + 1) + 2 * f.at(x, y + 1) + f.at(x + 1, y + 1)) -
-                         (f.at(x - 1, y - 1) + 2 * f.at(x, y - 1) + f.at(x + 1, y - 1))) /
-                        (8 * f.dy);
+      const auto [gx, gy] = horn_gradient(f, x, y);
       slopes.push_back(std::atan(std::sqrt(gx * gx + gy * gy)) * 180.0 / M_PI);
     }
   }
@@ -111,12 +118,7 @@ bool write_hillshade(const Field& f, const std::string& path) {
   const double az = 315.0 * M_PI / 180.0, alt = 45.0 * M_PI / 180.0;
   for (int64_t y = 1; y + 1 < f.h; ++y) {
     for (int64_t x = 1; x + 1 < f.w; ++x) {
-      const double gx = ((f.at(x + 1, y - 1) + 2 * f.at(x + 1, y) + f.at(x + 1, y + 1)) -
-                         (f.at(x - 1, y - 1) + 2 * f.at(x - 1, y) + f.at(x - 1, y + 1))) /
-                        (8 * f.dx);
-      const double gy = ((f.at(x - 1, y + 1) + 2 * f.at(x, y + 1) + f.at(x + 1, y + 1)) -
-                         (f.at(x - 1, y - 1) + 2 * f.at(x, y - 1) + f.at(x + 1, y - 1))) /
-                        (8 * f.dy);
+      const auto [gx, gy] = horn_gradient(f, x, y);
       const double slope = std::atan(std::sqrt(gx * gx + gy * gy));
       const double aspect = std::atan2(gy, -gx);
       const double shade = std::sin(alt) * std::cos(slope) +
