@@ -63,6 +63,12 @@ std::string prometheus_text(const MetricsSnapshot& m) {
   metric(out, "loam_region_cache_bytes", "gauge", "Encoded regions held for other clients.",
          m.region_cache_bytes);
   metric(out, "loam_history_bytes", "gauge", "Replaced samples kept for delta patches.", m.history_bytes);
+  metric(out, "loam_edited_tile_bytes", "gauge", "Samples of tiles changed since the base.",
+         m.edited_tile_bytes);
+  metric(out, "loam_base_cache_bytes", "gauge", "Clean base tiles held in memory (--cache-mb).",
+         m.base_cache_bytes);
+  metric(out, "loam_base_tiles_generated_total", "counter", "Base tiles generated or read so far.",
+         m.base_tiles_generated);
   metric(out, "loam_pending_deforms", "gauge", "Deforms admitted and waiting for a tick.", m.pending_deforms);
   metric(out, "loam_pending_stamp_cost", "gauge", "Sample updates of the deforms waiting for a tick.",
          m.pending_stamp_cost);

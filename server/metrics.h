@@ -30,6 +30,8 @@ struct MetricsSnapshot {
   uint64_t events_sent = 0, regions_sent = 0, partial_regions_sent = 0;
   uint64_t region_encodes = 0, region_cache_hits = 0, region_deltas = 0, region_best_upgrades = 0;
   uint64_t region_cache_bytes = 0, history_bytes = 0;
+  // The world: samples of edited tiles, clean base tiles cached, base tiles generated so far.
+  uint64_t edited_tile_bytes = 0, base_cache_bytes = 0, base_tiles_generated = 0;
   uint64_t pending_deforms = 0, pending_stamp_cost = 0;  // waiting for a tick
   uint64_t max_queue_bytes = 0;                          // the largest client send queue
   uint64_t tick_overruns = 0, storage_failures = 0;

@@ -729,6 +729,9 @@ MetricsSnapshot ReplicationCore::metrics(uint64_t max_queue_bytes) const {
   m.region_best_upgrades = rc.best_upgrades;
   m.region_cache_bytes = rc.bytes_held;
   m.history_bytes = history_.bytes();
+  m.edited_tile_bytes = terrain_.world().edited_bytes();
+  m.base_cache_bytes = terrain_.world().base_cache_bytes();
+  m.base_tiles_generated = terrain_.world().base_tiles_generated();
   m.pending_deforms = pending_.size();
   for (const PendingDeform& p : pending_) m.pending_stamp_cost += p.cost;
   m.max_queue_bytes = max_queue_bytes;

@@ -12,6 +12,7 @@ namespace {
 TEST(Metrics, EveryLineIsACommentOrASampleAndTheHistogramIsCumulative) {
   MetricsSnapshot m;
   m.sessions = 3;
+  m.base_cache_bytes = 131072;
   m.deforms_accepted = 10;
   m.deforms_rejected = {{"rate_limited", 4}, {"oversize", 1}};
   for (const double ms : {0.5, 3.0, 3.0, 40.0, 5000.0}) m.ticks.add(ms);
@@ -33,6 +34,7 @@ TEST(Metrics, EveryLineIsACommentOrASampleAndTheHistogramIsCumulative) {
   }
   EXPECT_GT(samples, 30);
   EXPECT_NE(text.find("\nloam_clients 3\n"), std::string::npos);
+  EXPECT_NE(text.find("\nloam_base_cache_bytes 131072\n"), std::string::npos);
   EXPECT_NE(text.find("\nloam_deforms_rejected_total{reason=\"rate_limited\"} 4\n"), std::string::npos);
   EXPECT_NE(text.find("\nloam_deforms_rejected_total{reason=\"oversize\"} 1\n"), std::string::npos);
   // 0.5 ms under 1 ms; two 3 ms under 5 ms; 40 ms under 50 ms; 5 s only in +Inf.
