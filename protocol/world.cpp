@@ -70,11 +70,20 @@ World::CachedTile& World::base_tile(int32_t mip, int32_t tx, int32_t ty) const {
 }
 
 uint64_t World::base_tile_hash(int32_t mip, int32_t tx, int32_t ty) const {
+  if (base_->uniform()) {
+    CachedTile& t = base_tile(mip, tx, ty);
+    return t.hash;
+  }
+  // Hashes outlive the cache (16 bytes a tile against 128 KiB), so TileHashes rounds over
+  // untouched tiles do not generate them again.
+  const TileCoord c{Layer::kCoarse, uint8_t(mip), tx, ty};
+  if (const auto it = base_hashes_.find(c); it != base_hashes_.end()) return it->second;
   CachedTile& t = base_tile(mip, tx, ty);
   if (!t.hashed) {
     t.hash = hash_coarse_tile(t.data);
     t.hashed = true;
   }
+  base_hashes_.emplace(c, t.hash);
   return t.hash;
 }
 

@@ -175,6 +175,7 @@ class World {
   std::vector<CoarseMip> mips_;
   mutable std::unordered_map<TileCoord, CachedTile, TileCoordHash> cache_;
   mutable CachedTile uniform_;  // the one tile of a uniform base
+  mutable std::unordered_map<TileCoord, uint64_t, TileCoordHash> base_hashes_;  // never trimmed
   mutable size_t cache_bytes_ = 0;
   mutable uint64_t cache_clock_ = 0;
   mutable uint64_t base_generated_ = 0;
