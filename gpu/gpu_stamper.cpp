@@ -133,7 +133,12 @@ Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const
                                                        const StampLimits& limits,
                                                        const GpuStamperOptions& options) {
   install_gl_debug_output();
-  std::unique_ptr<GpuStamper> s(new GpuStamper());
+  auto coarse = TilePages::create(Layer::kCoarse, options.max_coarse_pages);
+  if (!coarse) return coarse.error();
+  auto detail = TilePages::create(Layer::kDetail, options.max_detail_pages);
+  if (!detail) return detail.error();
+  std::unique_ptr<GpuStamper> s(new GpuStamper(std::move(*coarse), std::move(*detail)));
+  s->mirror_ = &world;
   s->textures_ = textures;
   s->limits_ = limits;
   s->options_ = options;
@@ -153,31 +158,8 @@ Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const
   s->params_ = world.params();
   s->coarse_rect_ = world.params().sample_rect();
   s->detail_rect_ = world.params().detail_sample_rect();
-  GLint max_size = 0;
-  glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
-  for (const RectI& r : {s->coarse_rect_, s->detail_rect_}) {
-    if (r.width() > max_size || r.height() > max_size) {
-      return make_error(ErrorCode::kUnsupported, "gpu.world",
-                        "a layer of " + std::to_string(r.width()) + "x" + std::to_string(r.height()) +
-                            " samples exceeds GL_MAX_TEXTURE_SIZE " + std::to_string(max_size));
-    }
-  }
   if (Status st = s->build_programs(); !st.ok()) return st.error();
 
-  s->coarse_ = make_texture(GL_TEXTURE_2D);
-  glTextureStorage2D(s->coarse_.get(), 1, GL_R16UI, GLsizei(s->coarse_rect_.width()),
-                     GLsizei(s->coarse_rect_.height()));
-  s->detail_ = make_texture(GL_TEXTURE_2D);
-  glTextureStorage2D(s->detail_.get(), 1, GL_R8I, GLsizei(s->detail_rect_.width()),
-                     GLsizei(s->detail_rect_.height()));
-  const GLbyte zero = 0;
-  glClearTexImage(s->detail_.get(), 0, GL_RED_INTEGER, GL_BYTE, &zero);
-  // An integer texture with a linear filter is incomplete and texelFetch would read zeros
-  // (the normal pass and the renderer fetch from these).
-  for (GLuint t : {s->coarse_.get(), s->detail_.get()}) {
-    glTextureParameteri(t, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTextureParameteri(t, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  }
   s->params_buf_ = make_buffer();
   glNamedBufferStorage(s->params_buf_.get(), sizeof(StampUniforms), nullptr, GL_DYNAMIC_STORAGE_BIT);
   s->result_buf_ = make_buffer();
@@ -192,21 +174,6 @@ Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const
     glNamedFramebufferParameteri(fbo, GL_FRAMEBUFFER_DEFAULT_HEIGHT, 1);
     glCreateVertexArrays(1, &vao);
     s->empty_vao_ = GlVertexArray(vao);
-  }
-
-  // Upload once: the coarse layer whole, the detail layer tile by tile where stored.
-  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  std::vector<uint16_t> coarse(size_t(s->coarse_rect_.area()));
-  world.read_coarse(s->coarse_rect_, coarse);
-  glTextureSubImage2D(s->coarse_.get(), 0, 0, 0, GLsizei(s->coarse_rect_.width()),
-                      GLsizei(s->coarse_rect_.height()), GL_RED_INTEGER, GL_UNSIGNED_SHORT, coarse.data());
-  for (const TileCoord& c : world.stored_detail_tiles()) {
-    const std::span<const int8_t> tile = world.detail_tile(c.tx, c.ty);
-    if (tile.empty()) continue;
-    const RectI r = tile_rect(c.tx, c.ty);
-    glTextureSubImage2D(s->detail_.get(), 0, GLint(r.x0 - s->detail_rect_.x0),
-                        GLint(r.y0 - s->detail_rect_.y0), kTileSize, kTileSize, GL_RED_INTEGER, GL_BYTE,
-                        tile.data());
   }
   return s;
 }
@@ -294,23 +261,72 @@ Status GpuStamper::texture_for(uint64_t id, GLuint& out) {
   return {};
 }
 
-Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, RectI& readback) {
-  auto baked = bake_stamp(q, params_, textures_);
-  if (!baked) return baked.error();
-  const BakedStamp& b = baked.value();
-  readback = b.rect;
-  if (b.rect.empty()) return {};
-  const RectI layer_rect = q.layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
+void GpuStamper::fill_page(Layer layer, int32_t page, int32_t tx, int32_t ty) {
+  const PageFormat f = page_format(layer);
+  const GLuint tex = pages(layer).texture();
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  if (layer == Layer::kCoarse) {
+    const std::span<const uint16_t> tile = mirror_->coarse_tile(0, tx, ty);
+    glTextureSubImage3D(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, tile.data());
+    return;
+  }
+  const std::span<const int8_t> tile = mirror_->detail_tile(tx, ty);
+  if (tile.empty()) {
+    const GLbyte zero = 0;  // an unstored detail tile is all zero
+    glClearTexSubImage(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, &zero);
+  } else {
+    glTextureSubImage3D(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, tile.data());
+  }
+}
+
+Result<std::vector<GpuStamper::PagePart>> GpuStamper::resident_parts(Layer layer, const RectI& rect) {
+  std::vector<PagePart> parts;
+  const RectI r = rect.intersect(layer_rect(layer));
+  if (r.empty()) return parts;
+  TilePages& p = pages_mut(layer);
+  const RectI tiles = tiles_overlapping(r);
+  if (tiles.area() > p.max_pages()) {
+    return make_error(ErrorCode::kOversize, "gpu.pages",
+                      "a stamp over " + std::to_string(tiles.area()) + " " + to_string(layer) +
+                          " tiles; the GPU page budget is " + std::to_string(p.max_pages()));
+  }
+  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+      const auto slot = p.acquire(int32_t(tx), int32_t(ty));
+      if (!slot) {
+        release(layer, parts);
+        return make_error(ErrorCode::kBusy, "gpu.pages",
+                          "every page is awaiting a readback: collect, then submit again");
+      }
+      // Pinned at once: a later acquire of this call must not take it back.
+      p.pin(slot->page);
+      if (slot->fresh) fill_page(layer, slot->page, int32_t(tx), int32_t(ty));
+      const RectI tile = tile_rect(int32_t(tx), int32_t(ty));
+      parts.push_back({slot->page, tile, r.intersect(tile)});
+    }
+  }
+  return parts;
+}
+
+void GpuStamper::release(Layer layer, const std::vector<PagePart>& parts) {
+  for (const PagePart& part : parts) pages_mut(layer).unpin(part.page);
+}
+
+RectI GpuStamper::stamp_rect(const QuantizedStamp& q, const BakedStamp& b) const {
+  const RectI layer = layer_rect(q.layer);
+  if (q.kind != StampKind::kShockwave) return b.rect.intersect(layer);
+  const int64_t total = int64_t(q.steps) * shockwave_substeps(q.speed);
+  const RectI pulse{ceil_div(q.center_x - b.support_q8, 256), ceil_div(q.center_y - b.support_q8, 256),
+                    floor_div(q.center_x + b.support_q8, 256) + 1,
+                    floor_div(q.center_y + b.support_q8, 256) + 1};
+  return RectI{pulse.x0 - total, pulse.y0 - total, pulse.x1 + total, pulse.y1 + total}.intersect(layer);
+}
+
+Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b,
+                                    const std::vector<PagePart>& parts) {
+  if (parts.empty()) return {};
   const bool vertex = path_for(b.rect.area()) == StampPath::kVertex;
-  const int64_t runs = (b.rect.width() + kVertexRun - 1) / kVertexRun;
   StampUniforms u{};
-  u.rect_x0 = int32_t(b.rect.x0 - layer_rect.x0);
-  u.rect_y0 = int32_t(b.rect.y0 - layer_rect.y0);
-  u.rect_w = int32_t(b.rect.width());
-  u.rect_h = int32_t(b.rect.height());
-  // gx * 256 - center_x = (gx - rect.x0) * 256 + d0x; |d0x| <= support < 2^25.
-  u.d0x = int32_t(b.rect.x0 * 256 - q.center_x);
-  u.d0y = int32_t(b.rect.y0 * 256 - q.center_y);
   u.shift = b.shift;
   u.radius_r = b.radius_r;
   u.cos_q15 = b.cos_q15;
@@ -318,7 +334,6 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, RectI& readback) {
   u.intensity = q.intensity;
   u.target = q.target;
   u.blend = int32_t(q.blend);
-  u.aux0 = int32_t(runs);  // the vertex pass's points per row
   if (b.texture) {
     u.tex_w = b.texture->width;
     u.tex_h = b.texture->height;
@@ -327,68 +342,93 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, RectI& readback) {
     glBindTextureUnit(0, tex);
   }
   std::copy(b.table.begin(), b.table.end(), u.table);
-  glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
-  glBindBufferBase(GL_UNIFORM_BUFFER, 0, params_buf_.get());
+  // The per-part fields: where the part lies in its page and relative to the center.
+  auto load_part = [&](const PagePart& part) {
+    u.rect_x0 = int32_t(part.rect.x0 - part.tile.x0);
+    u.rect_y0 = int32_t(part.rect.y0 - part.tile.y0);
+    u.rect_w = int32_t(part.rect.width());
+    u.rect_h = int32_t(part.rect.height());
+    // gx * 256 - center_x = (gx - rect.x0) * 256 + d0x; |d0x| <= support < 2^25.
+    u.d0x = int32_t(part.rect.x0 * 256 - q.center_x);
+    u.d0y = int32_t(part.rect.y0 * 256 - q.center_y);
+    u.aux0 = int32_t((part.rect.width() + kVertexRun - 1) / kVertexRun);  // the vertex pass's points per row
+    glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
+    glBindBufferBase(GL_UNIFORM_BUFFER, 0, params_buf_.get());
+  };
   const bool footprint = q.kind == StampKind::kFootprint;
   if (footprint) {
-    // First contact: max over the foot of old - sole, gathered by a pre-pass, then read by
-    // the stamp pass from the same buffer (no round trip to the CPU).
+    // First contact: max over the whole foot (every part) of old - sole, gathered by a
+    // pre-pass, then read by the stamp passes from the same buffer (no round trip to the CPU).
     reset_contact();
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, result_buf_.get());
   }
   const int kind = int(q.kind);
+  const GLuint pages_tex = pages(q.layer).texture();
+  const GLenum format = page_format(q.layer).internal_format;
   if (vertex) {
-    const auto points = GLsizei(runs * b.rect.height());
     auto prog = program("vstamp", "stamp.vert.glsl", kind, q.layer);
     if (!prog) return prog.error();
-    bind_vertex_pass(q.layer, b.rect);
+    auto points = [](const PagePart& part) {
+      return GLsizei(((part.rect.width() + kVertexRun - 1) / kVertexRun) * part.rect.height());
+    };
     if (footprint) {
       auto contact = program("vcontact", "stamp.vert.glsl", kind, q.layer);
       if (!contact) return contact.error();
-      draw_points(*contact, points);
+      for (const PagePart& part : parts) {
+        load_part(part);
+        bind_vertex_pass(q.layer, part);
+        draw_points(*contact, points(part));
+      }
       glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     }
-    draw_points(*prog, points);
+    for (const PagePart& part : parts) {
+      load_part(part);
+      bind_vertex_pass(q.layer, part);
+      draw_points(*prog, points(part));
+    }
     return {};
   }
-  glBindImageTexture(0, texture(q.layer), 0, GL_FALSE, 0, GL_READ_WRITE,
-                     q.layer == Layer::kCoarse ? GL_R16UI : GL_R8I);
-  const GLuint gx = groups(b.rect.width()), gy = groups(b.rect.height(), kGroup * kComputeRows);
+  auto dispatch = [&](GLuint prog, const PagePart& part) {
+    load_part(part);
+    // One layer of the page array, bound as the 2D image the kernel stores into.
+    glBindImageTexture(0, pages_tex, 0, GL_FALSE, part.page, GL_READ_WRITE, format);
+    glUseProgram(prog);
+    glDispatchCompute(groups(part.rect.width()), groups(part.rect.height(), kGroup * kComputeRows), 1);
+  };
   if (footprint) {
     auto contact = program("contact", "stamp.comp.glsl", kind, q.layer);
     if (!contact) return contact.error();
-    glUseProgram(*contact);
-    glDispatchCompute(gx, gy, 1);
+    for (const PagePart& part : parts) dispatch(*contact, part);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   }
   auto prog = program("stamp", "stamp.comp.glsl", kind, q.layer);
   if (!prog) return prog.error();
-  glUseProgram(*prog);
-  glDispatchCompute(gx, gy, 1);
+  for (const PagePart& part : parts) dispatch(*prog, part);
   return {};
 }
 
-// Before the vertex passes over `rect` (global layer samples): copies the rect into the
-// texture they read the old samples from (rect-local texels) and binds both images.
-void GpuStamper::bind_vertex_pass(Layer layer, const RectI& rect) {
+// Before a vertex pass over a part: copies the part into the texture the pass reads the old
+// samples from (part-local texels) and binds both images (the page as a 2D image).
+void GpuStamper::bind_vertex_pass(Layer layer, const PagePart& part) {
   const bool coarse = layer == Layer::kCoarse;
   GlTexture& old = coarse ? old_coarse_ : old_detail_;
   int64_t& old_w = coarse ? old_coarse_w_ : old_detail_w_;
   int64_t& old_h = coarse ? old_coarse_h_ : old_detail_h_;
-  if (rect.width() > old_w || rect.height() > old_h) {
-    old_w = std::max(old_w, rect.width());
-    old_h = std::max(old_h, rect.height());
+  const GLenum format = page_format(layer).internal_format;
+  if (part.rect.width() > old_w || part.rect.height() > old_h) {
+    old_w = std::max(old_w, part.rect.width());
+    old_h = std::max(old_h, part.rect.height());
     old = make_texture(GL_TEXTURE_2D);
-    glTextureStorage2D(old.get(), 1, coarse ? GL_R16UI : GL_R8I, GLsizei(old_w), GLsizei(old_h));
+    glTextureStorage2D(old.get(), 1, format, GLsizei(old_w), GLsizei(old_h));
   }
-  const RectI lr = coarse ? coarse_rect_ : detail_rect_;
-  // Image stores of earlier stamps must land before the copy reads the layer, and the copy
+  const GLuint tex = pages(layer).texture();
+  // Image stores of earlier passes must land before the copy reads the page, and the copy
   // before this pass reads it.
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
-  glCopyImageSubData(texture(layer), GL_TEXTURE_2D, 0, GLint(rect.x0 - lr.x0), GLint(rect.y0 - lr.y0), 0,
-                     old.get(), GL_TEXTURE_2D, 0, 0, 0, 0, GLsizei(rect.width()), GLsizei(rect.height()), 1);
-  const GLenum format = coarse ? GL_R16UI : GL_R8I;
-  glBindImageTexture(0, texture(layer), 0, GL_FALSE, 0, GL_WRITE_ONLY, format);
+  glCopyImageSubData(tex, GL_TEXTURE_2D_ARRAY, 0, GLint(part.rect.x0 - part.tile.x0),
+                     GLint(part.rect.y0 - part.tile.y0), part.page, old.get(), GL_TEXTURE_2D, 0, 0, 0, 0,
+                     GLsizei(part.rect.width()), GLsizei(part.rect.height()), 1);
+  glBindImageTexture(0, tex, 0, GL_FALSE, part.page, GL_WRITE_ONLY, format);
   glBindImageTexture(1, old.get(), 0, GL_FALSE, 0, GL_READ_ONLY, format);
 }
 
@@ -402,21 +442,15 @@ void GpuStamper::draw_points(GLuint program, GLsizei points) {
   glDrawArrays(GL_POINTS, 0, points);
 }
 
-Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, RectI& readback) {
-  auto baked = bake_stamp(q, params_);  // the Gaussian pulse
-  if (!baked) return baked.error();
-  const BakedStamp& b = baked.value();
+Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b, const RectI& box,
+                                   const std::vector<PagePart>& parts) {
+  if (box.empty()) return {};
   const int32_t sub = shockwave_substeps(q.speed);
   const int32_t nu2 = shockwave_nu2_q16(q.speed, sub);
   const int64_t total = int64_t(q.steps) * sub;
-  const RectI world_rect = q.layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
   const RectI pulse{ceil_div(q.center_x - b.support_q8, 256), ceil_div(q.center_y - b.support_q8, 256),
                     floor_div(q.center_x + b.support_q8, 256) + 1,
                     floor_div(q.center_y + b.support_q8, 256) + 1};
-  const RectI box =
-      RectI{pulse.x0 - total, pulse.y0 - total, pulse.x1 + total, pulse.y1 + total}.intersect(world_rect);
-  readback = box;
-  if (box.empty()) return {};
   for (const char* key : {"wave_init", "wave_step", "wave_apply"}) {
     auto p = program(key, key == std::string("wave_init") ? "stamp.comp.glsl" : "shockwave.comp.glsl",
                      int(q.kind), q.layer);
@@ -478,20 +512,27 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, RectI& readback) {
     std::swap(cur, prev);  // as wave_step: the field just written becomes current
   }
 
+  // The final field applied page by page: each part's cells (box-local) into its page.
   const GLuint apply = *program("wave_apply", "shockwave.comp.glsl", int(q.kind), q.layer);
   glUseProgram(apply);
-  glProgramUniform4i(apply, glGetUniformLocation(apply, "active_rect"), 0, 0, GLint(w), GLint(h));
   glProgramUniform1i(apply, glGetUniformLocation(apply, "stride"), GLint(stride));
-  glProgramUniform2i(apply, glGetUniformLocation(apply, "texel_origin"), GLint(box.x0 - world_rect.x0),
-                     GLint(box.y0 - world_rect.y0));
+  const GLint apply_rect = glGetUniformLocation(apply, "active_rect");
+  const GLint apply_origin = glGetUniformLocation(apply, "texel_origin");
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cur);
-  glBindImageTexture(0, texture(q.layer), 0, GL_FALSE, 0, GL_READ_WRITE,
-                     q.layer == Layer::kCoarse ? GL_R16UI : GL_R8I);
-  glDispatchCompute(groups(w), groups(h), 1);
+  const GLuint pages_tex = pages(q.layer).texture();
+  for (const PagePart& part : parts) {
+    const RectI cells = part.rect.translated(-box.x0, -box.y0);
+    glProgramUniform4i(apply, apply_rect, GLint(cells.x0), GLint(cells.y0), GLint(cells.x1), GLint(cells.y1));
+    // The page texel of box cell (0, 0) (outside the page for parts not at the box's corner).
+    glProgramUniform2i(apply, apply_origin, GLint(box.x0 - part.tile.x0), GLint(box.y0 - part.tile.y0));
+    glBindImageTexture(0, pages_tex, 0, GL_FALSE, part.page, GL_READ_WRITE,
+                       page_format(q.layer).internal_format);
+    glDispatchCompute(groups(cells.width()), groups(cells.height()), 1);
+  }
   return {};
 }
 
-void GpuStamper::queue_readback(Layer layer, const RectI& rect) {
+void GpuStamper::queue_readback(Layer layer, const RectI& rect, const std::vector<PagePart>& parts) {
   Pending p;
   p.ticket = next_ticket_++;
   p.layer = layer;
@@ -511,16 +552,27 @@ void GpuStamper::queue_readback(Layer layer, const RectI& rect) {
     glNamedBufferStorage(p.pbo.get(), GLsizeiptr(p.capacity), nullptr,
                          GL_MAP_READ_BIT | GL_CLIENT_STORAGE_BIT);
   }
-  // Image stores must land before the texture is read into the buffer.
+  // Image stores must land before the pages are read into the buffer.
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT | GL_PIXEL_BUFFER_BARRIER_BIT);
   if (!rect.empty()) {
-    const RectI lr = layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
+    // Each part lands at its place in the rect's row-major layout.
+    const size_t texel = pixel_size(layer);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glPixelStorei(GL_PACK_ROW_LENGTH, GLint(rect.width()));
     glBindBuffer(GL_PIXEL_PACK_BUFFER, p.pbo.get());
-    glGetTextureSubImage(texture(layer), 0, GLint(rect.x0 - lr.x0), GLint(rect.y0 - lr.y0), 0,
-                         GLsizei(rect.width()), GLsizei(rect.height()), 1, GL_RED_INTEGER, pixel_type(layer),
-                         GLsizei(p.pixel_bytes), nullptr);
+    for (const PagePart& part : parts) {
+      const size_t offset =
+          size_t((part.rect.y0 - rect.y0) * rect.width() + (part.rect.x0 - rect.x0)) * texel;
+      glGetTextureSubImage(pages(layer).texture(), 0, GLint(part.rect.x0 - part.tile.x0),
+                           GLint(part.rect.y0 - part.tile.y0), part.page, GLsizei(part.rect.width()),
+                           GLsizei(part.rect.height()), 1, GL_RED_INTEGER, pixel_type(layer),
+                           GLsizei(p.pixel_bytes - offset), reinterpret_cast<void*>(offset));
+      p.pinned.push_back(part.page);
+    }
     glBindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    glPixelStorei(GL_PACK_ROW_LENGTH, 0);
+  } else {
+    for (const PagePart& part : parts) p.pinned.push_back(part.page);
   }
   p.fence = GlSync(glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0));
   glFlush();  // start the work now; collect() only waits
@@ -529,10 +581,19 @@ void GpuStamper::queue_readback(Layer layer, const RectI& rect) {
 
 Result<uint64_t> GpuStamper::submit(const QuantizedStamp& q) {
   LOAM_TRY(check_quantized(q, params_, limits_, textures_));
-  RectI readback;
-  Status st = q.kind == StampKind::kShockwave ? stamp_shockwave(q, readback) : stamp_per_sample(q, readback);
-  if (!st.ok()) return st.error();
-  queue_readback(q.layer, readback);
+  // Shockwaves bake the Gaussian pulse only.
+  auto baked = q.kind == StampKind::kShockwave ? bake_stamp(q, params_) : bake_stamp(q, params_, textures_);
+  if (!baked) return baked.error();
+  const RectI rect = stamp_rect(q, *baked);
+  auto parts = resident_parts(q.layer, rect);
+  if (!parts) return parts.error();
+  Status st = q.kind == StampKind::kShockwave ? stamp_shockwave(q, *baked, rect, *parts)
+                                              : stamp_per_sample(q, *baked, *parts);
+  if (!st.ok()) {
+    release(q.layer, *parts);
+    return st.error();
+  }
+  queue_readback(q.layer, rect, *parts);  // holds the parts' pins until collected
   return pending_.back().ticket;
 }
 
@@ -557,6 +618,9 @@ std::vector<StampReadback> GpuStamper::collect(World& world) {
                          : write_readback(world, p.layer, p.rect, static_cast<const int8_t*>(base));
       glUnmapNamedBuffer(p.pbo.get());
     }
+    // The mirror now holds what these pages hold: they may be evicted.
+    for (int32_t page : p.pinned) pages_mut(p.layer).unpin(page);
+    p.pinned.clear();
     out.push_back(done);
     p.fence.reset();
     free_pbos_.push_back(std::move(p));
@@ -577,44 +641,101 @@ Result<RectI> GpuStamper::apply(World& world, const QuantizedStamp& q) {
 
 void GpuStamper::upload(World& world, Layer layer, const RectI& rect) {
   collect(world);
-  const RectI lr = layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
-  const RectI r = rect.intersect(lr);
+  const RectI r = rect.intersect(layer_rect(layer));
   if (r.empty()) return;
+  const TilePages& p = pages(layer);
+  const PageFormat f = page_format(layer);
+  const RectI tiles = tiles_overlapping(r);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  if (layer == Layer::kCoarse) {
-    std::vector<uint16_t> data(size_t(r.area()));
-    world.read_coarse(r, data);
-    glTextureSubImage2D(coarse_.get(), 0, GLint(r.x0 - lr.x0), GLint(r.y0 - lr.y0), GLsizei(r.width()),
-                        GLsizei(r.height()), GL_RED_INTEGER, GL_UNSIGNED_SHORT, data.data());
-  } else {
-    std::vector<int8_t> data(size_t(r.area()));
-    world.read_detail(r, data);
-    glTextureSubImage2D(detail_.get(), 0, GLint(r.x0 - lr.x0), GLint(r.y0 - lr.y0), GLsizei(r.width()),
-                        GLsizei(r.height()), GL_RED_INTEGER, GL_BYTE, data.data());
+  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+      const auto page = p.find(int32_t(tx), int32_t(ty));
+      if (!page) continue;  // filled from the mirror when next needed
+      const RectI tile = tile_rect(int32_t(tx), int32_t(ty));
+      const RectI part = r.intersect(tile);
+      if (layer == Layer::kCoarse) {
+        std::vector<uint16_t> data(size_t(part.area()));
+        world.read_coarse(part, data);
+        glTextureSubImage3D(p.texture(), 0, GLint(part.x0 - tile.x0), GLint(part.y0 - tile.y0), *page,
+                            GLsizei(part.width()), GLsizei(part.height()), 1, f.format, f.type, data.data());
+      } else {
+        std::vector<int8_t> data(size_t(part.area()));
+        world.read_detail(part, data);
+        glTextureSubImage3D(p.texture(), 0, GLint(part.x0 - tile.x0), GLint(part.y0 - tile.y0), *page,
+                            GLsizei(part.width()), GLsizei(part.height()), 1, f.format, f.type, data.data());
+      }
+    }
   }
 }
 
+void GpuStamper::forget(World& world, Layer layer, int32_t tx, int32_t ty) {
+  if (!pages(layer).find(tx, ty)) return;
+  collect(world);
+  pages_mut(layer).drop(tx, ty);
+}
+
 std::vector<int32_t> GpuStamper::read_gpu(Layer layer, const RectI& rect) {
-  const RectI lr = layer == Layer::kCoarse ? coarse_rect_ : detail_rect_;
-  const RectI r = rect.intersect(lr);
   std::vector<int32_t> out;
+  const RectI r = rect.intersect(layer_rect(layer));
   if (r.empty()) return out;
+  auto parts = resident_parts(layer, r);
+  if (!parts) return out;
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  const size_t n = size_t(r.area());
-  if (layer == Layer::kCoarse) {
-    std::vector<uint16_t> data(n);
-    glGetTextureSubImage(coarse_.get(), 0, GLint(r.x0 - lr.x0), GLint(r.y0 - lr.y0), 0, GLsizei(r.width()),
-                         GLsizei(r.height()), 1, GL_RED_INTEGER, GL_UNSIGNED_SHORT, GLsizei(n * 2),
-                         data.data());
-    out.assign(data.begin(), data.end());
-  } else {
-    std::vector<int8_t> data(n);
-    glGetTextureSubImage(detail_.get(), 0, GLint(r.x0 - lr.x0), GLint(r.y0 - lr.y0), 0, GLsizei(r.width()),
-                         GLsizei(r.height()), 1, GL_RED_INTEGER, GL_BYTE, GLsizei(n), data.data());
-    out.assign(data.begin(), data.end());
+  out.resize(size_t(r.area()));
+  for (const PagePart& part : *parts) {
+    const size_t n = size_t(part.rect.area());
+    std::vector<uint16_t> coarse;
+    std::vector<int8_t> detail;
+    const GLint x = GLint(part.rect.x0 - part.tile.x0), y = GLint(part.rect.y0 - part.tile.y0);
+    if (layer == Layer::kCoarse) {
+      coarse.resize(n);
+      glGetTextureSubImage(pages(layer).texture(), 0, x, y, part.page, GLsizei(part.rect.width()),
+                           GLsizei(part.rect.height()), 1, GL_RED_INTEGER, GL_UNSIGNED_SHORT, GLsizei(n * 2),
+                           coarse.data());
+    } else {
+      detail.resize(n);
+      glGetTextureSubImage(pages(layer).texture(), 0, x, y, part.page, GLsizei(part.rect.width()),
+                           GLsizei(part.rect.height()), 1, GL_RED_INTEGER, GL_BYTE, GLsizei(n),
+                           detail.data());
+    }
+    for (int64_t yy = 0; yy < part.rect.height(); ++yy) {
+      for (int64_t xx = 0; xx < part.rect.width(); ++xx) {
+        const size_t k = size_t(yy * part.rect.width() + xx);
+        out[size_t((part.rect.y0 - r.y0 + yy) * r.width() + (part.rect.x0 - r.x0 + xx))] =
+            layer == Layer::kCoarse ? int32_t(coarse[k]) : int32_t(detail[k]);
+      }
+    }
   }
+  release(layer, *parts);
   return out;
+}
+
+bool GpuStamper::copy_to(Layer layer, const RectI& rect, GLuint dst_texture, int32_t dst_x, int32_t dst_y) {
+  auto parts = resident_parts(layer, rect);
+  if (!parts) return false;
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+  for (const PagePart& part : *parts) {
+    glCopyImageSubData(pages(layer).texture(), GL_TEXTURE_2D_ARRAY, 0, GLint(part.rect.x0 - part.tile.x0),
+                       GLint(part.rect.y0 - part.tile.y0), part.page, dst_texture, GL_TEXTURE_2D, 0,
+                       GLint(dst_x + (part.rect.x0 - rect.x0)), GLint(dst_y + (part.rect.y0 - rect.y0)), 0,
+                       GLsizei(part.rect.width()), GLsizei(part.rect.height()), 1);
+  }
+  release(layer, *parts);
+  return true;
+}
+
+GpuStamperMemory GpuStamper::memory() const {
+  GpuStamperMemory m;
+  m.page_bytes = coarse_.bytes() + detail_.bytes();
+  m.scratch_bytes =
+      2 * wave_capacity_ + size_t(old_coarse_w_ * old_coarse_h_) * 2 + size_t(old_detail_w_ * old_detail_h_);
+  for (const Pending& p : pending_) m.scratch_bytes += p.capacity;
+  for (const Pending& p : free_pbos_) m.scratch_bytes += p.capacity;
+  m.coarse_pages = coarse_.resident();
+  m.detail_pages = detail_.resident();
+  m.evictions = coarse_.evictions() + detail_.evictions();
+  return m;
 }
 
 }  // namespace loam::gpu

@@ -1,14 +1,18 @@
-// The GPU stamp backend's engine: a GPU copy of a World's mip-0 layers, stamped in shaders
-// that reproduce the CPU reference (protocol/stamps/) bit for bit, with the changed samples
-// read back asynchronously into the World (the CPU mirror).
+// The GPU stamp backend's engine: a GPU tile cache of a World's mip-0 layers, stamped in
+// shaders that reproduce the CPU reference (protocol/stamps/) bit for bit, with the changed
+// samples read back asynchronously into the World (the CPU mirror).
 //
-// Resources: one R16UI texture of the whole coarse layer and one R8I texture of the whole
-// detail layer (mip 0; mips, hashes and versions stay with World::commit on the mirror),
-// uploaded once at creation. A stamp bakes its per-stamp constants on the CPU (bake_stamp,
+// Resources: per layer a TilePages (tile_pages.h): 256x256 pages in a 2D array texture
+// (R16UI coarse, R8I detail) and the page table, bounded by GpuStamperOptions whatever the
+// world's size; mips, hashes and versions stay with World::commit on the mirror. Nothing is
+// uploaded at creation: a stamp first makes the tiles under its rect resident (a tile not
+// resident is uploaded from the mirror, which is then current for it; the least recently used
+// page not awaiting a readback is reused), then runs once per tile it touches with that
+// page bound as a 2D image. A stamp bakes its per-stamp constants on the CPU (bake_stamp,
 // the same code as the reference) into a uniform block, then runs the per-sample kernel
 // (shaders/stamp_common.glsl) over the stamp's rect only and updates the texels in place
 // with image stores; texture stamps are read with texelFetch and integer weights.
-// Shockwaves ping-pong a wave field in two storage buffers.
+// Shockwaves ping-pong a wave field in two storage buffers and apply it page by page.
 //
 // Where the kernel runs (StampPath): a compute shader, or, for small stamps on a software
 // renderer, a vertex shader drawing points that are clipped away. llvmpipe hands every
@@ -43,9 +47,11 @@
 #include <vector>
 
 #include "gpu/gl_handle.h"
+#include "gpu/tile_pages.h"
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 #include "protocol/stamps/stamp.h"
+#include "protocol/stamps/stamp_kernel.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/stamps/texture_registry.h"
 
@@ -72,6 +78,19 @@ enum class StampPath {
 
 struct GpuStamperOptions {
   StampPath path = StampPath::kAuto;
+  // Page budgets (pages of 256x256 samples): 1024 coarse pages are 128 MiB, 1024 detail pages
+  // 64 MiB. A stamp reaching more tiles of a layer than its budget is refused (kOversize).
+  int32_t max_coarse_pages = 1024;
+  int32_t max_detail_pages = 1024;
+};
+
+// What the stamper holds on the GPU.
+struct GpuStamperMemory {
+  size_t page_bytes = 0;                       // both layers' page arrays
+  size_t scratch_bytes = 0;                    // wave fields, vertex-pass copies, readback buffers
+  int32_t coarse_pages = 0, detail_pages = 0;  // resident tiles
+  uint64_t evictions = 0;
+  size_t total() const { return page_bytes + scratch_bytes; }
 };
 
 class GpuStamper {
@@ -85,8 +104,9 @@ class GpuStamper {
   // best against 1.2-1.3 ms for the vertex stage.
   static constexpr int64_t kVertexPathMaxSamples = 128 * 1024;
 
-  // Uploads both layers of `world`. `textures` (may be null) must outlive the stamper.
-  // Errors: a layer larger than GL_MAX_TEXTURE_SIZE, a shader that does not build,
+  // A stamper for `world` (its mirror, which must outlive it and be the World given to
+  // collect() and upload()). `textures` (may be null) must outlive the stamper.
+  // Errors: a page budget beyond GL_MAX_ARRAY_TEXTURE_LAYERS, a shader that does not build,
   // StampPath::kVertex without vertex-stage image stores and storage buffers.
   static Result<std::unique_ptr<GpuStamper>> create(const World& world,
                                                     const TextureRegistry* textures = nullptr,
@@ -97,7 +117,9 @@ class GpuStamper {
   GpuStamper& operator=(const GpuStamper&) = delete;
 
   // Validates q (check_quantized), stamps the GPU copy and queues the readback of its rect.
-  // Returns a ticket (increasing). On error nothing was changed.
+  // Returns a ticket (increasing). On error nothing was changed. kBusy: the tiles it needs
+  // cannot be made resident until readbacks are collected (collect and submit again);
+  // kOversize: it reaches more tiles than the page budget.
   Result<uint64_t> submit(const QuantizedStamp& q);
   // Waits for every queued readback, oldest first, and writes the changed samples into
   // `world` (marking them dirty; the caller commits). Returns one entry per ticket.
@@ -109,22 +131,36 @@ class GpuStamper {
   Result<RectI> apply(World& world, const QuantizedStamp& q);
 
   // Re-uploads a rect of a layer from the mirror, after the World changed outside the
-  // stamper (a region from the server, a snapshot). Collects first.
+  // stamper (a region from the server, a snapshot). Collects first. Only resident tiles are
+  // touched: the others are uploaded when next needed.
   void upload(World& world, Layer layer, const RectI& rect);
+  // The tile (layer tile grid) leaves the cache (its samples are no longer wanted). Collects
+  // first.
+  void forget(World& world, Layer layer, int32_t tx, int32_t ty);
 
-  // Reads a rect of the GPU copy synchronously (tests and benchmarks; stalls the pipeline).
+  // Reads a rect of the GPU copy synchronously, making its tiles resident (tests and
+  // benchmarks; stalls the pipeline). Empty where the tiles cannot be made resident.
   std::vector<int32_t> read_gpu(Layer layer, const RectI& rect);
+  // Copies a rect of a layer (global samples, inside the layer) into texel (dst_x, dst_y) of
+  // a 2D texture of the layer's format, GPU to GPU, making its tiles resident. False where
+  // they cannot be made resident (collect first).
+  bool copy_to(Layer layer, const RectI& rect, GLuint dst_texture, int32_t dst_x, int32_t dst_y);
 
-  // The GPU copy of a layer (R16UI coarse, R8I detail), texel (0, 0) = the layer's first
-  // sample; for the normal pass and the client's renderer.
-  GLuint texture(Layer layer) const { return layer == Layer::kCoarse ? coarse_.get() : detail_.get(); }
   RectI layer_rect(Layer layer) const { return layer == Layer::kCoarse ? coarse_rect_ : detail_rect_; }
+  const TilePages& pages(Layer layer) const { return layer == Layer::kCoarse ? coarse_ : detail_; }
+  GpuStamperMemory memory() const;
 
   // The stage that runs a per-sample stamp whose rect has `samples` samples.
   StampPath path_for(int64_t samples) const;
 
  private:
-  GpuStamper() = default;
+  GpuStamper(TilePages coarse, TilePages detail) : coarse_(std::move(coarse)), detail_(std::move(detail)) {}
+  // The part of a rect inside one resident tile.
+  struct PagePart {
+    int32_t page = 0;
+    RectI tile;  // the tile's global samples
+    RectI rect;  // global samples, inside `tile`
+  };
   struct Pending {
     uint64_t ticket = 0;
     Layer layer = Layer::kCoarse;
@@ -133,15 +169,25 @@ class GpuStamper {
     GlBuffer pbo;
     size_t capacity = 0;
     GlSync fence;
+    std::vector<int32_t> pinned;  // pages of `layer` kept until the readback is collected
   };
+  TilePages& pages_mut(Layer layer) { return layer == Layer::kCoarse ? coarse_ : detail_; }
+  // Makes every tile under `rect` resident (filling fresh pages from the mirror) and pins
+  // their pages; the caller unpins them (release) or hands them to a readback.
+  Result<std::vector<PagePart>> resident_parts(Layer layer, const RectI& rect);
+  void release(Layer layer, const std::vector<PagePart>& parts);
+  void fill_page(Layer layer, int32_t page, int32_t tx, int32_t ty);
   Result<GLuint> program(const std::string& key, const std::string& file, int kind, Layer layer);
   Status build_programs();
-  Status stamp_per_sample(const QuantizedStamp& q, RectI& readback);
-  void bind_vertex_pass(Layer layer, const RectI& rect);
+  Status stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b, const std::vector<PagePart>& parts);
+  void bind_vertex_pass(Layer layer, const PagePart& part);
   void draw_points(GLuint program, GLsizei points);
-  Status stamp_shockwave(const QuantizedStamp& q, RectI& readback);
+  Status stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b, const RectI& box,
+                         const std::vector<PagePart>& parts);
+  // The rect a baked stamp may change (inside the layer; empty: none).
+  RectI stamp_rect(const QuantizedStamp& q, const BakedStamp& b) const;
   void reset_contact();
-  void queue_readback(Layer layer, const RectI& rect);
+  void queue_readback(Layer layer, const RectI& rect, const std::vector<PagePart>& parts);
   Status texture_for(uint64_t id, GLuint& out);
 
   const TextureRegistry* textures_ = nullptr;
@@ -149,9 +195,10 @@ class GpuStamper {
   GpuStamperOptions options_;
   bool software_ = false;     // GL_RENDERER is a CPU rasterizer
   bool vertex_path_ = false;  // the vertex stage has what the vertex pass needs
+  const World* mirror_ = nullptr;
   WorldParams params_;
   RectI coarse_rect_, detail_rect_;
-  GlTexture coarse_, detail_;
+  TilePages coarse_, detail_;
   GlBuffer params_buf_, result_buf_, wave_a_, wave_b_;
   size_t wave_capacity_ = 0;
   // Vertex path: the copy of the rect it reads (one per layer format, grown on demand), and

@@ -31,7 +31,7 @@ class NormalPass {
   static Result<std::unique_ptr<NormalPass>> create(const WorldParams& params);
 
   // Recomputes the normals of `rect` (global coarse samples; clipped to the world) from
-  // `heights`, an R16UI texture of the whole coarse layer (GpuStamper::texture(kCoarse)).
+  // `heights`, an R16UI texture of the whole coarse layer (texel (0, 0) = its first sample).
   void update(GLuint heights, const RectI& rect);
 
   GLuint texture() const { return normals_.get(); }

@@ -283,6 +283,17 @@ std::span<int8_t> World::detail_tile_mut(int32_t tx, int32_t ty) {
   return detail_.try_emplace(key(tx, ty), kTileSamples, int8_t{0}).first->second;
 }
 
+void World::discard_tile(Layer layer, int32_t tx, int32_t ty) {
+  pending_.erase(TileCoord{layer, 0, tx, ty});
+  if (layer == Layer::kDetail) {
+    detail_.erase(key(tx, ty));
+    detail_state_.erase(key(tx, ty));
+    return;
+  }
+  if (memo_.data && memo_.tx == tx && memo_.ty == ty) memo_.data = nullptr;
+  mips_[0].edited.erase(key(tx, ty));
+}
+
 void World::mark_dirty(Layer layer, const RectI& global_rect) {
   const RectI clipped = global_rect.intersect(layer == Layer::kCoarse ? samples_ : detail_samples_);
   const RectI tiles = tiles_overlapping(clipped);
@@ -344,7 +355,9 @@ std::vector<TileChange> World::commit(uint64_t seq) {
     if (c.layer == Layer::kCoarse)
       coarse_dirty.push_back(r.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize));
   }
-  for (const RectI& r : coarse_dirty) update_mips(r, changed);
+  if (!mip0_only_) {
+    for (const RectI& r : coarse_dirty) update_mips(r, changed);
+  }
 
   if (seq == 0 && !changed.empty()) initial_is_base_ = false;  // version 0 is not the base's
   std::vector<TileChange> out;

@@ -129,6 +129,14 @@ class World {
   void set_initial_is_base(bool v) { initial_is_base_ = v; }
   // Bytes of samples held for edited coarse tiles and stored detail tiles.
   size_t edited_bytes() const;
+  // Drops what is held of a mip-0 tile (a coarse tile's edited samples, or a detail tile),
+  // which then reads as the base again (detail: zeros) at version 0; uncommitted marks on it
+  // are dropped too. Mips above are not recomputed: for a holder of some tiles only (a
+  // client's mirror), which reads only the tiles it holds and forgets the rest.
+  void discard_tile(Layer layer, int32_t tx, int32_t ty);
+  // commit() keeps mip 0 alone: coarser mips are neither computed nor held (their tile states
+  // stay at the base's). For a holder that gets its mip tiles elsewhere (a client's mirror).
+  void set_mip0_only(bool on) { mip0_only_ = on; }
   // The clean-tile cache: its budget (bytes of samples), what it holds, how many tiles the
   // base was asked for so far, and the trim that brings it under budget (LRU first).
   void set_base_cache_budget(size_t bytes) { cache_budget_ = bytes; }
@@ -181,6 +189,7 @@ class World {
   mutable uint64_t base_generated_ = 0;
   size_t cache_budget_ = size_t(64) << 20;
   bool initial_is_base_ = true;
+  bool mip0_only_ = false;
   // Points into this world's own tiles, so a copied or moved world starts without it.
   struct Memo {
     int32_t tx = 0, ty = 0;

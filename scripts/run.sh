@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The README's main command: sets up the machine, builds Loam (release) and runs the main
-# job: a loam-server session on the embedded default terrain (data folder ./loam-data, port
-# 7878) with two bots deforming it and a viewer: a window when there is a display (fly with
+# job: a loam-server session on the default world (the embedded ETOPO5 crop refined to
+# 131 x 98 km at 1 m, generated on demand; data folder ./loam-data, port 7878) with two
+# roaming bots deforming it and a viewer: a window when there is a display (fly with
 # WASD and the right mouse button, click to deform), otherwise the headless viewer, which
 # orbits the terrain for LOAM_VIEW_SECONDS (default 30), stamps at its view's centre every 2 s
 # and writes screenshots to the data folder. The server keeps running until Ctrl-C (or for
@@ -17,16 +18,17 @@ ninja -C build/release -j "$(nproc)" loam loam-server loam-client loam-probe
 port="${LOAM_PORT:-7878}"
 data="${LOAM_DATA_DIR:-loam-data}"
 ./build/release/app/loam summary
-./build/release/server/loam-server serve --port "$port" --data-dir "$data" --backend auto "$@" &
+./build/release/server/loam-server serve --terrain refined --cache-mb 256 --port "$port" --data-dir "$data" \
+  --backend auto "$@" &
 server=$!
 trap 'kill -INT $server 2>/dev/null; wait $server' INT TERM
 for _ in $(seq 300); do  # until a real handshake works (recovery can replay a long log first)
   ./build/release/client/loam-probe --port "$port" --timeout 1 2>/dev/null && break
   sleep 0.2
 done
-./build/release/client/loam-client bot --port "$port" --name bot-a --seed 1 --stamps 200 --rate 20 &
+./build/release/client/loam-client bot --port "$port" --name bot-a --seed 1 --stamps 200 --rate 20 --roam 20 &
 bot_a=$!
-./build/release/client/loam-client bot --port "$port" --name bot-b --seed 2 --stamps 200 --rate 20 &
+./build/release/client/loam-client bot --port "$port" --name bot-b --seed 2 --stamps 200 --rate 20 --roam 20 &
 bot_b=$!
 if [ -n "${DISPLAY:-}" ]; then
   ./build/release/client/loam-client view --port "$port" --name viewer &

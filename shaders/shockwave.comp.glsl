@@ -5,7 +5,8 @@
 // int64 as in the reference (GL_ARB_gpu_shader_int64; the host checks for it).
 //
 // Defines: PASS_STEP (one leapfrog step over the active rect) or PASS_APPLY (terrain becomes
-// saturate(old + round(w)) over the box), LAYER_DETAIL for the int8 layer.
+// saturate(old + round(w)) over the box, run once per tile page the box covers, with that
+// page bound as the image), LAYER_DETAIL for the int8 layer.
 #extension GL_ARB_gpu_shader_int64 : require
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -48,10 +49,10 @@ void store_sample(ivec2 p, int v) { imageStore(layer_image, p, uvec4(uint(v), 0u
 const int kLayerMin = 0, kLayerMax = 65535;
 #endif
 layout(std430, binding = 2) readonly buffer WaveCur { int cur[]; };
-uniform ivec2 texel_origin;  // texel of interior cell (0, 0)
+uniform ivec2 texel_origin;  // page texel of interior cell (0, 0); active_rect: the cells in this page
 
 void main() {
-  ivec2 c = ivec2(gl_GlobalInvocationID.xy);
+  ivec2 c = active_rect.xy + ivec2(gl_GlobalInvocationID.xy);
   if (c.x >= active_rect.z || c.y >= active_rect.w) return;
   int delta = (cur[(c.y + 1) * stride + c.x + 1] + 128) >> 8;  // round_q8
   if (delta == 0) return;

@@ -153,6 +153,14 @@ int run_gpu_stamps(const Context& ctx, Report& report) {
   // Readback: the dirty rect of a 100 m stamp against the whole coarse layer.
   Table rb("readback", {"what", "samples", "ms", "rate"});
   const RectI world_rect = cpu.params().sample_rect();
+  // The stamper keeps tile pages; the normal pass and this readback read one texture of the
+  // whole (small) bench world, filled from the pages on the GPU.
+  gpu::GlTexture heights = gpu::make_texture(GL_TEXTURE_2D);
+  glTextureStorage2D(heights.get(), 1, GL_R16UI, GLsizei(world_rect.width()), GLsizei(world_rect.height()));
+  glTextureParameteri(heights.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(heights.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  g.collect(gpu_world);
+  (void)g.copy_to(Layer::kCoarse, world_rect, heights.get(), 0, 0);
   for (const auto& [what, rect] :
        {std::pair{std::string("dirty rect (201x201)"),
                   RectI{world_rect.x0 + 500, world_rect.y0 + 500, world_rect.x0 + 701, world_rect.y0 + 701}},
@@ -166,7 +174,7 @@ int run_gpu_stamps(const Context& ctx, Report& report) {
         [&] {
           glPixelStorei(GL_PACK_ALIGNMENT, 1);
           glBindBuffer(GL_PIXEL_PACK_BUFFER, pbo.get());
-          glGetTextureSubImage(g.texture(Layer::kCoarse), 0, GLint(rect.x0 - world_rect.x0),
+          glGetTextureSubImage(heights.get(), 0, GLint(rect.x0 - world_rect.x0),
                                GLint(rect.y0 - world_rect.y0), 0, GLsizei(rect.width()),
                                GLsizei(rect.height()), 1, GL_RED_INTEGER, GL_UNSIGNED_SHORT, GLsizei(bytes),
                                nullptr);
@@ -201,7 +209,12 @@ int run_gpu_stamps(const Context& ctx, Report& report) {
       const auto t0 = std::chrono::steady_clock::now();
       glQueryCounter(queries[0], GL_TIMESTAMP);
       (void)g.submit(big);
-      (*normals)->update(g.texture(Layer::kCoarse), gpu::normals_rect_for(gpu_world.params(), r));
+      // The normals read 4 samples around the rect: those come to the world texture too.
+      const RectI nr = gpu::normals_rect_for(gpu_world.params(), r);
+      const RectI in = RectI{nr.x0 - 4, nr.y0 - 4, nr.x1 + 4, nr.y1 + 4}.intersect(world_rect);
+      (void)g.copy_to(Layer::kCoarse, in, heights.get(), int32_t(in.x0 - world_rect.x0),
+                      int32_t(in.y0 - world_rect.y0));
+      (*normals)->update(heights.get(), nr);
       glQueryCounter(queries[1], GL_TIMESTAMP);
       glFinish();
       const auto t1 = std::chrono::steady_clock::now();

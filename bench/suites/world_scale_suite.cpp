@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -152,12 +153,28 @@ double peak_rss_mib(pid_t pid) {
   return kib / 1024.0;
 }
 
+// Starts a program with its stdout written to `stdout_path`; its pid, or -1.
+pid_t spawn(std::vector<std::string> args, const std::string& stdout_path) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  pid_t pid = -1;
+  if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) != 0) pid = -1;
+  posix_spawn_file_actions_destroy(&actions);
+  return pid;
+}
+
 struct ServeResult {
   bool ran = false;
   size_t view_tiles = 0;  // the whole-world coarse view: every tile of mips 6 and up
   double join_generated_s = -1, join_downloaded_s = -1;
   uint64_t join_generated_chunks = 0, join_downloaded_chunks = 0;
   int bots = 0, bots_ok = 0;
+  int viewers = 0, viewers_ok = 0;  // headless viewers; ok = exit 0 (no mismatch, no divergence)
+  double viewer_rss_max_mib = 0, viewer_gpu_max_mib = 0, viewer_cpu_max_mib = 0;
   double seconds = 0;
   double server_rss_mib = 0, bot_rss_max_mib = 0;
   uint64_t accepted = 0, bytes_out = 0;
@@ -167,10 +184,11 @@ struct ServeResult {
 
 // A loam-server on the refined world and `bots` roaming `loam-client bot` processes, each
 // stamping near itself and checking its tiles' hashes; peak RSS of every process.
-ServeResult serve_refined(int bots, double seconds, double rate, uint64_t cache_mb, bool download_join) {
+ServeResult serve_refined(int bots, int viewers, double seconds, double rate, uint64_t cache_mb,
+                          bool download_join) {
   ServeResult r;
 #ifndef LOAM_CLIENT_BINARY
-  (void)bots, (void)seconds, (void)rate, (void)cache_mb, (void)download_join;
+  (void)bots, (void)viewers, (void)seconds, (void)rate, (void)cache_mb, (void)download_join;
   r.note = "loam-client was not built";
   return r;
 #else
@@ -218,23 +236,61 @@ ServeResult serve_refined(int bots, double seconds, double rate, uint64_t cache_
                                      "--stamps",         stamps,
                                      "--rate",           std::to_string(rate),
                                      "--seed",           std::to_string(i + 1)};
-    std::vector<char*> argv;
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
-    pid_t pid = 0;
-    if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) == 0) pids.push_back(pid);
-    posix_spawn_file_actions_destroy(&actions);
+    if (const pid_t pid = spawn(args, "/dev/null"); pid > 0) pids.push_back(pid);
   }
   r.bots = int(pids.size());
+  // Headless viewers at n = 255 orbiting the centre and stamping where they look; each prints
+  // its terrain memory (GPU: level textures + tile pages; CPU: held tiles) every second.
+  std::vector<std::pair<pid_t, std::string> > viewer_pids;
+  for (int i = 0; i < viewers; ++i) {
+    const std::string log = dir + "/viewer" + std::to_string(i) + ".log";
+    std::vector<std::string> args = {LOAM_CLIENT_BINARY,
+                                     "view",
+                                     "--headless",
+                                     "--port",
+                                     std::to_string(server.port()),
+                                     "--name",
+                                     "viewer" + std::to_string(i),
+                                     "--seconds",
+                                     fmt("%.0f", seconds),
+                                     "--n",
+                                     "255",
+                                     "--size",
+                                     "640x360",
+                                     "--stamp-every",
+                                     "2",
+                                     "--screenshot",
+                                     dir + "/viewer" + std::to_string(i) + ".png",
+                                     "--screenshot-every",
+                                     "0"};
+    if (const pid_t pid = spawn(args, log); pid > 0) viewer_pids.push_back({pid, log});
+  }
+  r.viewers = int(viewer_pids.size());
   for (pid_t pid : pids) {
     int status = 0;
     rusage usage{};
     if (wait4(pid, &status, 0, &usage) != pid) continue;
     r.bot_rss_max_mib = std::max(r.bot_rss_max_mib, double(usage.ru_maxrss) / 1024.0);
     r.bots_ok += WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  }
+  for (const auto& [pid, log] : viewer_pids) {
+    int status = 0;
+    rusage usage{};
+    if (wait4(pid, &status, 0, &usage) != pid) continue;
+    r.viewer_rss_max_mib = std::max(r.viewer_rss_max_mib, double(usage.ru_maxrss) / 1024.0);
+    r.viewers_ok += WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    std::ifstream in(log);
+    for (std::string line; std::getline(in, line);) {
+      double gpu = 0, cpu = 0;
+      const size_t at = line.find("terrain memory GPU ");
+      if (at == std::string::npos) continue;
+      int pages = 0;
+      if (std::sscanf(line.c_str() + at, "terrain memory GPU %lf MiB (%d pages), CPU %lf MiB", &gpu, &pages,
+                      &cpu) == 3) {
+        r.viewer_gpu_max_mib = std::max(r.viewer_gpu_max_mib, gpu);
+        r.viewer_cpu_max_mib = std::max(r.viewer_cpu_max_mib, cpu);
+      }
+    }
   }
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (auto st = server_stats(server.port())) {
@@ -394,14 +450,16 @@ int run_world_scale(const Context& ctx, Report& report) {
 
   // --- Serving the refined world to roaming bots. ---
   const uint64_t cache_mb = ctx.quick ? 16 : 256;
-  const ServeResult sr =
-      serve_refined(ctx.quick ? 2 : 16, ctx.quick ? 8.0 : 300.0, 2.0, cache_mb, !ctx.quick);
+  const ServeResult sr = serve_refined(ctx.quick ? 2 : 16, ctx.quick ? 1 : 2, ctx.quick ? 8.0 : 300.0, 2.0,
+                                       cache_mb, !ctx.quick);
   if (!sr.ran) {
     std::printf("world-scale: SKIPPING serving: %s\n", sr.note.c_str());
     report.paragraph("**Serving skipped**: " + sr.note);
   } else {
     // Sanitizers inflate memory several times: a sanitized run checks convergence only.
-    const bool ok = sr.bots_ok == sr.bots && (ctx.sanitized || sr.server_rss_mib <= double(cache_mb) + 256.0);
+    const bool ok = sr.bots_ok == sr.bots && sr.viewers_ok == sr.viewers &&
+                    (ctx.sanitized || (sr.server_rss_mib <= double(cache_mb) + 256.0 &&
+                                       sr.viewer_rss_max_mib <= 1024.0 && sr.viewer_gpu_max_mib <= 256.0));
     if (!ok) ++failures;
     Table serve("serving", {"world", "roaming bots", "seconds", "stamps accepted", "bots converged (exit 0)",
                             "server peak RSS MiB", "--cache-mb", "bound (cache + 256)",
@@ -418,6 +476,19 @@ int run_world_scale(const Context& ctx, Report& report) {
         "tiles themselves (Welcome names the base) and download only edited ones. Peak RSS from /proc "
         "(server) and wait4 (bots); tick times from the server's Stats.");
     report.table(serve);
+    Table viewers("viewers", {"headless viewers (n = 255)", "converged (exit 0)", "peak RSS MiB (max)",
+                              "bound", "GPU terrain MiB (max)", "bound", "CPU terrain MiB (max)"});
+    viewers.add_row({std::to_string(sr.viewers),
+                     std::to_string(sr.viewers_ok) + "/" + std::to_string(sr.viewers),
+                     fmt("%.0f", sr.viewer_rss_max_mib), "1024", fmt("%.1f", sr.viewer_gpu_max_mib), "256",
+                     fmt("%.1f", sr.viewer_cpu_max_mib)});
+    report.paragraph(
+        "`loam-client view --headless --n 255` processes in the same session, orbiting 1.5 km around the "
+        "centre and stamping where they look every 2 s. Exit 0 = no hash mismatch and no GPU/CPU "
+        "divergence. GPU terrain memory is the clipmap's level textures plus the display's tile pages "
+        "(gpu/tile_pages.h); CPU terrain memory is the confirmed store's and the display's held tiles. Peak "
+        "RSS from wait4; llvmpipe's own buffers are in it.");
+    report.table(viewers);
     Table joins("join", {"client", "whole-world coarse view (tiles, mips 6+)", "held after s",
                          "region chunks received"});
     joins.add_row({"generates the base", std::to_string(sr.view_tiles), fmt("%.3f", sr.join_generated_s),
@@ -431,8 +502,10 @@ int run_world_scale(const Context& ctx, Report& report) {
     report.table(joins);
     if (!ctx.sanitized && !(sr.join_generated_s >= 0 && sr.join_generated_s <= 1.0)) ++failures;
     std::printf(
-        "  serving: %d/%d bots converged, server peak %.0f MiB, bot peak %.0f MiB, tick p99 %.2f ms\n",
-        sr.bots_ok, sr.bots, sr.server_rss_mib, sr.bot_rss_max_mib, sr.tick_p99_ms);
+        "  serving: %d/%d bots and %d/%d viewers converged, server peak %.0f MiB, bot peak %.0f MiB, viewer "
+        "peak %.0f MiB (GPU terrain %.1f MiB), tick p99 %.2f ms\n",
+        sr.bots_ok, sr.bots, sr.viewers_ok, sr.viewers, sr.server_rss_mib, sr.bot_rss_max_mib,
+        sr.viewer_rss_max_mib, sr.viewer_gpu_max_mib, sr.tick_p99_ms);
   }
   return failures;
 }

@@ -12,12 +12,16 @@
 
 namespace loam::client {
 
-ConfirmedStore::ConfirmedStore(const WorldParams& params) : mirror_(params, 0) {}
+ConfirmedStore::ConfirmedStore(const WorldParams& params) : mirror_(params, 0) {
+  mirror_.set_mip0_only(true);  // held mip tiles live in mip_tiles_
+}
 
 void ConfirmedStore::forget(const TileCoord& c) {
   wanted_.erase(c);
   versions_.erase(c);
   mip_tiles_.erase(c);
+  // The mirror keeps only what is held: memory follows the subscription.
+  if (c.mip == 0) mirror_.discard_tile(c.layer, c.tx, c.ty);
 }
 
 Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version,
@@ -177,6 +181,9 @@ bool ConfirmedStore::try_apply(const wire::DeformEvent& e, const TextureRegistry
   if (any_mip0) {
     auto applied = apply_stamp_with_contact(mirror_, e.stamp, e.contact, textures);
     mirror_.commit(e.global_seq);
+    // The stamp ran over its whole rect: tiles under it that are not held were written too.
+    // Drop them again, so the mirror holds only what is held.
+    if (applied && !applied->empty()) discard_unheld(e.stamp.layer, *applied);
     if (applied && record_changes_) {
       StoreChange ch;
       ch.kind = StoreChange::Kind::kEvent;
@@ -204,6 +211,16 @@ bool ConfirmedStore::try_apply(const wire::DeformEvent& e, const TextureRegistry
   // A stamp that fails here failed the same way on the server: a no-op everywhere.
   for (const TileCoord& c : mine) versions_[c] = e.global_seq;
   return true;
+}
+
+void ConfirmedStore::discard_unheld(Layer layer, const RectI& rect) {
+  const RectI tiles = tiles_overlapping(rect);
+  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+      if (!versions_.count({layer, 0, int32_t(tx), int32_t(ty)}))
+        mirror_.discard_tile(layer, int32_t(tx), int32_t(ty));
+    }
+  }
 }
 
 void ConfirmedStore::retry_buffered(const TextureRegistry* textures) {

@@ -97,6 +97,8 @@ class ConfirmedStore {
   std::optional<uint64_t> version(const TileCoord& c) const;
   uint64_t hash(const TileCoord& c) const;  // of the held samples (0 if not held)
   std::vector<TileCoord> held() const;
+  // Bytes of samples held: the mirror's tiles plus the held coarser mip tiles.
+  size_t held_bytes() const { return mirror_.edited_bytes() + mip_tiles_.size() * kTileSamples * 2; }
   // Every tile the client asked for (held or still awaiting its first region).
   std::vector<TileCoord> wanted() const;
   size_t buffered() const { return buffer_.size(); }
@@ -116,6 +118,7 @@ class ConfirmedStore {
  private:
   bool try_apply(const wire::DeformEvent& e, const TextureRegistry* textures);
   void retry_buffered(const TextureRegistry* textures);
+  void discard_unheld(Layer layer, const RectI& rect);
   void after_region(uint64_t version);
   void record_region(const TileCoord& c, uint64_t version, const RectI& local);
   Status check_patch(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,

@@ -94,6 +94,13 @@ Status TerrainClient::subscribe(const std::vector<TileCoord>& tiles, std::option
       base_->coarse_tile(c.mip, c.tx, c.ty, samples);
       LOAM_TRY(store_->replace_coarse(c, 0, samples));
       ++tiles_generated_;
+    } else if (base_ && c.layer == Layer::kDetail && c.mip == 0 &&
+               tiles_overlapping(w.detail_sample_rect()).contains(c.tx, c.ty) &&
+               !store_->version(c).has_value()) {
+      // Where version 0 is the base's, a detail tile's version 0 is all zeros.
+      static const std::vector<int8_t> zeros(size_t(kTileSamples), 0);
+      LOAM_TRY(store_->replace_detail(c, 0, zeros));
+      ++tiles_generated_;
     }
     const auto held = store_->version(c);
     sub.entries.push_back({c, held.has_value(), held.value_or(0)});

@@ -302,6 +302,15 @@ void ClipmapRenderer::invalidate_detail(const RectI& detail_rect) {
   if (!r.empty()) upload_detail(r);
 }
 
+size_t ClipmapRenderer::gpu_bytes() const {
+  const size_t level_texels = size_t(tex_size_) * size_t(tex_size_);
+  size_t bytes = size_t(levels_) * level_texels * (2 + 4);  // R16UI heights, RG16_SNORM normals
+  const size_t detail_texels = size_t(config_.detail_size) * size_t(config_.detail_size);
+  bytes += detail_texels * (1 + 4);  // R8I offsets, RG16F gradients
+  if (mesh_) bytes += mesh_->indices().size() * sizeof(uint32_t);
+  return bytes;
+}
+
 FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t height) {
   FrameStats stats;
   stats.texels_uploaded = update_levels(camera);

@@ -106,6 +106,9 @@ class ClipmapRenderer {
   RectI level_region(int32_t l) const;
 
   int32_t levels() const { return levels_; }
+  // Bytes of GPU memory the renderer holds: level heights and normals, the detail region and
+  // its gradients, the index buffer. Set by n and detail_size, never by the world's size.
+  size_t gpu_bytes() const;
   const RendererConfig& config() const { return config_; }
   void set_morph(bool on) { config_.morph = on; }
   const std::vector<LevelPlacement>& placements() const { return placed_; }

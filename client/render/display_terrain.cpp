@@ -37,7 +37,9 @@ std::vector<int32_t> read_layer(const World& w, Layer layer, const RectI& rect) 
 }  // namespace
 
 DisplayTerrain::DisplayTerrain(const client::ConfirmedStore& store, const TextureRegistry* textures)
-    : store_(&store), textures_(textures), display_(store.mirror().params(), 0) {}
+    : store_(&store), textures_(textures), display_(store.mirror().params(), 0) {
+  display_.set_mip0_only(true);  // levels read coarser mips from the store
+}
 
 DisplayTerrain::~DisplayTerrain() = default;
 
@@ -45,15 +47,15 @@ Result<std::unique_ptr<DisplayTerrain>> DisplayTerrain::create(const client::Con
                                                                DisplayStamping stamping,
                                                                const TextureRegistry* textures) {
   std::unique_ptr<DisplayTerrain> d(new DisplayTerrain(store, textures));
-  // Start from whatever the store already holds (a reconnect keeps it).
-  const WorldParams& p = d->display_.params();
-  d->display_.write_coarse(p.sample_rect(), [&] {
-    std::vector<uint16_t> s(size_t(p.sample_rect().area()));
-    store.mirror().read_coarse(p.sample_rect(), s);
-    return s;
-  }());
-  for (const TileCoord& c : store.mirror().stored_detail_tiles()) {
-    d->display_.write_detail(tile_rect(c.tx, c.ty), store.mirror().detail_tile(c.tx, c.ty));
+  // Start from whatever the store already holds (a reconnect keeps it): its held mip-0
+  // tiles, nothing else (the display, like the store, follows the subscription).
+  for (const TileCoord& c : store.held()) {
+    if (c.mip != 0) continue;
+    if (c.layer == Layer::kCoarse) {
+      d->display_.write_coarse(tile_rect(c.tx, c.ty), store.mirror().coarse_tile(0, c.tx, c.ty));
+    } else if (const auto t = store.mirror().detail_tile(c.tx, c.ty); !t.empty()) {
+      d->display_.write_detail(tile_rect(c.tx, c.ty), t);
+    }
   }
   d->display_.commit(0);
   if (stamping == DisplayStamping::kGpu) {
@@ -77,8 +79,15 @@ bool DisplayTerrain::holds_mip0(Layer layer, const RectI& reach) const {
 void DisplayTerrain::stamp(const QuantizedStamp& q) {
   if (stamper_) {
     // The store has validated this stamp (or will reject it the same way): an error here is
-    // a stamp that changes nothing, as on the server.
-    (void)stamper_->submit(q);
+    // a stamp that changes nothing, as on the server. Busy: the page cache is full of stamps
+    // awaiting readback; collecting them frees it.
+    auto t = stamper_->submit(q);
+    if (!t && t.error().code == ErrorCode::kBusy) {
+      for (const gpu::StampReadback& rb : stamper_->collect(display_)) {
+        if (!rb.changed.empty()) gpu_done_.push_back({rb.layer, rb.changed});
+      }
+      (void)stamper_->submit(q);
+    }
     return;
   }
   auto r = apply_stamp(display_, q, textures_);
@@ -86,6 +95,8 @@ void DisplayTerrain::stamp(const QuantizedStamp& q) {
 }
 
 void DisplayTerrain::finish(std::vector<DisplayDirty>& dirty) {
+  dirty.insert(dirty.end(), gpu_done_.begin(), gpu_done_.end());
+  gpu_done_.clear();
   if (stamper_) {
     for (const gpu::StampReadback& rb : stamper_->collect(display_)) {
       if (!rb.changed.empty()) dirty.push_back({rb.layer, rb.changed});
@@ -276,13 +287,21 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
           !retire[i] && layer_index(pending_[i].stamp.layer) == li && intersects(pending_[i].reach, s.rect);
     }
     if (covered) continue;
-    const auto mine = read_layer(display_, s.layer, s.rect);
-    const auto theirs = read_layer(store_->mirror(), s.layer, s.rect);
-    uint64_t diff = 0;
-    for (size_t k = 0; k < mine.size(); ++k) diff += mine[k] != theirs[k];
-    if (diff != 0) {
-      counters_.divergent_texels += diff;
-      stale[li].push_back(s.rect);
+    // Only held tiles are compared: the store keeps nothing of the others.
+    const RectI tiles = tiles_overlapping(s.rect);
+    for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+      for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+        if (!store_->holds({s.layer, 0, int32_t(tx), int32_t(ty)})) continue;
+        const RectI part = s.rect.intersect(tile_rect(int32_t(tx), int32_t(ty)));
+        const auto mine = read_layer(display_, s.layer, part);
+        const auto theirs = read_layer(store_->mirror(), s.layer, part);
+        uint64_t diff = 0;
+        for (size_t k = 0; k < mine.size(); ++k) diff += mine[k] != theirs[k];
+        if (diff != 0) {
+          counters_.divergent_texels += diff;
+          stale[li].push_back(part);
+        }
+      }
     }
   }
 
@@ -319,7 +338,32 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
     pending_[kept++] = pending_[i];
   }
   pending_.resize(kept);
+  forget_unheld();
   return dirty;
+}
+
+void DisplayTerrain::forget_unheld() {
+  auto under_overlay = [&](Layer layer, int32_t tx, int32_t ty) {
+    const RectI t = tile_rect(tx, ty);
+    return std::any_of(pending_.begin(), pending_.end(),
+                       [&](const Pending& p) { return p.stamp.layer == layer && intersects(p.reach, t); });
+  };
+  std::vector<TileCoord> tiles = display_.edited_coarse_tiles(0);
+  const std::vector<TileCoord> detail = display_.stored_detail_tiles();
+  tiles.insert(tiles.end(), detail.begin(), detail.end());
+  for (const TileCoord& c : tiles) {
+    if (store_->holds({c.layer, 0, c.tx, c.ty}) || under_overlay(c.layer, c.tx, c.ty)) continue;
+    display_.discard_tile(c.layer, c.tx, c.ty);
+    if (stamper_) stamper_->forget(display_, c.layer, c.tx, c.ty);
+    ++counters_.tiles_forgotten;
+  }
+}
+
+DisplayMemory DisplayTerrain::memory() const {
+  DisplayMemory m;
+  m.cpu_bytes = display_.edited_bytes();
+  if (stamper_) m.gpu = stamper_->memory();
+  return m;
 }
 
 DisplayTerrain::TileSource DisplayTerrain::source_for(int32_t mip, int32_t tx, int32_t ty) const {

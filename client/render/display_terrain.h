@@ -19,7 +19,10 @@
 // Only held tiles are meaningful: an own stamp is predicted only where every mip-0 tile of
 // its layer under its reach is held. Mip l samples come from mip 0 where that tile is held
 // (decimation makes them equal), else from a held mip-l tile, else the nearest held coarser
-// mip (an approximation shown only while tiles load).
+// mip (an approximation shown only while tiles load). Memory follows the subscription: the
+// display copies only the tiles the store holds (CPU copy and GPU pages), and drops those the
+// store forgot at the next sync; the GPU pages are a bounded cache (gpu/tile_pages.h), so no
+// world is too large for it.
 //
 // With DisplayStamping::kGpu the GL 4.5 context it was created in must be current for every
 // call; not thread-safe. The store must outlive it.
@@ -34,13 +37,10 @@
 #include "client/net/confirmed_store.h"
 #include "client/net/terrain_client.h"
 #include "client/render/clipmap_renderer.h"
+#include "gpu/gpu_stamper.h"
 #include "protocol/result.h"
 #include "protocol/stamps/texture_registry.h"
 #include "protocol/world.h"
-
-namespace loam::gpu {
-class GpuStamper;
-}
 
 namespace loam::render {
 
@@ -57,6 +57,13 @@ struct DisplayCounters {
   uint64_t corrections = 0;       // texels of the overlay that differed from the confirmed result
   uint64_t divergent_texels = 0;  // display != store after stamping the same event (repaired)
   uint64_t texels_copied = 0;     // samples copied from the store into the display
+  uint64_t tiles_forgotten = 0;   // tiles dropped because the store no longer holds them
+};
+
+// What the display holds: its CPU copy of the held tiles and its GPU tile cache.
+struct DisplayMemory {
+  size_t cpu_bytes = 0;
+  gpu::GpuStamperMemory gpu;  // zero with DisplayStamping::kCpu
 };
 
 // Samples of the display that changed (a layer's global mip-0 grid), for the renderer.
@@ -93,6 +100,7 @@ class DisplayTerrain final : public HeightSource {
 
   size_t overlay_size() const { return pending_.size(); }
   const DisplayCounters& counters() const { return counters_; }
+  DisplayMemory memory() const;
   const World& world() const { return display_; }
   bool on_gpu() const { return stamper_ != nullptr; }
   // Own stamps whose event never comes (the tiles were unsubscribed meanwhile) retire after this.
@@ -117,6 +125,9 @@ class DisplayTerrain final : public HeightSource {
   void stamp(const QuantizedStamp& q);  // queued on the GPU, done at once on the CPU
   void finish(std::vector<DisplayDirty>& dirty);
   void copy_from_store(Layer layer, const RectI& rect);
+  // Drops the display's copy (CPU and GPU) of tiles the store no longer holds, except under
+  // an own stamp still shown: memory follows the subscription.
+  void forget_unheld();
   // Where the samples of mip-0 tile (tx, ty) come from for a mip-`mip` level: the display's
   // mip 0 where held, else a held mip tile (empty: nothing held there yet).
   struct TileSource {
@@ -134,6 +145,7 @@ class DisplayTerrain final : public HeightSource {
   World display_;
   std::unique_ptr<gpu::GpuStamper> stamper_;
   std::vector<DisplayDirty> cpu_done_;
+  std::vector<DisplayDirty> gpu_done_;  // readbacks collected early (a full page cache)
   std::vector<Pending> pending_;
   DisplayCounters counters_;
   std::chrono::milliseconds retire_timeout_{5000};

@@ -131,6 +131,11 @@ ViewerStats ViewerSession::stats() const {
   s.hash_mismatches = k.hash_mismatches;
   s.overlay = display_->overlay_size();
   s.display = display_->counters();
+  const DisplayMemory m = display_->memory();
+  s.gpu_page_bytes = m.gpu.total();
+  s.gpu_pages_resident = m.gpu.coarse_pages + m.gpu.detail_pages;
+  s.gpu_terrain_bytes = m.gpu.total() + renderer_->gpu_bytes();
+  s.cpu_terrain_bytes = m.cpu_bytes + store.held_bytes();
   return s;
 }
 

@@ -33,6 +33,11 @@ struct ViewerStats {
   uint64_t regions = 0, events_applied = 0, hash_checks = 0, hash_mismatches = 0;
   size_t overlay = 0;  // own stamps shown, not settled yet
   DisplayCounters display;
+  // Terrain memory: GPU (the renderer's level textures plus the display's tile pages) and CPU
+  // (the confirmed store's and the display's held tiles).
+  size_t gpu_terrain_bytes = 0, gpu_page_bytes = 0;
+  int32_t gpu_pages_resident = 0;
+  size_t cpu_terrain_bytes = 0;
 };
 
 // A camera south of the world's centre, high enough to see most of it, looking at the centre.

@@ -69,12 +69,13 @@ void print_stats(double t, const render::ViewerSession& s, const render::FrameSt
       "viewer %6.1f s: frame %.1f ms, %lld triangles, %d draws | tiles %llu/%llu | events %llu applied, %llu "
       "on "
       "the GPU | overlay %zu, predicted %llu, corrections %llu | divergent %llu | hashes %llu checked, %llu "
-      "mismatched\n",
+      "mismatched | terrain memory GPU %.1f MiB (%d pages), CPU %.1f MiB\n",
       t, frame_ms, (long long)f.triangles, f.draw_calls, (unsigned long long)v.tiles_held,
       (unsigned long long)v.tiles_subscribed, (unsigned long long)v.events_applied,
       (unsigned long long)v.display.events_stamped, v.overlay, (unsigned long long)v.display.predicted,
       (unsigned long long)v.display.corrections, (unsigned long long)v.display.divergent_texels,
-      (unsigned long long)v.hash_checks, (unsigned long long)v.hash_mismatches);
+      (unsigned long long)v.hash_checks, (unsigned long long)v.hash_mismatches,
+      double(v.gpu_terrain_bytes) / (1 << 20), v.gpu_pages_resident, double(v.cpu_terrain_bytes) / (1 << 20));
   std::fflush(stdout);
 }
 
@@ -135,7 +136,9 @@ int run_headless(const ViewerAppOptions& o) {
   const RectI r = w.sample_rect();
   const double mps = w.meters_per_sample;
   const double cx = 0.5 * double(r.x0 + r.x1) * mps, cy = 0.5 * double(r.y0 + r.y1) * mps;
-  const double radius = 0.3 * double(std::min(r.width(), r.height())) * mps;
+  // Around the centre; on a world of tens of kilometres, a low orbit of 1.5 km (what a player
+  // sees), not the whole world from afar.
+  const double radius = std::min(0.3 * double(std::min(r.width(), r.height())) * mps, 1500.0);
   auto ground = [&](double x, double y) { return ground_at(s.display(), x, y); };
   StampTool tool;
   const double seconds = o.seconds > 0 ? o.seconds : 30.0;
@@ -218,6 +221,9 @@ void draw_hud(const render::ViewerSession& s, const FlyCamera& fly, const StampT
   ImGui::Text("hash checks %llu, mismatches %llu, GPU/CPU divergent texels %llu",
               (unsigned long long)v.hash_checks, (unsigned long long)v.hash_mismatches,
               (unsigned long long)v.display.divergent_texels);
+  ImGui::Text("terrain memory: GPU %.1f MiB (%d tile pages, %.1f MiB), CPU %.1f MiB",
+              double(v.gpu_terrain_bytes) / (1 << 20), v.gpu_pages_resident,
+              double(v.gpu_page_bytes) / (1 << 20), double(v.cpu_terrain_bytes) / (1 << 20));
   ImGui::Separator();
   ImGui::Text("tool [1-6]: %s, radius %.1f m [wheel]", to_string(tool.tool), tool.radius_m);
   ImGui::TextDisabled(

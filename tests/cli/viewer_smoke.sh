@@ -50,4 +50,26 @@ wait $server
 test -s "$dir/snapshot.png"
 # The live session's confirmed tiles and the snapshot hold the same terrain: same picture.
 cmp "$dir/live.png" "$dir/snapshot.png"
+
+# The main job's world: the refined default (131 x 98 km at 1 m). The viewer generates the
+# untouched tiles itself and holds only what it sees: its terrain memory stays within the
+# 256 MiB of GPU memory and the 1 GiB the world-scale issue allows, with a roaming bot deforming.
+"$build/server/loam-server" serve --terrain refined --cache-mb 64 --port 0 --port-file "$dir/rport" \
+  --data-dir "$dir/rdata" --stats-interval 0 2> "$dir/rserver.log" &
+server=$!
+for _ in $(seq 300); do [ -s "$dir/rport" ] && break; sleep 0.05; done
+rport=$(cat "$dir/rport")
+"$build/client/loam-client" bot --port "$rport" --stamps 20 --rate 10 --seed 6 --roam 20 > "$dir/rbot.log" &
+bot=$!
+"$build/client/loam-client" view --headless --port "$rport" --seconds 4 --stamp-every 1 --size 320x180 \
+  --screenshot "$dir/refined.png" | tee "$dir/rview.log"
+test -s "$dir/refined.png"
+wait $bot
+cat "$dir/rbot.log"
+gpu_mib=$(sed -n 's/.*terrain memory GPU \([0-9.]*\) MiB.*/\1/p' "$dir/rview.log" | tail -1)
+cpu_mib=$(sed -n 's/.*MiB (.*), CPU \([0-9.]*\) MiB.*/\1/p' "$dir/rview.log" | tail -1)
+echo "viewer_smoke: refined world, viewer terrain memory GPU ${gpu_mib} MiB, CPU ${cpu_mib} MiB"
+awk -v g="$gpu_mib" -v c="$cpu_mib" 'BEGIN { exit !(g > 0 && g <= 256 && c > 0 && c <= 1024) }'
+kill -INT $server
+wait $server
 echo "viewer_smoke: ok"

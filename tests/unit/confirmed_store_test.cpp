@@ -152,3 +152,44 @@ TEST(ConfirmedStore, StoreHoldingOnlyCoarseMipsFollowsEventsAndMatchesTheServers
 
 }  // namespace
 }  // namespace loam::client
+
+namespace loam::client {
+namespace {
+
+// Memory follows the subscription: a forgotten tile leaves the mirror, and an event whose
+// stamp also covers tiles the store does not hold leaves nothing of them behind.
+TEST(ConfirmedStore, MirrorHoldsOnlyHeldTilesAfterForgetAndAfterEventsOverUnheldTiles) {
+  const WorldParams w = two_by_two();
+  ConfirmedStore store(w);
+  const TileCoord t00{Layer::kCoarse, 0, 0, 0}, t10{Layer::kCoarse, 0, 1, 0};
+  const std::vector<uint16_t> flat(kTileSamples, 1000);
+  for (const TileCoord& c : {t00, t10}) {
+    store.want(c);
+    ASSERT_TRUE(store.replace_coarse(c, 5, flat).ok());
+  }
+  EXPECT_EQ(store.held_bytes(), size_t(2) * kTileSamples * 2);
+  store.forget(t10);
+  EXPECT_EQ(store.held_bytes(), size_t(kTileSamples) * 2);
+  EXPECT_EQ(store.mirror().edited_coarse_tile_count(), 1u);
+
+  // A bump on the corner of all four tiles; only (0, 0) is held.
+  wire::DeformEvent e;
+  e.global_seq = 6;
+  e.stamp = bump(w, 256, 256);
+  e.base_versions = {{t00, 5}, {t10, 5}, {{Layer::kCoarse, 0, 0, 1}, 0}, {{Layer::kCoarse, 0, 1, 1}, 0}};
+  EXPECT_EQ(store.on_event(e), EventOutcome::kApplied);
+  EXPECT_EQ(store.mirror().edited_coarse_tile_count(), 1u);
+  EXPECT_EQ(store.held_bytes(), size_t(kTileSamples) * 2);
+  // The held tile did change, exactly as a dense copy does.
+  World expected(w, 0);
+  expected.write_coarse(tile_rect(0, 0), flat);
+  ASSERT_TRUE(apply_stamp(expected, e.stamp).ok());
+  std::vector<uint16_t> want(kTileSamples), got(kTileSamples);
+  expected.read_coarse(tile_rect(0, 0), want);
+  store.mirror().read_coarse(tile_rect(0, 0), got);
+  EXPECT_EQ(got, want);
+  EXPECT_EQ(*store.version(t00), 6u);
+}
+
+}  // namespace
+}  // namespace loam::client

@@ -233,5 +233,34 @@ TEST(WorldBase, ASnapshotHoldsOnlyEditedTilesAndNeedsItsBase) {
   std::filesystem::remove_all(dir);
 }
 
+// A client's mirror forgets a tile it no longer holds: the tile reads as the base again, its
+// samples are freed, its version is 0, and the content hash is the untouched world's.
+TEST(WorldBase, DiscardedTileReadsAsTheBaseAgainAndHoldsNoSamples) {
+  const SmallRefined r = small_refined();
+  World w(r.params, r.base);
+  w.set_mip0_only(true);
+  const uint64_t untouched = w.content_hash();
+  std::vector<uint16_t> base0(kTileSamples);
+  w.read_coarse(tile_rect(1, 0), base0);
+  ASSERT_TRUE(apply_stamp(w, crater_at(300, 100, 40, 200)).ok());
+  w.commit(7);
+  EXPECT_EQ(w.edited_coarse_tile_count(), 1u);  // mip 0 only: no mip tile was made
+  EXPECT_EQ(w.tile_state({Layer::kCoarse, 0, 1, 0}).version, 7u);
+  std::vector<int8_t> d(100, 5);
+  w.write_detail({0, 0, 10, 10}, d);
+  w.commit(8);
+  w.discard_tile(Layer::kCoarse, 1, 0);
+  w.discard_tile(Layer::kDetail, 0, 0);
+  EXPECT_EQ(w.edited_coarse_tile_count(), 0u);
+  EXPECT_EQ(w.edited_bytes(), 0u);
+  EXPECT_EQ(w.detail_tile_count(), 0u);
+  EXPECT_EQ(w.tile_state({Layer::kCoarse, 0, 1, 0}).version, 0u);
+  std::vector<uint16_t> now(kTileSamples);
+  w.read_coarse(tile_rect(1, 0), now);
+  EXPECT_EQ(now, base0);
+  EXPECT_EQ(w.detail(3, 3), 0);
+  EXPECT_EQ(w.content_hash(), untouched);
+}
+
 }  // namespace
 }  // namespace loam
