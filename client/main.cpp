@@ -119,6 +119,10 @@ int main(int argc, char** argv) {
   view_cmd
       ->add_option("--stamp-every", vo.stamp_every_s, "Headless: a stamp at the view's centre this often (s)")
       ->check(cli::FiniteRange(0, 1e7));
+  view_cmd
+      ->add_option("--fly", vo.fly_mps,
+                   "Headless: fly a loop around the centre at this speed (m/s) instead of orbiting")
+      ->check(cli::FiniteRange(0, 5000));
   view_cmd->add_option("--screenshot-every", vo.screenshot_every_s, "Headless: a PNG this often (s)")
       ->check(cli::FiniteRange(0, 1e7));
   view_cmd->add_option("--screenshot", vo.screenshot, "PNG file (numbered when several)")

@@ -175,6 +175,10 @@ struct ServeResult {
   int bots = 0, bots_ok = 0;
   int viewers = 0, viewers_ok = 0;  // headless viewers; ok = exit 0 (no mismatch, no divergence)
   double viewer_rss_max_mib = 0, viewer_gpu_max_mib = 0, viewer_cpu_max_mib = 0;
+  // A viewer flying a loop at 300 m/s: frames with a level on a coarser mip, and waits.
+  bool flight_ran = false, flight_ok = false;
+  double flight_seconds = 0, flight_lacking_pct = 0, flight_waiting_pct = 0, flight_longest_s = 0;
+  long long flight_frames = 0;
   double seconds = 0;
   double server_rss_mib = 0, bot_rss_max_mib = 0;
   uint64_t accepted = 0, bytes_out = 0;
@@ -242,7 +246,9 @@ ServeResult serve_refined(int bots, int viewers, double seconds, double rate, ui
   // Headless viewers at n = 255 orbiting the centre and stamping where they look; each prints
   // its terrain memory (GPU: level textures + tile pages; CPU: held tiles) every second.
   std::vector<std::pair<pid_t, std::string> > viewer_pids;
-  for (int i = 0; i < viewers; ++i) {
+  // The last one flies (at most 60 s) instead of orbiting.
+  const bool fly = viewers > 0;
+  for (int i = 0; i < viewers + (fly ? 1 : 0); ++i) {
     const std::string log = dir + "/viewer" + std::to_string(i) + ".log";
     std::vector<std::string> args = {LOAM_CLIENT_BINARY,
                                      "view",
@@ -263,9 +269,15 @@ ServeResult serve_refined(int bots, int viewers, double seconds, double rate, ui
                                      dir + "/viewer" + std::to_string(i) + ".png",
                                      "--screenshot-every",
                                      "0"};
+    if (i == viewers) {
+      r.flight_seconds = std::min(seconds, 60.0);
+      args[8] = fmt("%.0f", r.flight_seconds);  // --seconds
+      args[10] = "127";                         // --n: the default viewer
+      args.insert(args.end(), {"--fly", "300"});
+    }
     if (const pid_t pid = spawn(args, log); pid > 0) viewer_pids.push_back({pid, log});
   }
-  r.viewers = int(viewer_pids.size());
+  r.viewers = int(viewer_pids.size()) - (fly ? 1 : 0);
   for (pid_t pid : pids) {
     int status = 0;
     rusage usage{};
@@ -273,10 +285,24 @@ ServeResult serve_refined(int bots, int viewers, double seconds, double rate, ui
     r.bot_rss_max_mib = std::max(r.bot_rss_max_mib, double(usage.ru_maxrss) / 1024.0);
     r.bots_ok += WIFEXITED(status) && WEXITSTATUS(status) == 0;
   }
-  for (const auto& [pid, log] : viewer_pids) {
+  for (size_t v = 0; v < viewer_pids.size(); ++v) {
+    const auto& [pid, log] = viewer_pids[v];
     int status = 0;
     rusage usage{};
     if (wait4(pid, &status, 0, &usage) != pid) continue;
+    if (fly && v + 1 == viewer_pids.size()) {
+      r.flight_ran = true;
+      r.flight_ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+      std::ifstream in(log);
+      for (std::string line; std::getline(in, line);) {
+        std::sscanf(
+            line.c_str(),
+            "viewer coverage: %lld frames, %lf%% with a level on a coarser mip, %lf%% waiting over 0.5 s, "
+            "longest wait %lf s",
+            &r.flight_frames, &r.flight_lacking_pct, &r.flight_waiting_pct, &r.flight_longest_s);
+      }
+      continue;
+    }
     r.viewer_rss_max_mib = std::max(r.viewer_rss_max_mib, double(usage.ru_maxrss) / 1024.0);
     r.viewers_ok += WIFEXITED(status) && WEXITSTATUS(status) == 0;
     std::ifstream in(log);
@@ -489,6 +515,24 @@ int run_world_scale(const Context& ctx, Report& report) {
         "(gpu/tile_pages.h); CPU terrain memory is the confirmed store's and the display's held tiles. Peak "
         "RSS from wait4; llvmpipe's own buffers are in it.");
     report.table(viewers);
+    if (sr.flight_ran) {
+      Table flight("flight", {"viewer", "seconds", "frames", "frames with a level on a coarser mip %",
+                              "frames waiting over 0.5 s %", "bound %", "longest wait s", "exit 0"});
+      flight.add_row({"`--fly 300` (n = 127)", fmt("%.0f", sr.flight_seconds),
+                      std::to_string(sr.flight_frames), fmt("%.2f", sr.flight_lacking_pct),
+                      fmt("%.2f", sr.flight_waiting_pct), "1", fmt("%.2f", sr.flight_longest_s),
+                      sr.flight_ok ? "yes" : "no"});
+      report.paragraph(
+          "A headless viewer flying a loop at 300 m/s, 120 m above the ground, in the same session. A frame "
+          "counts "
+          "when any clipmap level's region lacks a tile of the level's own mip (it shows a coarser mip "
+          "there); the "
+          "wait is how long that level has lacked it. The viewer generates untouched tiles as it subscribes "
+          "them "
+          "(0.25 ms each) and downloads only edited ones, within its byte budget.");
+      report.table(flight);
+      if (!sr.flight_ok || sr.flight_waiting_pct > 1.0) ++failures;
+    }
     Table joins("join", {"client", "whole-world coarse view (tiles, mips 6+)", "held after s",
                          "region chunks received"});
     joins.add_row({"generates the base", std::to_string(sr.view_tiles), fmt("%.3f", sr.join_generated_s),

@@ -119,6 +119,39 @@ bool ViewerSession::wait_settled(const Camera& camera, std::chrono::milliseconds
   }
 }
 
+LevelCoverage ViewerSession::coverage() {
+  const WorldParams& w = client_.welcome().world;
+  const client::ConfirmedStore& store = client_.store();
+  const int32_t mips = w.mip_count();
+  LevelCoverage cov;
+  cov.levels = renderer_->levels();
+  lacking_since_.resize(size_t(cov.levels));
+  const auto now = std::chrono::steady_clock::now();
+  for (int32_t l = 0; l < cov.levels; ++l) {
+    // Level l's region in the grid of the mip it reads (levels past the coarsest mip read it).
+    const int32_t m = std::min(l, mips - 1);
+    const int64_t up = int64_t(1) << (l - m);
+    const RectI r = renderer_->level_region(l);
+    const RectI region{r.x0 * up, r.y0 * up, r.x1 * up, r.y1 * up};
+    const RectI tiles = tiles_overlapping(region).intersect(w.tile_range(m));
+    bool lacking = false;
+    for (int64_t ty = tiles.y0; ty < tiles.y1 && !lacking; ++ty) {
+      for (int64_t tx = tiles.x0; tx < tiles.x1 && !lacking; ++tx) {
+        lacking = !store.holds({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)});
+      }
+    }
+    std::optional<std::chrono::steady_clock::time_point>& since = lacking_since_[size_t(l)];
+    if (!lacking) {
+      since.reset();
+      continue;
+    }
+    if (!since) since = now;
+    ++cov.levels_lacking;
+    cov.longest_wait_s = std::max(cov.longest_wait_s, std::chrono::duration<double>(now - *since).count());
+  }
+  return cov;
+}
+
 ViewerStats ViewerSession::stats() const {
   ViewerStats s;
   s.tiles_subscribed = interest_->subscribed().size();

@@ -40,6 +40,13 @@ struct ViewerStats {
   size_t cpu_terrain_bytes = 0;
 };
 
+// Whether each clipmap level's region is held at the level's own mip (or finer), as of the
+// last render: a level that is not shows a coarser mip there while its tiles load.
+struct LevelCoverage {
+  int32_t levels = 0, levels_lacking = 0;
+  double longest_wait_s = 0;  // how long the level lacking tiles longest has lacked them
+};
+
 // A camera south of the world's centre, high enough to see most of it, looking at the centre.
 Camera overview_camera(const WorldParams& world);
 
@@ -72,6 +79,8 @@ class ViewerSession {
   ClipmapRenderer& renderer() { return *renderer_; }
   const ClipmapInterest& interest() const { return *interest_; }
   ViewerStats stats() const;
+  // After render(): which levels lack tiles of their mip now, and for how long.
+  LevelCoverage coverage();
 
  private:
   ViewerSession() = default;
@@ -82,6 +91,7 @@ class ViewerSession {
   std::unique_ptr<ClipmapRenderer> renderer_;
   std::unique_ptr<ClipmapInterest> interest_;
   std::optional<wire::Focus> focus_sent_;  // the focus the server last heard
+  std::vector<std::optional<std::chrono::steady_clock::time_point>> lacking_since_;  // per level
 };
 
 }  // namespace loam::render

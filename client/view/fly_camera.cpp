@@ -51,4 +51,13 @@ render::Camera orbit_camera(double cx, double cy, double radius, double height, 
   return render::look_at(x, y, std::max(gz, tz) + height, cx, cy, tz);
 }
 
+render::Camera flight_camera(double cx, double cy, double radius, double height, double speed, double t,
+                             const std::function<double(double, double)>& ground) {
+  const double a = speed * t / radius, ahead = 600.0 / radius;
+  const double x = cx + radius * std::cos(a), y = cy + radius * std::sin(a);
+  const double lx = cx + radius * std::cos(a + ahead), ly = cy + radius * std::sin(a + ahead);
+  const double gz = ground ? ground(x, y) : 0.0, lz = ground ? ground(lx, ly) : 0.0;
+  return render::look_at(x, y, gz + height, lx, ly, lz);
+}
+
 }  // namespace loam::view

@@ -47,5 +47,10 @@ class FlyCamera {
 // `period` seconds.
 render::Camera orbit_camera(double cx, double cy, double radius, double height, double period, double t,
                             const std::function<double(double, double)>& ground);
+// The headless viewer's flight: along a circle of `radius` around (cx, cy) at `speed` m/s,
+// `height` above the ground under the camera, looking ahead along the path (at the ground
+// 600 m ahead): what a fast flyer sees, with new terrain coming into every level.
+render::Camera flight_camera(double cx, double cy, double radius, double height, double speed, double t,
+                             const std::function<double(double, double)>& ground);
 
 }  // namespace loam::view

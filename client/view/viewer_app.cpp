@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <thread>
 
 #include "client/render/headless.h"
@@ -148,9 +149,19 @@ int run_headless(const ViewerAppOptions& o) {
   render::FrameStats f;
   double frame_ms = 0;
   render::Camera cam;
+  // Level coverage per frame: how often, and for how long, a level shows a coarser mip.
+  int64_t frames = 0, frames_lacking = 0, frames_waiting = 0;
+  double longest_wait = 0;
+  // A flight loops once a minute at the asked speed (300 m/s: 2.9 km around the centre).
+  const double flight_radius = o.fly_mps > 0 ? o.fly_mps * 60.0 / (2.0 * std::numbers::pi) : 0.0;
   for (double t = 0; t < seconds; t = seconds_since(t0)) {
-    cam = orbit_camera(cx, cy, radius, 0.12 * radius, 90.0, t, ground);
-    cam.far_m = 6.0 * radius;
+    if (o.fly_mps > 0) {
+      cam = flight_camera(cx, cy, flight_radius, 120.0, o.fly_mps, t, ground);
+      cam.far_m = 8000.0;
+    } else {
+      cam = orbit_camera(cx, cy, radius, 0.12 * radius, 90.0, t, ground);
+      cam.far_m = 6.0 * radius;
+    }
     if (const Status st = s.update(cam, std::chrono::milliseconds(5)); !st.ok() && !reconnect(s, o, st))
       return 1;
     const auto f0 = Clock::now();
@@ -158,6 +169,11 @@ int run_headless(const ViewerAppOptions& o) {
     f = s.render(cam, o.width, o.height);
     glFinish();
     frame_ms = seconds_since(f0) * 1000.0;
+    const render::LevelCoverage cov = s.coverage();
+    ++frames;
+    frames_lacking += cov.levels_lacking > 0;
+    frames_waiting += cov.longest_wait_s > 0.5;
+    longest_wait = std::max(longest_wait, cov.longest_wait_s);
     if (o.stamp_every_s > 0 && t >= next_stamp) {
       next_stamp += o.stamp_every_s;
       tool.tool = Tool(int(t / o.stamp_every_s) % 3 == 2 ? int(Tool::kRaise) : int(Tool::kCrater));
@@ -188,6 +204,11 @@ int run_headless(const ViewerAppOptions& o) {
     std::fprintf(stderr, "loam-client view: %s\n", st.error().describe().c_str());
   }
   print_stats(seconds_since(t0), s, f, frame_ms);
+  std::printf(
+      "viewer coverage: %lld frames, %.2f%% with a level on a coarser mip, %.2f%% waiting over 0.5 s, "
+      "longest wait %.2f s\n",
+      (long long)frames, frames ? 100.0 * double(frames_lacking) / double(frames) : 0.0,
+      frames ? 100.0 * double(frames_waiting) / double(frames) : 0.0, longest_wait);
   std::printf("viewer: final view in %s\n", last.c_str());
   return exit_code(s);
 }

@@ -25,6 +25,7 @@ struct ViewerAppOptions {
   bool headless = false;                  // EGL + offscreen instead of a window
   double seconds = 0;                     // stop after this long (0: until the window closes; headless: 30)
   double stamp_every_s = 0;               // headless: a stamp at the view's centre this often (0: none)
+  double fly_mps = 0;                     // headless: fly a loop at this speed instead of orbiting (0: orbit)
   double screenshot_every_s = 0;          // headless: write a PNG this often (0: only at the end)
   std::string screenshot = "viewer.png";  // file name; numbered (viewer_0001.png) when several
   bool vsync = true;

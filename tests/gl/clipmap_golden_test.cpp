@@ -10,11 +10,13 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <span>
 #include <string>
 
 #include "client/render/clipmap_renderer.h"
 #include "client/render/headless.h"
 #include "dem/default_terrain.h"
+#include "dem/refined_default.h"
 #include "gl_test_context.h"
 #include "protocol/stamps/stamp_apply.h"
 #include "protocol/stamps/stamp_validate.h"
@@ -71,12 +73,9 @@ World deformed(World w) {
   return w;
 }
 
-TEST(ClipmapGolden, ViewsOfTheEmbeddedTerrainMatchTheirGoldens) {
-  LOAM_REQUIRE_GL();
-  auto imported = load_default_terrain();
-  ASSERT_TRUE(imported.ok());
-  const World plain = std::move(imported->world);
-  const World dented = deformed(plain);
+// Renders each view (of `dented` where the view says so) and compares it with its golden, or
+// writes it to LOAM_APPROVE_GOLDENS.
+void render_and_compare(std::span<const GoldenView> views, const World& plain, const World& dented) {
   const char* approve = std::getenv("LOAM_APPROVE_GOLDENS");
   const fs::path golden_dir = fs::path(LOAM_SOURCE_DIR) / "tests/golden/images";
   const fs::path out_dir = fs::absolute("golden-out");
@@ -88,12 +87,12 @@ TEST(ClipmapGolden, ViewsOfTheEmbeddedTerrainMatchTheirGoldens) {
   }
   auto target = OffscreenTarget::create(kWidth, kHeight);
   ASSERT_TRUE(target.ok());
-  for (const GoldenView& v : kViews) {
-    WorldHeightSource source(v.deformed ? dented : plain);
+  for (const GoldenView& v : views) {
+    const World& w = v.deformed ? dented : plain;
+    WorldHeightSource source(w);
     RendererConfig cfg;  // the defaults users get
     auto renderer = ClipmapRenderer::create(source, cfg);
     ASSERT_TRUE(renderer.ok());
-    const World& w = v.deformed ? dented : plain;
     Camera cam =
         look_at(v.x, v.y, height_at(w, v.x, v.y) + v.dz, v.tx, v.ty, height_at(w, v.tx, v.ty) + v.tdz);
     cam.far_m = 8000;
@@ -115,6 +114,47 @@ TEST(ClipmapGolden, ViewsOfTheEmbeddedTerrainMatchTheirGoldens) {
                      << kIdiffThresholds << "); rendered " << out << ", difference x10 in " << diff
                      << "; if the change is intended, run scripts/approve-goldens.sh";
   }
+}
+
+TEST(ClipmapGolden, ViewsOfTheEmbeddedTerrainMatchTheirGoldens) {
+  LOAM_REQUIRE_GL();
+  auto imported = load_default_terrain();
+  ASSERT_TRUE(imported.ok());
+  const World plain = std::move(imported->world);
+  const World dented = deformed(plain);
+  render_and_compare(kViews, plain, dented);
+}
+
+// The refined default world (131 x 98 km at 1 m, generated on demand): views at the scales
+// a player meets it, from a ridge line to the metre texture of a slope, and craters dug at 1 m.
+const GoldenView kRefinedViews[] = {
+    {"refined_himalaya", 59000, 34500, 400, 59000, 29500, 0, false},     // the Himalayan front, 5 km
+    {"refined_slope_close", 60200, 30150, 25, 60120, 30020, 0, false},   // a slope at 1 m, grazing
+    {"refined_bay_coast", 52400, 62000, 150, 52400, 58000, 0, false},    // coast and sea floor
+    {"refined_deformed_close", 60140, 30050, 9, 60122, 30024, 0, true},  // three craters, 25 m away
+};
+
+TEST(ClipmapGolden, ViewsOfTheRefinedDefaultMatchTheirGoldens) {
+  LOAM_REQUIRE_GL();
+  auto base = refined_default_base();
+  ASSERT_TRUE(base.ok()) << base.error().describe();
+  const World plain(refined_default_params(), *base);
+  World dented = plain;
+  {
+    const WorldParams& p = dented.params();
+    for (int i = 0; i < 3; ++i) {
+      StampParams c;
+      c.kind = StampKind::kCrater;
+      c.center_x = 60118 + 9 * i, c.center_y = 30030 - 6 * i, c.radius = 2 + 1.2 * i,
+      c.intensity = 0.8 + 0.3 * i;
+      c.shape = 0.35;
+      auto q = validate_stamp(c, p);
+      ASSERT_TRUE(q.ok()) << q.error().describe();
+      ASSERT_TRUE(apply_stamp(dented, *q).ok());
+    }
+    dented.commit(1);
+  }
+  render_and_compare(kRefinedViews, plain, dented);
 }
 
 }  // namespace
