@@ -27,36 +27,40 @@ std::string ImportReport::summary() const {
   return out;
 }
 
-Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& options) {
+void DemStats::add_row(std::span<const double> row, bool border) {
+  for (const double v : row) {
+    if (std::isnan(v)) {
+      ++nodata;
+      continue;
+    }
+    lo = std::min(lo, v);
+    hi = std::max(hi, v);
+  }
+  // Padding to whole tiles is a flat apron at the data's edge height: the mean of the valid
+  // samples on the imported area's border. (Repeating each edge sample instead drew streaks
+  // across the world for a DEM smaller than a tile.)
+  auto edge = [&](double v) {
+    if (!std::isnan(v)) {
+      edge_sum += v;
+      ++edge_count;
+    }
+  };
+  if (row.empty()) return;
+  if (border) {
+    for (const double v : row) edge(v);
+  } else {
+    edge(row.front());
+    if (row.size() > 1) edge(row.back());
+  }
+}
+
+Result<WorldParams> import_params(const DemInfo& dem, const DemStats& stats, const RectI& crop,
+                                  const ImportOptions& options) {
   const std::string& name = dem.name;
   if (!std::isfinite(options.headroom) || options.headroom < 0 || options.headroom > 10) {
     return make_error(ErrorCode::kInvalidArgument, "headroom", "must be in 0..10");
   }
-  RectI crop{0, 0, dem.width, dem.height};
-  if (options.crop) {
-    crop = *options.crop;
-    if (crop.empty() || !RectI{0, 0, dem.width, dem.height}.contains(crop)) {
-      return make_error(ErrorCode::kInvalidArgument, name, "crop lies outside the image");
-    }
-    if (crop.width() < 2 || crop.height() < 2) {
-      return make_error(ErrorCode::kInvalidArgument, name, "crop must be at least 2x2");
-    }
-  }
-  const auto at = [&](int64_t x, int64_t y) { return dem.meters[size_t(y * dem.width + x)]; };
-
-  double lo = INFINITY, hi = -INFINITY;
-  int64_t nodata = 0;
-  for (int64_t y = crop.y0; y < crop.y1; ++y) {
-    for (int64_t x = crop.x0; x < crop.x1; ++x) {
-      const double v = at(x, y);
-      if (std::isnan(v)) {
-        ++nodata;
-        continue;
-      }
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
-  }
+  const double lo = stats.lo, hi = stats.hi;
   if (!(lo <= hi))
     return make_error(ErrorCode::kInvalidArgument, name, "no valid sample in the imported area");
   if (std::fabs(lo) > 1e6 || std::fabs(hi) > 1e6) {
@@ -106,82 +110,96 @@ Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& opti
   if (const Status st = p.validate(); !st.ok()) {
     return make_error(st.error().code, name, "derived world parameters invalid: " + st.error().describe());
   }
+  return p;
+}
 
-  // Padding to whole tiles is a flat apron at the data's edge height: the mean of the valid
-  // samples on the imported area's border. (Repeating each edge sample instead drew streaks
-  // across the world for a DEM smaller than a tile.)
-  double edge_sum = 0;
-  int64_t edge_count = 0;
-  auto edge = [&](int64_t x, int64_t y) {
-    const double v = at(x, y);
+RowQuantizer::RowQuantizer(const WorldParams& p, const DemStats& stats) : params(p) {
+  const double apron_m =
+      stats.edge_count ? std::clamp(stats.edge_sum / double(stats.edge_count), stats.lo, stats.hi) : stats.lo;
+  fill_q = quantize_height(p, stats.lo);
+  apron_q = quantize_height(p, apron_m);
+}
+
+void RowQuantizer::quantize(std::span<const double> data, std::span<uint16_t> out) {
+  const size_t n = std::min(data.size(), out.size());
+  for (size_t x = 0; x < n; ++x) {
+    const double v = data[x];
+    uint16_t q = fill_q;
     if (!std::isnan(v)) {
-      edge_sum += v;
-      ++edge_count;
+      q = quantize_height(params, v);
+      const double err = std::fabs(params.height_meters(q) - v);
+      max_err = std::max(max_err, err);
+      sum_sq += err * err;
+      ++valid;
     }
+    out[x] = q;
+  }
+  std::fill(out.begin() + ptrdiff_t(n), out.end(), apron_q);
+}
+
+ImportReport import_report(const DemInfo& dem, const DemStats& stats, const RectI& crop,
+                           const RowQuantizer& q) {
+  const WorldParams& p = q.params;
+  ImportReport r;
+  r.source = dem.name;
+  r.width = crop.width();
+  r.height = crop.height();
+  r.tiles_x = p.tiles_x;
+  r.tiles_y = p.tiles_y;
+  r.min_m = stats.lo;
+  r.max_m = stats.hi;
+  r.nodata_count = stats.nodata;
+  r.nodata_fill_m = p.height_meters(q.fill_q);
+  r.apron_m = p.height_meters(q.apron_q);
+  r.padded = int64_t(p.tiles_x) * kTileSize > crop.width() || int64_t(p.tiles_y) * kTileSize > crop.height();
+  r.meters_per_sample = p.meters_per_sample;
+  r.meters_per_unit = p.meters_per_unit;
+  r.height_offset = p.height_offset;
+  r.headroom_below_m = stats.lo - p.height_offset;
+  r.headroom_above_m = p.height_meters(65535) - stats.hi;
+  r.max_error_m = q.max_err;
+  r.rms_error_m = q.valid ? std::sqrt(q.sum_sq / double(q.valid)) : 0.0;
+  // Exact when every error is within double rounding of the heights themselves.
+  r.exact = q.max_err <= 1e-9 * std::max(1.0, std::max(std::fabs(stats.lo), std::fabs(stats.hi)));
+  r.scale_source = dem.scale_source;
+  r.scale_note = dem.scale_note;
+  r.anisotropy = dem.anisotropy;
+  return r;
+}
+
+Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& options) {
+  const std::string& name = dem.name;
+  RectI crop{0, 0, dem.width, dem.height};
+  if (options.crop) {
+    crop = *options.crop;
+    if (crop.empty() || !RectI{0, 0, dem.width, dem.height}.contains(crop)) {
+      return make_error(ErrorCode::kInvalidArgument, name, "crop lies outside the image");
+    }
+    if (crop.width() < 2 || crop.height() < 2) {
+      return make_error(ErrorCode::kInvalidArgument, name, "crop must be at least 2x2");
+    }
+  }
+  auto row = [&](int64_t y) {
+    return std::span<const double>(dem.meters.data() + size_t(y * dem.width + crop.x0), size_t(crop.width()));
   };
-  for (int64_t x = crop.x0; x < crop.x1; ++x) {
-    edge(x, crop.y0);
-    edge(x, crop.y1 - 1);
-  }
-  for (int64_t y = crop.y0 + 1; y + 1 < crop.y1; ++y) {
-    edge(crop.x0, y);
-    edge(crop.x1 - 1, y);
-  }
-  const double apron_m = edge_count ? std::clamp(edge_sum / double(edge_count), lo, hi) : lo;
+  DemStats stats;
+  for (int64_t y = crop.y0; y < crop.y1; ++y) stats.add_row(row(y), y == crop.y0 || y + 1 == crop.y1);
+  auto params = import_params(dem, stats, crop, options);
+  if (!params) return params.error();
+  const WorldParams& p = *params;
 
   // Quantize, fill NoData with the minimum, pad with the apron.
   const RectI world = p.sample_rect();
   const int64_t ww = world.width(), wh = world.height();
   std::vector<uint16_t> samples(size_t(ww * wh));
-  double max_err = 0, sum_sq = 0;
-  int64_t valid = 0;
-  const uint16_t fill_q = quantize_height(p, lo);
-  const uint16_t apron_q = quantize_height(p, apron_m);
+  RowQuantizer q(p, stats);
   for (int64_t y = 0; y < wh; ++y) {
-    for (int64_t x = 0; x < ww; ++x) {
-      uint16_t q = apron_q;
-      if (x < crop.width() && y < crop.height()) {
-        const double v = at(crop.x0 + x, crop.y0 + y);
-        q = fill_q;
-        if (!std::isnan(v)) {
-          q = quantize_height(p, v);
-          const double err = std::fabs(p.height_meters(q) - v);
-          max_err = std::max(max_err, err);
-          sum_sq += err * err;
-          ++valid;
-        }
-      }
-      samples[size_t(y * ww + x)] = q;
-    }
+    q.quantize(y < crop.height() ? row(crop.y0 + y) : std::span<const double>(),
+               std::span<uint16_t>(samples.data() + size_t(y * ww), size_t(ww)));
   }
   auto built = World::from_samples(p, samples);
   if (!built) return built.error();
-
-  ImportReport r;
-  r.source = name;
-  r.width = crop.width();
-  r.height = crop.height();
-  r.tiles_x = p.tiles_x;
-  r.tiles_y = p.tiles_y;
-  r.min_m = lo;
-  r.max_m = hi;
-  r.nodata_count = nodata;
-  r.nodata_fill_m = p.height_meters(fill_q);
-  r.apron_m = p.height_meters(apron_q);
-  r.padded = ww > crop.width() || wh > crop.height();
-  r.meters_per_sample = p.meters_per_sample;
-  r.meters_per_unit = p.meters_per_unit;
-  r.height_offset = p.height_offset;
-  r.headroom_below_m = lo - p.height_offset;
-  r.headroom_above_m = p.height_meters(65535) - hi;
-  r.max_error_m = max_err;
-  r.rms_error_m = valid ? std::sqrt(sum_sq / double(valid)) : 0.0;
-  // Exact when every error is within double rounding of the heights themselves.
-  r.exact = max_err <= 1e-9 * std::max(1.0, std::max(std::fabs(lo), std::fabs(hi)));
-  r.scale_source = dem.scale_source;
-  r.scale_note = dem.scale_note;
-  r.anisotropy = dem.anisotropy;
-  return ImportedWorld{std::move(*built), r};
+  return ImportedWorld{std::move(*built), import_report(dem, stats, crop, q)};
 }
 
 }  // namespace loam

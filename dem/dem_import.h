@@ -4,7 +4,9 @@
 // and reporting the error that quantization introduced.
 #pragma once
 
+#include <cmath>
 #include <optional>
+#include <span>
 #include <string>
 
 #include "dem/dem_raster.h"
@@ -50,5 +52,39 @@ struct ImportedWorld {
 };
 
 Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& options = {});
+
+// --- The steps of an import, shared with the streamed import into a tile pack ---
+
+// What an import learns of the samples before quantizing them, row by row (in any order).
+struct DemStats {
+  double lo = INFINITY, hi = -INFINITY;  // valid data range
+  int64_t nodata = 0;
+  double edge_sum = 0;  // valid samples on the imported area's border
+  int64_t edge_count = 0;
+  // Adds one row of the imported area (metres, NaN = no data); `border`: its first or last row.
+  void add_row(std::span<const double> row, bool border);
+};
+
+// The quantization and extent of the world for `stats` over `crop` of `dem`: errors name the
+// source (no valid sample, heights beyond +-1000 km, derived parameters invalid).
+Result<WorldParams> import_params(const DemInfo& dem, const DemStats& stats, const RectI& crop,
+                                  const ImportOptions& options);
+
+// Quantizes rows into world samples and accumulates the error it introduced.
+struct RowQuantizer {
+  WorldParams params;
+  uint16_t fill_q = 0;   // NoData: the data minimum
+  uint16_t apron_q = 0;  // padding: the mean border height
+  double max_err = 0, sum_sq = 0;
+  int64_t valid = 0;
+  RowQuantizer(const WorldParams& p, const DemStats& stats);
+  // Row `data` (the imported area's width, or empty for a row below it) into `out`, one
+  // world row (params.tiles_x tiles wide).
+  void quantize(std::span<const double> data, std::span<uint16_t> out);
+};
+
+// The report of an import with these parameters, statistics and quantizer.
+ImportReport import_report(const DemInfo& dem, const DemStats& stats, const RectI& crop,
+                           const RowQuantizer& q);
 
 }  // namespace loam

@@ -105,110 +105,152 @@ int64_t strip_rows(const RasterSource& src) {
   return src.format() == "OpenEXR" ? block : budget;  // OpenEXR tiles are read whole
 }
 
-Result<DemRaster> decode(RasterSource& src, const std::string& name, const std::string& sidecar_json,
-                         const DemScaleOptions& options) {
-  const int64_t w = src.width(), h = src.height();
-  if (w <= 0 || h <= 0) return fail(ErrorCode::kCorrupt, name, "image has no samples");
-  if (w < 2 || h < 2) {
-    return fail(
-        ErrorCode::kInvalidArgument, name,
-        "image is " + std::to_string(w) + "x" + std::to_string(h) + "; a DEM needs at least 2x2 samples");
-  }
-  if (w > kMaxDemSide || h > kMaxDemSide || w * h > kMaxDemSamples) {
-    return fail(ErrorCode::kOversize, name,
-                "image claims " + std::to_string(w) + "x" + std::to_string(h) +
-                    " samples; the import cap is 2^28 samples and 2^20 a side (crop or tile it first)");
-  }
-  auto band_index = choose_band(src, options.band, name);
-  if (!band_index) return band_index.error();
-  const RasterBandInfo band = src.band(*band_index);
-  if (!band.supported) {
-    return fail(ErrorCode::kUnsupported, name,
-                "unsupported sample type " + band.sample_type + " (use 8/16/32-bit integers or floats)");
-  }
+}  // namespace
 
-  DemRaster dem;
-  dem.name = name;
-  dem.width = w;
-  dem.height = h;
-  dem.integer_source = band.integer;
-  dem.format = src.format();
-  dem.sample_type = band.sample_type;
-  dem.band = *band_index;
+struct DemStripsOpener {
+  // Checks the header, picks the band and resolves the scale. `whole`: the raster is to be
+  // read whole (read_dem_*), so the whole-raster cap applies; else the streamed side cap.
+  static Result<DemStrips> open(std::unique_ptr<RasterSource> owned, const std::string& name,
+                                const std::string& sidecar_json, const DemScaleOptions& options, bool whole) {
+    RasterSource& src = *owned;
+    const int64_t w = src.width(), h = src.height();
+    if (w <= 0 || h <= 0) return fail(ErrorCode::kCorrupt, name, "image has no samples");
+    if (w < 2 || h < 2) {
+      return fail(
+          ErrorCode::kInvalidArgument, name,
+          "image is " + std::to_string(w) + "x" + std::to_string(h) + "; a DEM needs at least 2x2 samples");
+    }
+    if (whole && (w > kMaxDemSide || h > kMaxDemSide || w * h > kMaxDemSamples)) {
+      return fail(ErrorCode::kOversize, name,
+                  "image claims " + std::to_string(w) + "x" + std::to_string(h) +
+                      " samples; a whole-raster import is capped at 2^28 samples and 2^20 a side "
+                      "(import it into a tile pack: loam-server import --pack)");
+    }
+    if (!whole && (w > kMaxStreamedDemSide || h > kMaxStreamedDemSide)) {
+      return fail(
+          ErrorCode::kOversize, name,
+          "image claims " + std::to_string(w) + "x" + std::to_string(h) +
+              " samples; a tile pack import is capped at 2^17 samples a side (crop or tile it first)");
+    }
+    auto band_index = choose_band(src, options.band, name);
+    if (!band_index) return band_index.error();
+    const RasterBandInfo band = src.band(*band_index);
+    if (!band.supported) {
+      return fail(ErrorCode::kUnsupported, name,
+                  "unsupported sample type " + band.sample_type + " (use 8/16/32-bit integers or floats)");
+    }
 
-  // Scale: explicit > sidecar > georeferencing > defaults.
-  Sidecar side;
-  if (!sidecar_json.empty()) {
-    auto parsed = parse_sidecar(sidecar_json, name + " sidecar");
-    if (!parsed) return parsed.error();
-    side = *parsed;
-    LOAM_TRY(check_sidecar_matches(side, w, h, band.sample_type, name + " sidecar"));
+    DemStrips out;
+    DemInfo& dem = out.info_;
+    dem.name = name;
+    dem.width = w;
+    dem.height = h;
+    dem.integer_source = band.integer;
+    dem.format = src.format();
+    dem.sample_type = band.sample_type;
+    dem.band = *band_index;
+
+    // Scale: explicit > sidecar > georeferencing > defaults.
+    Sidecar side;
+    if (!sidecar_json.empty()) {
+      auto parsed = parse_sidecar(sidecar_json, name + " sidecar");
+      if (!parsed) return parsed.error();
+      side = *parsed;
+      LOAM_TRY(check_sidecar_matches(side, w, h, band.sample_type, name + " sidecar"));
+    }
+    dem.scale_source = "default";
+    if (options.meters_per_sample) {
+      dem.meters_per_sample = *options.meters_per_sample;
+      dem.scale_source = "explicit";
+    } else if (side.meters_per_sample) {
+      dem.meters_per_sample = *side.meters_per_sample;
+      dem.anisotropy = side.anisotropy;
+      dem.scale_source = "sidecar";
+    } else {
+      auto geo = spacing_from_georef(src.georef(), w, h, name);
+      if (!geo) return geo.error();
+      if (*geo) {
+        dem.meters_per_sample = std::sqrt((*geo)->x_m * (*geo)->y_m);
+        dem.anisotropy = (*geo)->y_m / (*geo)->x_m;
+        dem.scale_source = "georeferencing";
+        dem.scale_note = (*geo)->note;
+      }
+    }
+    if (!std::isfinite(dem.meters_per_sample) || dem.meters_per_sample <= 0 || dem.meters_per_sample > 1e5) {
+      return fail(ErrorCode::kInvalidArgument, name, "meters per sample must be in (0, 1e5]");
+    }
+    double scale = 1.0, offset = 0.0;
+    if (band.scale || band.offset) {
+      scale = band.scale.value_or(1.0);
+      offset = band.offset.value_or(0.0);
+    }
+    const double unit = band_unit_meters(band.unit);
+    scale *= unit;
+    offset *= unit;
+    if (side.vertical_scale) scale = *side.vertical_scale;
+    if (side.vertical_offset) offset = *side.vertical_offset;
+    if (options.vertical_scale) scale = *options.vertical_scale;
+    if (options.vertical_offset) offset = *options.vertical_offset;
+    if (!std::isfinite(scale) || scale <= 0 || !std::isfinite(offset)) {
+      return fail(ErrorCode::kInvalidArgument, name, "vertical scale must be finite and > 0");
+    }
+    if (dem.integer_source) dem.vertical_step = scale;
+    dem.loam_world = side.loam_world;
+    out.nodata_ = band.nodata;
+    out.scale_ = scale;
+    out.offset_ = offset;
+    out.src_ = std::move(owned);
+    return out;
   }
-  dem.scale_source = "default";
-  if (options.meters_per_sample) {
-    dem.meters_per_sample = *options.meters_per_sample;
-    dem.scale_source = "explicit";
-  } else if (side.meters_per_sample) {
-    dem.meters_per_sample = *side.meters_per_sample;
-    dem.anisotropy = side.anisotropy;
-    dem.scale_source = "sidecar";
-  } else {
-    auto geo = spacing_from_georef(src.georef(), w, h, name);
-    if (!geo) return geo.error();
-    if (*geo) {
-      dem.meters_per_sample = std::sqrt((*geo)->x_m * (*geo)->y_m);
-      dem.anisotropy = (*geo)->y_m / (*geo)->x_m;
-      dem.scale_source = "georeferencing";
-      dem.scale_note = (*geo)->note;
+};
+
+DemStrips::DemStrips(DemStrips&&) noexcept = default;
+DemStrips& DemStrips::operator=(DemStrips&&) noexcept = default;
+DemStrips::~DemStrips() = default;
+
+int64_t DemStrips::strip_rows() const { return loam::strip_rows(*src_); }
+
+Result<int64_t> DemStrips::read_rows(int64_t y0, int64_t rows, std::span<double> out) {
+  if (y0 < 0 || rows <= 0 || y0 + rows > info_.height || out.size() != size_t(rows * info_.width)) {
+    return fail(ErrorCode::kInvalidArgument, info_.name, "strip outside the raster");
+  }
+  LOAM_TRY(src_->read_rows(info_.band, y0, rows, out));
+  const bool nodata_nan = nodata_ && std::isnan(*nodata_);
+  int64_t missing_count = 0;
+  for (double& v : out) {
+    const bool missing = !std::isfinite(v) || (nodata_ && !nodata_nan && v == *nodata_);
+    if (missing) {
+      v = std::numeric_limits<double>::quiet_NaN();
+      ++missing_count;
+    } else {
+      v = offset_ + scale_ * v;
     }
   }
-  if (!std::isfinite(dem.meters_per_sample) || dem.meters_per_sample <= 0 || dem.meters_per_sample > 1e5) {
-    return fail(ErrorCode::kInvalidArgument, name, "meters per sample must be in (0, 1e5]");
-  }
-  double scale = 1.0, offset = 0.0;
-  if (band.scale || band.offset) {
-    scale = band.scale.value_or(1.0);
-    offset = band.offset.value_or(0.0);
-  }
-  const double unit = band_unit_meters(band.unit);
-  scale *= unit;
-  offset *= unit;
-  if (side.vertical_scale) scale = *side.vertical_scale;
-  if (side.vertical_offset) offset = *side.vertical_offset;
-  if (options.vertical_scale) scale = *options.vertical_scale;
-  if (options.vertical_offset) offset = *options.vertical_offset;
-  if (!std::isfinite(scale) || scale <= 0 || !std::isfinite(offset)) {
-    return fail(ErrorCode::kInvalidArgument, name, "vertical scale must be finite and > 0");
-  }
-  if (dem.integer_source) dem.vertical_step = scale;
-  dem.loam_world = side.loam_world;
+  return missing_count;
+}
 
-  // Read in strips: the resident output grows with what was decoded, never with the header's
-  // claim.
-  const std::optional<double> nodata = band.nodata;
-  const bool nodata_nan = nodata && std::isnan(*nodata);
-  const int64_t rows_per_strip = strip_rows(src);
+namespace {
+
+// Reads every row in strips: the resident output grows with what was decoded, never with
+// the header's claim.
+Result<DemRaster> read_whole(DemStrips strips) {
+  DemRaster dem;
+  static_cast<DemInfo&>(dem) = strips.info();
+  const int64_t w = dem.width, h = dem.height;
+  const int64_t rows_per_strip = strips.strip_rows();
   for (int64_t y = 0; y < h; y += rows_per_strip) {
     const int64_t rows = std::min(rows_per_strip, h - y);
     const size_t at = dem.meters.size();
     dem.meters.resize(at + size_t(rows * w));
-    const std::span<double> strip(dem.meters.data() + at, size_t(rows * w));
-    LOAM_TRY(src.read_rows(*band_index, y, rows, strip));
-    for (double& v : strip) {
-      const bool missing = !std::isfinite(v) || (nodata && !nodata_nan && v == *nodata);
-      if (missing) {
-        v = std::numeric_limits<double>::quiet_NaN();
-        ++dem.nodata_count;
-      } else {
-        v = offset + scale * v;
-      }
-    }
+    auto missing = strips.read_rows(y, rows, std::span<double>(dem.meters.data() + at, size_t(rows * w)));
+    if (!missing) return missing.error();
+    dem.nodata_count += *missing;
     // Once the first strip decoded, reserve the whole raster: address space only (pages become
     // resident as strips are written), and no reallocation copies on the way.
     if (y == 0) dem.meters.reserve(size_t(w * h));
   }
   if (dem.nodata_count == w * h)
-    return fail(ErrorCode::kInvalidArgument, name, "every sample is NaN or NoData");
+    return fail(ErrorCode::kInvalidArgument, dem.name, "every sample is NaN or NoData");
   return dem;
 }
 
@@ -242,7 +284,23 @@ Result<DemRaster> read_dem_file(const std::string& path, const DemScaleOptions& 
   if (!sidecar) return sidecar.error();
   auto src = ext == "exr" ? open_exr_file(path) : open_gdal_file(path, ext);
   if (!src) return src.error();
-  return decode(**src, path, *sidecar, options);
+  auto strips = DemStripsOpener::open(std::move(*src), path, *sidecar, options, true);
+  if (!strips) return strips.error();
+  return read_whole(std::move(*strips));
+}
+
+Result<DemStrips> open_dem_strips(const std::string& path, const DemScaleOptions& options) {
+  const std::string ext = lower_extension(path);
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) return fail(ErrorCode::kNotFound, path, "cannot open the file");
+  if (!std::filesystem::is_regular_file(path, ec))
+    return fail(ErrorCode::kInvalidArgument, path, "not a regular file");
+  LOAM_TRY(check_extension(ext, path));
+  auto sidecar = read_sidecar_beside(path);
+  if (!sidecar) return sidecar.error();
+  auto src = ext == "exr" ? open_exr_file(path) : open_gdal_file(path, ext);
+  if (!src) return src.error();
+  return DemStripsOpener::open(std::move(*src), path, *sidecar, options, false);
 }
 
 Result<DemRaster> read_dem_memory(std::span<const uint8_t> bytes, const std::string& name,
@@ -252,7 +310,9 @@ Result<DemRaster> read_dem_memory(std::span<const uint8_t> bytes, const std::str
   LOAM_TRY(check_extension(ext, name));
   auto src = ext == "exr" ? open_exr_memory(bytes, name) : open_gdal_memory(bytes, name, ext);
   if (!src) return src.error();
-  return decode(**src, name, sidecar_json, options);
+  auto strips = DemStripsOpener::open(std::move(*src), name, sidecar_json, options, true);
+  if (!strips) return strips.error();
+  return read_whole(std::move(*strips));
 }
 
 }  // namespace loam

@@ -23,6 +23,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -50,23 +51,61 @@ struct LoamSidecarWorld {
   WorldParams params;
 };
 
-struct DemRaster {
+// What a DEM says about itself and how its values become metres, without its samples.
+struct DemInfo {
   std::string name;  // file name, for messages
   int64_t width = 0;
   int64_t height = 0;
-  std::vector<double> meters;  // row-major, row 0 first (north); NaN = no data
   double meters_per_sample = 1.0;
   double anisotropy = 1.0;  // source y spacing / x spacing (1 = square samples)
   bool integer_source = false;
   double vertical_step = 0.0;  // meters per source unit for integer sources, else 0
-  int64_t nodata_count = 0;
-  std::string scale_source;  // horizontal: "explicit", "sidecar", "georeferencing" or "default"
-  std::string scale_note;    // how georeferencing gave the spacing (CRS, centre latitude), else empty
-  std::string format;        // the reader: "GTiff", "PNG", "SRTMHGT", "AAIGrid", "VRT", "OpenEXR"
-  std::string sample_type;   // the band's: "uint16", "int16", "float32"...
-  int band = 1;              // the band read
+  std::string scale_source;    // horizontal: "explicit", "sidecar", "georeferencing" or "default"
+  std::string scale_note;      // how georeferencing gave the spacing (CRS, centre latitude), else empty
+  std::string format;          // the reader: "GTiff", "PNG", "SRTMHGT", "AAIGrid", "VRT", "OpenEXR"
+  std::string sample_type;     // the band's: "uint16", "int16", "float32"...
+  int band = 1;                // the band read
   std::optional<LoamSidecarWorld> loam_world;  // set when the sidecar holds Loam's quantization
 };
+
+struct DemRaster : DemInfo {
+  std::vector<double> meters;  // row-major, row 0 first (north); NaN = no data
+  int64_t nodata_count = 0;
+};
+
+// A DEM opened for reading in strips of rows, for imports that never hold the whole raster
+// (a tile pack: dem/pack_import.h). Opening reads the header, the sidecar and the band's
+// scale; read_rows() then gives metres, NaN where the source has no data. Rasters up to
+// kMaxStreamedDemSide a side open (any sample count within that). Not thread-safe.
+inline constexpr int64_t kMaxStreamedDemSide = int64_t(1) << 17;
+
+class RasterSource;
+
+class DemStrips {
+ public:
+  DemStrips(DemStrips&&) noexcept;
+  DemStrips& operator=(DemStrips&&) noexcept;
+  ~DemStrips();
+
+  const DemInfo& info() const { return info_; }
+  // Rows per read that keep one read within about 8 MiB of doubles (whole storage blocks
+  // where they fit).
+  int64_t strip_rows() const;
+  // Rows [y0, y0 + rows) in metres, row-major, into `out` (rows * width values); returns the
+  // number of NaN/NoData samples among them. Decoder errors and short reads are Errors.
+  Result<int64_t> read_rows(int64_t y0, int64_t rows, std::span<double> out);
+
+ private:
+  friend struct DemStripsOpener;
+  DemStrips() = default;
+  DemInfo info_;
+  std::unique_ptr<RasterSource> src_;
+  std::optional<double> nodata_;
+  double scale_ = 1.0, offset_ = 0.0;
+};
+
+// Opens a DEM file for strip reads (the sidecar NAME.json beside it is used when present).
+Result<DemStrips> open_dem_strips(const std::string& path, const DemScaleOptions& options = {});
 
 // Reads a DEM file. The sidecar NAME.json beside it is used when present.
 Result<DemRaster> read_dem_file(const std::string& path, const DemScaleOptions& options = {});

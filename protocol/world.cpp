@@ -93,6 +93,18 @@ const World::EditedTile* World::edited(int32_t mip, int32_t tx, int32_t ty) cons
   return it == e.end() ? nullptr : &it->second;
 }
 
+const std::vector<uint16_t>& World::resident(int32_t mip, int32_t tx, int32_t ty, const EditedTile& e) const {
+  auto& t = const_cast<EditedTile&>(e);  // residence is a cache: the content is the same
+  t.last_use = ++cache_clock_;
+  if (t.data.empty()) {
+    t.data.resize(kTileSamples);
+    source_->read_coarse_tile(mip, tx, ty, t.data);
+    persisted_resident_bytes_ += t.data.size() * sizeof(uint16_t);
+    ++edited_loaded_;
+  }
+  return t.data;
+}
+
 World::EditedTile& World::materialize(int32_t mip, int32_t tx, int32_t ty) {
   auto [it, added] = mips_[size_t(mip)].edited.try_emplace(key(tx, ty));
   EditedTile& e = it->second;
@@ -101,34 +113,198 @@ World::EditedTile& World::materialize(int32_t mip, int32_t tx, int32_t ty) {
     e.data = b.data;
     e.base_hash = base_tile_hash(mip, tx, ty);
     e.state = TileState{0, e.base_hash};
+    ++dirty_coarse_;
     if (mip == 0 && memo_.data && memo_.tx == tx && memo_.ty == ty) memo_.data = nullptr;
+  } else {
+    resident(mip, tx, ty, e);
   }
+  return e;
+}
+
+void World::set_persisted(EditedTile& e, bool persisted) {
+  if (e.persisted == persisted) return;
+  e.persisted = persisted;
+  const size_t bytes = e.data.size() * sizeof(uint16_t);
+  if (persisted) {
+    persisted_resident_bytes_ += bytes;
+    --dirty_coarse_;
+  } else {
+    persisted_resident_bytes_ -= bytes;
+    ++dirty_coarse_;
+  }
+}
+
+World::EditedTile& World::writable(int32_t mip, int32_t tx, int32_t ty) {
+  EditedTile& e = materialize(mip, tx, ty);
+  set_persisted(e, false);
   return e;
 }
 
 const uint16_t* World::mip0_tile(int32_t tx, int32_t ty) const {
   if (memo_.data && memo_.tx == tx && memo_.ty == ty) return memo_.data;
   const EditedTile* e = edited(0, tx, ty);
-  const uint16_t* d = e ? e->data.data() : base_tile(0, tx, ty).data.data();
+  const uint16_t* d = e ? resident(0, tx, ty, *e).data() : base_tile(0, tx, ty).data.data();
   memo_.tx = tx;
   memo_.ty = ty;
   memo_.data = d;
   return d;
 }
 
+std::vector<int8_t>* World::detail_samples(int64_t k) const {
+  const auto it = detail_.find(k);
+  if (it == detail_.end()) return nullptr;
+  DetailTile& t = it->second;
+  if (t.evicted) {
+    t.data.resize(kTileSamples);
+    source_->read_detail_tile(int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k))), t.data);
+    t.evicted = false;
+    persisted_resident_bytes_ += t.data.size();
+    ++edited_loaded_;
+  }
+  if (t.data.empty()) return nullptr;
+  t.last_use = ++cache_clock_;
+  return &t.data;
+}
+
 void World::trim_base_cache() {
   memo_.data = nullptr;
-  if (cache_bytes_ <= cache_budget_) return;
-  std::vector<std::pair<uint64_t, TileCoord>> order;
+  if (cache_bytes_ + persisted_resident_bytes_ <= cache_budget_) return;
+  // Clean tiles of both kinds, least recently used first: base tiles (cache_), and edited
+  // tiles the store holds at their current state (read back on the next use).
+  struct Candidate {
+    uint64_t last_use;
+    int kind;  // 0 base, 1 edited coarse, 2 detail
+    TileCoord c;
+  };
+  std::vector<Candidate> order;
   order.reserve(cache_.size());
-  for (const auto& [c, t] : cache_) order.push_back({t.last_use, c});
-  std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  for (const auto& [use, c] : order) {
-    if (cache_bytes_ <= cache_budget_) break;
-    const auto it = cache_.find(c);
-    cache_bytes_ -= it->second.data.size() * sizeof(uint16_t);
-    cache_.erase(it);
+  for (const auto& [c, t] : cache_) order.push_back({t.last_use, 0, c});
+  for (size_t m = 0; m < mips_.size(); ++m) {
+    for (const auto& [k, e] : mips_[m].edited) {
+      if (e.persisted && !e.data.empty())
+        order.push_back(
+            {e.last_use,
+             1,
+             {Layer::kCoarse, uint8_t(m), int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))}});
+    }
   }
+  for (const auto& [k, t] : detail_) {
+    if (t.persisted && !t.data.empty())
+      order.push_back(
+          {t.last_use, 2, {Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))}});
+  }
+  std::sort(order.begin(), order.end(),
+            [](const Candidate& a, const Candidate& b) { return a.last_use < b.last_use; });
+  for (const Candidate& o : order) {
+    if (cache_bytes_ + persisted_resident_bytes_ <= cache_budget_) break;
+    if (o.kind == 0) {
+      const auto it = cache_.find(o.c);
+      cache_bytes_ -= it->second.data.size() * sizeof(uint16_t);
+      cache_.erase(it);
+    } else if (o.kind == 1) {
+      EditedTile& e = mips_[o.c.mip].edited.at(key(o.c.tx, o.c.ty));
+      persisted_resident_bytes_ -= e.data.size() * sizeof(uint16_t);
+      std::vector<uint16_t>().swap(e.data);
+    } else {
+      DetailTile& t = detail_.at(key(o.c.tx, o.c.ty));
+      persisted_resident_bytes_ -= t.data.size();
+      std::vector<int8_t>().swap(t.data);
+      t.evicted = true;
+    }
+  }
+}
+
+void World::set_edit_source(std::shared_ptr<const EditedTileSource> source) { source_ = std::move(source); }
+
+std::vector<World::EditedTileInfo> World::edited_tiles() const {
+  std::vector<EditedTileInfo> out;
+  for (size_t m = 0; m < mips_.size(); ++m) {
+    for (const auto& [k, e] : mips_[m].edited) {
+      out.push_back({{Layer::kCoarse, uint8_t(m), int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))},
+                     e.state,
+                     e.base_hash,
+                     e.persisted});
+    }
+  }
+  for (const auto& [k, t] : detail_) {
+    if (t.state.version == 0 && t.data.empty() && !t.evicted) continue;  // never changed
+    out.push_back({{Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))},
+                   t.state,
+                   0,
+                   t.persisted});
+  }
+  std::sort(out.begin(), out.end(),
+            [](const EditedTileInfo& a, const EditedTileInfo& b) { return a.coord < b.coord; });
+  return out;
+}
+
+std::vector<TileCoord> World::unpersisted_tiles() const {
+  std::vector<TileCoord> out;
+  for (size_t m = 0; m < mips_.size(); ++m) {
+    for (const auto& [k, e] : mips_[m].edited) {
+      if (!e.persisted)
+        out.push_back(
+            {Layer::kCoarse, uint8_t(m), int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
+    }
+  }
+  for (const auto& [k, t] : detail_) {
+    if (!t.persisted)
+      out.push_back({Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+size_t World::unpersisted_bytes() const {
+  return dirty_coarse_ * kTileSamples * sizeof(uint16_t) + dirty_detail_ * kTileSamples;
+}
+
+void World::mark_persisted(const TileCoord& c, uint64_t version) {
+  if (c.layer == Layer::kCoarse) {
+    if (size_t(c.mip) >= mips_.size()) return;
+    auto& edited = mips_[c.mip].edited;
+    const auto it = edited.find(key(c.tx, c.ty));
+    if (it != edited.end() && it->second.state.version == version &&
+        (c.mip != 0 || !pending_.count({Layer::kCoarse, 0, c.tx, c.ty})))
+      set_persisted(it->second, true);
+    return;
+  }
+  const auto it = detail_.find(key(c.tx, c.ty));
+  if (it == detail_.end() || it->second.state.version != version || it->second.persisted ||
+      pending_.count({Layer::kDetail, 0, c.tx, c.ty}))
+    return;
+  it->second.persisted = true;
+  persisted_resident_bytes_ += it->second.data.size();
+  --dirty_detail_;
+}
+
+bool World::adopt_persisted(const TileCoord& c, const TileState& state, uint64_t base_hash) {
+  if (!source_) return false;
+  if (c.layer == Layer::kCoarse) {
+    if (!tile_in_range(c.mip, c.tx, c.ty)) return false;
+    const auto [it, added] = mips_[c.mip].edited.try_emplace(key(c.tx, c.ty));
+    EditedTile& e = it->second;
+    if (e.persisted) persisted_resident_bytes_ -= e.data.size() * sizeof(uint16_t);
+    if (!added && !e.persisted) --dirty_coarse_;
+    std::vector<uint16_t>().swap(e.data);
+    e.state = state;
+    e.base_hash = base_hash;
+    e.persisted = true;
+    if (c.mip == 0) memo_.data = nullptr;
+    return true;
+  }
+  if (c.mip != 0 || !tiles_overlapping(detail_samples_).contains(c.tx, c.ty)) return false;
+  const auto [it, added] = detail_.try_emplace(key(c.tx, c.ty));
+  DetailTile& t = it->second;
+  const bool had = !t.data.empty() || t.evicted;
+  if (t.persisted) persisted_resident_bytes_ -= t.data.size();
+  if (!added && !t.persisted) --dirty_detail_;
+  std::vector<int8_t>().swap(t.data);
+  t.state = state;
+  t.persisted = true;
+  t.evicted = state.hash != zero_detail_tile_hash();
+  detail_stored_ += size_t(t.evicted) - size_t(had);
+  return true;
 }
 
 std::vector<TileCoord> World::edited_coarse_tiles(int32_t mip) const {
@@ -149,7 +325,12 @@ size_t World::edited_coarse_tile_count() const {
 }
 
 size_t World::edited_bytes() const {
-  return edited_coarse_tile_count() * kTileSamples * sizeof(uint16_t) + detail_.size() * kTileSamples;
+  size_t n = 0;
+  for (const CoarseMip& m : mips_) {
+    for (const auto& [k, e] : m.edited) n += e.data.size() * sizeof(uint16_t);
+  }
+  for (const auto& [k, t] : detail_) n += t.data.size();
+  return n;
 }
 
 uint16_t World::coarse(int64_t gx, int64_t gy) const {
@@ -162,9 +343,9 @@ uint16_t World::coarse(int64_t gx, int64_t gy) const {
 int8_t World::detail(int64_t dx, int64_t dy) const {
   dx = std::clamp(dx, detail_samples_.x0, detail_samples_.x1 - 1);
   dy = std::clamp(dy, detail_samples_.y0, detail_samples_.y1 - 1);
-  const auto it = detail_.find(key(int32_t(dx >> kTileShift), int32_t(dy >> kTileShift)));
-  if (it == detail_.end()) return 0;
-  return it->second[size_t((dy & (kTileSize - 1)) * kTileSize + (dx & (kTileSize - 1)))];
+  const std::vector<int8_t>* t = detail_samples(key(int32_t(dx >> kTileShift), int32_t(dy >> kTileShift)));
+  if (!t) return 0;
+  return (*t)[size_t((dy & (kTileSize - 1)) * kTileSize + (dx & (kTileSize - 1)))];
 }
 
 void World::read_coarse(const RectI& r, std::span<uint16_t> out) const {
@@ -214,7 +395,7 @@ int64_t World::write_coarse(const RectI& r, std::span<const uint16_t> in) {
         int64_t first = -1, last = -1;
         for (int64_t i = 0; i < part.width(); ++i) {
           if ((tile ? tile : now)[at + size_t(i)] != src[i]) {
-            if (!tile) tile = materialize(0, int32_t(tx), int32_t(ty)).data.data();
+            if (!tile) tile = writable(0, int32_t(tx), int32_t(ty)).data.data();
             tile[at + size_t(i)] = src[i];
             if (first < 0) first = i;
             last = i;
@@ -237,17 +418,19 @@ int64_t World::write_detail(const RectI& r, std::span<const int8_t> in) {
   for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
     for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
       const RectI part = clipped.intersect(tile_rect(int32_t(tx), int32_t(ty)));
-      const auto found = detail_.find(key(int32_t(tx), int32_t(ty)));
       RectI dirty;
-      std::vector<int8_t>* tile = found == detail_.end() ? nullptr : &found->second;
+      std::vector<int8_t>* tile = detail_samples(key(int32_t(tx), int32_t(ty)));
+      bool claimed = false;
       for (int64_t y = part.y0; y < part.y1; ++y) {
         const int8_t* src = in.data() + (y - r.y0) * r.width() + (part.x0 - r.x0);
         for (int64_t i = 0; i < part.width(); ++i) {
           const size_t at = size_t((y - ty * kTileSize) * kTileSize + (part.x0 + i - tx * kTileSize));
           const int8_t old = tile ? (*tile)[at] : int8_t{0};
           if (old == src[i]) continue;
-          if (!tile)
-            tile = &detail_.try_emplace(key(int32_t(tx), int32_t(ty)), kTileSamples, int8_t{0}).first->second;
+          if (!claimed) {
+            tile = &writable_detail(int32_t(tx), int32_t(ty));
+            claimed = true;
+          }
           (*tile)[at] = src[i];
           dirty = dirty.unite({part.x0 + i, y, part.x0 + i + 1, y + 1});
           ++changed;
@@ -262,36 +445,63 @@ int64_t World::write_detail(const RectI& r, std::span<const int8_t> in) {
 std::span<const uint16_t> World::coarse_tile(int32_t mip, int32_t tx, int32_t ty) const {
   if (!tile_in_range(mip, tx, ty)) return {};
   if (mip == 0) return {mip0_tile(tx, ty), size_t(kTileSamples)};
-  if (const EditedTile* e = edited(mip, tx, ty)) return e->data;
+  if (const EditedTile* e = edited(mip, tx, ty)) return resident(mip, tx, ty, *e);
   return base_tile(mip, tx, ty).data;
 }
 
 std::span<uint16_t> World::coarse_tile_mut(int32_t tx, int32_t ty) {
   if (!tile_in_range(0, tx, ty)) return {};
-  return materialize(0, tx, ty).data;
+  return writable(0, tx, ty).data;
 }
 
 std::span<const int8_t> World::detail_tile(int32_t tx, int32_t ty) const {
-  const auto it = detail_.find(key(tx, ty));
-  if (it == detail_.end()) return {};
-  return it->second;
+  const std::vector<int8_t>* t = detail_samples(key(tx, ty));
+  if (!t) return {};
+  return *t;
+}
+
+std::vector<int8_t>& World::writable_detail(int32_t tx, int32_t ty) {
+  const auto [it, added] = detail_.try_emplace(key(tx, ty));
+  DetailTile& t = it->second;
+  if (added || t.persisted) ++dirty_detail_;
+  if (t.evicted) detail_samples(key(tx, ty));
+  if (t.data.empty()) {
+    t.data.assign(kTileSamples, int8_t{0});
+    ++detail_stored_;
+  } else if (t.persisted) {
+    persisted_resident_bytes_ -= t.data.size();
+  }
+  t.persisted = false;
+  t.last_use = ++cache_clock_;
+  return t.data;
 }
 
 std::span<int8_t> World::detail_tile_mut(int32_t tx, int32_t ty) {
   const RectI dtiles = tiles_overlapping(detail_samples_);
   if (!dtiles.contains(tx, ty)) return {};
-  return detail_.try_emplace(key(tx, ty), kTileSamples, int8_t{0}).first->second;
+  return writable_detail(tx, ty);
 }
 
 void World::discard_tile(Layer layer, int32_t tx, int32_t ty) {
   pending_.erase(TileCoord{layer, 0, tx, ty});
   if (layer == Layer::kDetail) {
-    detail_.erase(key(tx, ty));
-    detail_state_.erase(key(tx, ty));
+    const auto it = detail_.find(key(tx, ty));
+    if (it == detail_.end()) return;
+    if (!it->second.data.empty() || it->second.evicted) --detail_stored_;
+    if (it->second.persisted) {
+      persisted_resident_bytes_ -= it->second.data.size();
+    } else {
+      --dirty_detail_;
+    }
+    detail_.erase(it);
     return;
   }
   if (memo_.data && memo_.tx == tx && memo_.ty == ty) memo_.data = nullptr;
-  mips_[0].edited.erase(key(tx, ty));
+  const auto it = mips_[0].edited.find(key(tx, ty));
+  if (it == mips_[0].edited.end()) return;
+  set_persisted(it->second, false);
+  --dirty_coarse_;
+  mips_[0].edited.erase(it);
 }
 
 void World::mark_dirty(Layer layer, const RectI& global_rect) {
@@ -328,9 +538,10 @@ void World::update_mips(const RectI& dirty0, std::unordered_map<TileCoord, RectI
             const size_t at = size_t((j - ty * kTileSize) * kTileSize + (i - tx * kTileSize));
             if (!tile) {
               const EditedTile* e = edited(m, int32_t(tx), int32_t(ty));
-              const uint16_t now = e ? e->data[at] : base_tile(m, int32_t(tx), int32_t(ty)).data[at];
+              const uint16_t now = e ? resident(m, int32_t(tx), int32_t(ty), *e)[at]
+                                     : base_tile(m, int32_t(tx), int32_t(ty)).data[at];
               if (now == v) continue;
-              tile = materialize(m, int32_t(tx), int32_t(ty)).data.data();
+              tile = writable(m, int32_t(tx), int32_t(ty)).data.data();
             }
             if (tile[at] != v) {
               tile[at] = v;
@@ -365,21 +576,21 @@ std::vector<TileChange> World::commit(uint64_t seq) {
   for (const auto& [c, r] : changed) {
     TileChange change{c, r, 0, seq};
     if (c.layer == Layer::kCoarse) {
-      EditedTile& e = materialize(c.mip, c.tx, c.ty);
+      EditedTile& e = writable(c.mip, c.tx, c.ty);
       change.base_version = e.state.version;
       e.state.version = seq;
       e.state.hash = hash_coarse_tile(e.data);
     } else {
-      TileState& st = detail_state_[key(c.tx, c.ty)];
-      change.base_version = st.version;
-      st.version = seq;
-      const auto it = detail_.find(key(c.tx, c.ty));
-      if (it != detail_.end() &&
-          std::all_of(it->second.begin(), it->second.end(), [](int8_t v) { return v == 0; })) {
-        detail_.erase(it);  // canonical sparse form: zero tiles are not stored
-        st.hash = zero_detail_tile_hash();
+      std::vector<int8_t>& data = writable_detail(c.tx, c.ty);
+      DetailTile& t = detail_.at(key(c.tx, c.ty));
+      change.base_version = t.state.version;
+      t.state.version = seq;
+      if (std::all_of(data.begin(), data.end(), [](int8_t v) { return v == 0; })) {
+        std::vector<int8_t>().swap(data);  // canonical sparse form: zero tiles are not stored
+        --detail_stored_;
+        t.state.hash = zero_detail_tile_hash();
       } else {
-        st.hash = it == detail_.end() ? zero_detail_tile_hash() : hash_detail_tile(it->second);
+        t.state.hash = hash_detail_tile(data);
       }
     }
     out.push_back(change);
@@ -396,31 +607,40 @@ TileState World::tile_state(const TileCoord& c) const {
     return TileState{0, base_tile_hash(c.mip, c.tx, c.ty)};
   }
   if (c.mip != 0) return {};
-  const auto it = detail_state_.find(key(c.tx, c.ty));
-  if (it == detail_state_.end()) return TileState{0, zero_detail_tile_hash()};
-  return it->second;
+  const auto it = detail_.find(key(c.tx, c.ty));
+  if (it == detail_.end()) return TileState{0, zero_detail_tile_hash()};
+  return it->second.state;
 }
 
 bool World::restore_version(const TileCoord& c, uint64_t version) {
   if (c.layer == Layer::kCoarse) {
     if (!tile_in_range(c.mip, c.tx, c.ty)) return false;
     if (version == 0 && !edited(c.mip, c.tx, c.ty)) return true;  // untouched stays untouched
-    materialize(c.mip, c.tx, c.ty).state.version = version;
+    writable(c.mip, c.tx, c.ty).state.version = version;
     return true;
   }
   if (c.mip != 0 || !tiles_overlapping(detail_samples_).contains(c.tx, c.ty)) return false;
-  TileState& st = detail_state_[key(c.tx, c.ty)];
-  const auto it = detail_.find(key(c.tx, c.ty));
-  st.hash = it == detail_.end() ? zero_detail_tile_hash() : hash_detail_tile(it->second);
-  st.version = version;
+  const auto [it, added] = detail_.try_emplace(key(c.tx, c.ty));
+  DetailTile& t = it->second;
+  if (t.evicted) detail_samples(key(c.tx, c.ty));
+  t.state.hash = t.data.empty() ? zero_detail_tile_hash() : hash_detail_tile(t.data);
+  t.state.version = version;
+  if (t.persisted) {
+    persisted_resident_bytes_ -= t.data.size();
+    ++dirty_detail_;
+  } else if (added) {
+    ++dirty_detail_;
+  }
+  t.persisted = false;
   return true;
 }
 
 std::vector<TileCoord> World::stored_detail_tiles() const {
   std::vector<TileCoord> out;
-  out.reserve(detail_.size());
+  out.reserve(detail_stored_);
   for (const auto& [k, tile] : detail_) {
-    out.push_back(TileCoord{Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
+    if (!tile.data.empty() || tile.evicted)
+      out.push_back(TileCoord{Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
   }
   std::sort(out.begin(), out.end(),
             [](const TileCoord& a, const TileCoord& b) { return a.ty != b.ty ? a.ty < b.ty : a.tx < b.tx; });
@@ -452,7 +672,8 @@ constexpr uint8_t kBaseRecord = 0xB0;
 void World::add_detail_hashes(WorldHasher& h) const {
   // Detail tiles by committed state, so a tile created but never changed counts as absent.
   std::vector<std::pair<TileCoord, uint64_t>> detail;
-  for (const auto& [k, st] : detail_state_) {
+  for (const auto& [k, t] : detail_) {
+    const TileState& st = t.state;
     if (st.hash == zero_detail_tile_hash()) continue;
     detail.push_back(
         {TileCoord{Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))}, st.hash});

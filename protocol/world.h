@@ -10,9 +10,13 @@
 // A world is a read-only base (protocol/base/tile_base.h) plus edits. Coarse tiles ever
 // written (at any mip) are held as edited tiles; every other tile is asked of the base when
 // read and kept in a cache of clean tiles, which trim_base_cache() brings back under its
-// budget, least recently used first. Spans returned by the readers stay valid until the next
-// trim_base_cache() (or the world's destruction); writes never invalidate them. The world
-// hash covers the base's identity and the edited tiles, so it needs no pass over the world.
+// budget, least recently used first. Edited tiles that a session's store has persisted at
+// their current version (mark_persisted, with an EditedTileSource to read them back) are
+// clean too: the same trim evicts them and a read loads them again, so memory follows what is
+// viewed and what changed since the last snapshot, not everything ever edited. Spans returned
+// by the readers stay valid until the next trim_base_cache() (or the world's destruction);
+// writes never invalidate them. The world hash covers the base's identity and the edited
+// tiles' states, so it needs no pass over the world and no tile read.
 // Not thread-safe, even for const calls (the cache and a one-tile lookup memo change).
 #pragma once
 
@@ -29,6 +33,17 @@
 namespace loam {
 
 class WorldHasher;
+
+// Where a world reads edited tiles back after evicting them: a session's snapshot store
+// (protocol/snapshot/snapshot_store.h). It answers every tile the world adopted or marked
+// persisted, at the version it was persisted with; like a TileBase it cannot fail (a store
+// damaged after it was verified stops the process rather than serve wrong terrain).
+class EditedTileSource {
+ public:
+  virtual ~EditedTileSource() = default;
+  virtual void read_coarse_tile(int32_t mip, int32_t tx, int32_t ty, std::span<uint16_t> out) const = 0;
+  virtual void read_detail_tile(int32_t tx, int32_t ty, std::span<int8_t> out) const = 0;
+};
 
 struct TileState {
   uint64_t version = 0;  // sequence number of the last stamp that changed the tile
@@ -112,7 +127,7 @@ class World {
   // Loam has written: world or content hash, current or legacy (the legacy ones only for
   // worlds on a uniform base, the only kind older files describe).
   bool matches_recorded_hash(uint64_t recorded) const;
-  size_t detail_tile_count() const { return detail_.size(); }
+  size_t detail_tile_count() const { return detail_stored_; }
   std::vector<TileCoord> stored_detail_tiles() const;
 
   // --- Base and edits ---
@@ -127,7 +142,8 @@ class World {
   // have later versions; loaders of a snapshot restore it from the manifest.
   bool initial_is_base() const { return initial_is_base_; }
   void set_initial_is_base(bool v) { initial_is_base_ = v; }
-  // Bytes of samples held for edited coarse tiles and stored detail tiles.
+  // Bytes of samples held in memory for edited coarse tiles and stored detail tiles (evicted
+  // persisted tiles not counted).
   size_t edited_bytes() const;
   // Drops what is held of a mip-0 tile (a coarse tile's edited samples, or a detail tile),
   // which then reads as the base again (detail: zeros) at version 0; uncommitted marks on it
@@ -143,13 +159,51 @@ class World {
   size_t base_cache_budget() const { return cache_budget_; }
   size_t base_cache_bytes() const { return cache_bytes_; }
   uint64_t base_tiles_generated() const { return base_generated_; }
+  // Brings clean tiles (the base's, and persisted edited tiles) under the budget.
   void trim_base_cache();
+
+  // --- Persistence: edited tiles a store holds, which the world may evict and read back ---
+  // The store edited tiles are read back from (null: none, nothing is evicted).
+  void set_edit_source(std::shared_ptr<const EditedTileSource> source);
+  bool has_edit_source() const { return source_ != nullptr; }
+  // Every edited tile: coarse tiles at every mip held as edited, and detail tiles with a
+  // state (changed at least once); sorted by coordinate.
+  struct EditedTileInfo {
+    TileCoord coord;
+    TileState state;
+    uint64_t base_hash = 0;  // coarse: the base's tile under it
+    bool persisted = false;  // a store holds this state (mark_persisted, adopt_persisted)
+  };
+  std::vector<EditedTileInfo> edited_tiles() const;
+  // Edited tiles whose current state no store holds, and their samples' bytes: what the next
+  // snapshot must write.
+  std::vector<TileCoord> unpersisted_tiles() const;
+  size_t unpersisted_bytes() const;
+  // The store now holds tile `c` as it was at `version`: if the tile is still at that version
+  // it becomes clean (evictable). A tile changed since is left dirty.
+  void mark_persisted(const TileCoord& c, uint64_t version);
+  // A tile the store holds and memory does not (loading an incremental snapshot): its state,
+  // the hash of the base's tile under it (coarse), and whether a detail tile has samples.
+  // Needs an edit source. Returns false for a tile outside the world.
+  bool adopt_persisted(const TileCoord& c, const TileState& state, uint64_t base_hash);
+  // Persisted edited tiles in memory, and how many tiles were read back from the store.
+  size_t resident_persisted_bytes() const { return persisted_resident_bytes_; }
+  uint64_t edited_tiles_loaded() const { return edited_loaded_; }
 
  private:
   struct EditedTile {
-    std::vector<uint16_t> data;
+    std::vector<uint16_t> data;  // empty while evicted (persisted only)
     TileState state;
     uint64_t base_hash = 0;  // hash of the base's tile: equal content hashes as untouched
+    bool persisted = false;  // the store holds this state: evictable
+    uint64_t last_use = 0;
+  };
+  struct DetailTile {
+    std::vector<int8_t> data;  // empty: all zero, or evicted (see `evicted`)
+    TileState state;           // committed state
+    bool persisted = false;
+    bool evicted = false;  // non-zero samples held only by the store
+    uint64_t last_use = 0;
   };
   struct CachedTile {
     std::vector<uint16_t> data;
@@ -169,9 +223,18 @@ class World {
   // The base's tile, from the cache or generated into it (uniform bases share one tile).
   CachedTile& base_tile(int32_t mip, int32_t tx, int32_t ty) const;
   uint64_t base_tile_hash(int32_t mip, int32_t tx, int32_t ty) const;
-  // The edited tile, copied from the base on first use.
+  // The edited tile, copied from the base on first use, resident.
   EditedTile& materialize(int32_t mip, int32_t tx, int32_t ty);
+  // The same, about to be written: no longer clean.
+  EditedTile& writable(int32_t mip, int32_t tx, int32_t ty);
   const EditedTile* edited(int32_t mip, int32_t tx, int32_t ty) const;
+  // An edited tile's samples, read back from the store if evicted.
+  const std::vector<uint16_t>& resident(int32_t mip, int32_t tx, int32_t ty, const EditedTile& e) const;
+  // A detail tile's samples (nullptr: all zero), read back from the store if evicted.
+  std::vector<int8_t>* detail_samples(int64_t k) const;
+  // A detail tile's samples about to be written (created as zeros): no longer clean.
+  std::vector<int8_t>& writable_detail(int32_t tx, int32_t ty);
+  void set_persisted(EditedTile& e, bool persisted);
   // Mip-0 samples of a tile in range, edited or base (through the one-tile memo).
   const uint16_t* mip0_tile(int32_t tx, int32_t ty) const;
   void add_detail_hashes(WorldHasher& h) const;
@@ -202,8 +265,13 @@ class World {
     }
   };
   mutable Memo memo_;
-  std::unordered_map<int64_t, std::vector<int8_t>> detail_;
-  std::unordered_map<int64_t, TileState> detail_state_;  // tiles ever changed
+  // Detail tiles ever written or changed; `data` empty = all zero (or evicted).
+  mutable std::unordered_map<int64_t, DetailTile> detail_;
+  size_t detail_stored_ = 0;  // tiles with non-zero samples (resident or evicted)
+  std::shared_ptr<const EditedTileSource> source_;
+  mutable size_t persisted_resident_bytes_ = 0;
+  size_t dirty_coarse_ = 0, dirty_detail_ = 0;  // edited tiles no store holds at their state
+  mutable uint64_t edited_loaded_ = 0;
   // Pending dirty rects per mip-0 tile (tile-local coordinates), merged per tile.
   std::unordered_map<TileCoord, RectI, TileCoordHash> pending_;
 };

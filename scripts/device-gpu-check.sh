@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs on a machine with a GPU, over the kit scripts/device-kit.sh built (carried as .devkit):
+# Runs on a machine with a GPU, over the kit scripts/device-kit.sh built (copied beside the tree as .devkit):
 # the GPU conformance tests (>= 1,000 random stamps, texel for texel against the CPU
 # reference; CI=true, so a missing EGL display fails instead of skipping) and the gpu-stamps
 # suite. Everything it writes goes to $OUT: gpu.txt, conformance.log, bench.log and
@@ -11,7 +11,7 @@ kit=${LOAM_DEVICE_KIT_DIR:-.devkit}
 out=${OUT:-/tmp/loam-device-check}
 mkdir -p "$out"
 if [ ! -x "$kit/bin/loam-bench-gpu" ]; then
-  echo "device-gpu-check: no kit in $kit: run scripts/device-kit.sh first and carry .devkit" >&2
+  echo "device-gpu-check: no kit in $kit: run scripts/device-kit.sh first and copy .devkit beside the tree" >&2
   exit 2
 fi
 echo "kit revision: $(cat "$kit/REVISION" 2>/dev/null || echo unknown)" | tee "$out/gpu.txt"

@@ -1,13 +1,18 @@
 // loam-server: host a multiplayer terrain session, and the file tools that go with it.
 //   serve            run a session (TCP); SIGINT/SIGTERM stop it cleanly
 //   replay LOG...    rebuild the world from a log and print its hash
-//   import, export   DEM files in and out
+//   import, export   DEM files in and out (import --pack: a tile pack of any size)
+//   pack info|verify what a tile pack holds, and a check of every tile
 //   log dump|summary human views of a deformation log
 //   snapshot info    what a snapshot holds
 //   tokens new       a fresh tokens file (random editor and viewer tokens) for --tokens-file
+#include <malloc.h>
+
 #include <CLI/CLI.hpp>
 #include <asio.hpp>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <optional>
 #include <random>
@@ -16,6 +21,8 @@
 #include "app/cli_checks.h"
 #include "dem/dem_export.h"
 #include "dem/dem_import.h"
+#include "dem/pack_import.h"
+#include "protocol/base/tile_pack.h"
 #include "protocol/hex64.h"
 #include "protocol/log/log_file.h"
 #include "protocol/log/log_json.h"
@@ -38,6 +45,11 @@ using namespace loam;
 constexpr int kExitDamaged = 3;
 
 int serve(const server::ServerConfig& config) {
+  // Tiles (128 KiB coarse, 64 KiB detail) come and go with the caches all the time. A fixed
+  // mmap threshold keeps them out of the heap, so a freed tile goes back to the system and RSS
+  // follows the caches' budgets (glibc would otherwise raise the threshold after the first
+  // free and serve them from the heap, where freed tiles fragment and stay resident).
+  mallopt(M_MMAP_THRESHOLD, 64 * 1024);
   const auto kind = gpu::parse_backend_kind(config.backend);
   if (!kind) die(kind.error());
   const auto access = server::load_access_tokens(config);
@@ -46,6 +58,7 @@ int serve(const server::ServerConfig& config) {
                                      config.stamp_images, config.dem_band, config.terrain);
   if (!opened) die(opened.error());
   opened->terrain.mutable_world().set_base_cache_budget(size_t(config.cache_mb) << 20);
+  opened->storage.set_retention({config.keep_snapshots, config.log_retention_bytes});
   // Recovery replays on the CPU; the backend then starts from the recovered world.
   auto backend = gpu::make_stamp_backend(*kind, opened->terrain.world(), &opened->terrain.textures(),
                                          config.stamp_limits);
@@ -142,8 +155,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"crop", "refined"}));
   serve_cmd
       ->add_option("--cache-mb", config.cache_mb,
-                   "Clean base tiles kept in memory, MiB (tiles never edited, generated or read again "
-                   "when needed)")
+                   "Clean tiles kept in memory, MiB: the base's (generated or read again when needed) and "
+                   "edited tiles a snapshot holds (read back from it); tiles changed since the last snapshot "
+                   "stay besides, up to --snapshot-dirty-mb")
       ->capture_default_str()
       ->check(cli::IntRange(1, int64_t(1) << 20));
   serve_cmd->add_option("--dem-band", config.dem_band, "The DEM's height band, 1-based (0: its only band)")
@@ -263,6 +277,26 @@ int main(int argc, char** argv) {
       ->add_option("--snapshot-interval", config.snapshot_interval_s, "Seconds between snapshots (0: off)")
       ->capture_default_str()
       ->check(cli::FiniteRange(0, 1e7));
+  uint64_t dirty_mb = config.snapshot_dirty_bytes >> 20;
+  serve_cmd
+      ->add_option("--snapshot-dirty-mb", dirty_mb,
+                   "A snapshot is due when edited tiles no snapshot holds reach this many MiB (they stay in "
+                   "memory until one does; 0: no such trigger)")
+      ->capture_default_str()
+      ->check(cli::IntRange(0, 1 << 20));
+  serve_cmd
+      ->add_option(
+          "--keep-snapshots", config.keep_snapshots,
+          "Retention: the newest snapshots kept (older ones and the tiles only they name are removed)")
+      ->capture_default_str()
+      ->check(cli::IntRange(1, 1000));
+  std::string log_retention = "1024";
+  serve_cmd
+      ->add_option("--log-retention-mb", log_retention,
+                   "Retention: log segments older than the oldest kept snapshot are removed while the log "
+                   "exceeds this many MiB ('all': keep the whole log, so a replay from the initial terrain "
+                   "stays possible)")
+      ->capture_default_str();
   serve_cmd->add_option("--hashes-every", config.hashes_every_ticks, "Ticks between TileHashes (0: never)")
       ->capture_default_str()
       ->check(cli::IntRange(0, 1000000));
@@ -309,6 +343,17 @@ int main(int argc, char** argv) {
   import_cmd->add_option("--vertical-offset", import_voffset, "Metres at source value 0")
       ->check(cli::FiniteRange(-1e7, 1e7));
   import_cmd->add_option("--png", out_path, "Also write the imported world as PNG + sidecar");
+  std::string pack_out;
+  import_cmd->add_option("--pack", pack_out,
+                         "Write the world as a tile pack (.loampack) for serve --dem, reading the DEM in "
+                         "strips: any size up to 2^17 samples a side, in bounded memory");
+  auto* pack_cmd = app.add_subcommand("pack", "Tile packs: what one holds, and a check of every tile");
+  pack_cmd->require_subcommand(1);
+  std::string pack_path;
+  auto* pack_info_cmd = pack_cmd->add_subcommand("info", "Parameters, identity, tiles and bytes");
+  auto* pack_verify_cmd = pack_cmd->add_subcommand("verify", "Decode every tile and check its hash");
+  for (auto* c : {pack_info_cmd, pack_verify_cmd})
+    c->add_option("pack", pack_path, "A .loampack file")->required();
   auto* export_cmd = app.add_subcommand("export", "Export a data folder's current world");
   std::string export_dir;
   export_cmd->add_option("data_dir", export_dir, "Data folder")->required();
@@ -366,7 +411,20 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
   try {
-    if (*serve_cmd) return serve(config);
+    if (*serve_cmd) {
+      config.snapshot_dirty_bytes = dirty_mb << 20;
+      if (log_retention == "all") {
+        config.log_retention_bytes = UINT64_MAX;
+      } else {
+        char* end = nullptr;
+        const double mb = std::strtod(log_retention.c_str(), &end);
+        if (end == log_retention.c_str() || *end != '\0' || !std::isfinite(mb) || mb < 0 || mb > 1e9)
+          throw std::runtime_error("--log-retention-mb: a number of MiB (0 or more) or 'all', not '" +
+                                   log_retention + "'");
+        config.log_retention_bytes = uint64_t(mb * double(1 << 20));
+      }
+      return serve(config);
+    }
     if (*tokens_new_cmd) {
       if (new_editors + new_viewers == 0)
         die(make_error(ErrorCode::kInvalidArgument, "tokens new", "no tokens asked for"));
@@ -424,6 +482,25 @@ int main(int argc, char** argv) {
       scale.meters_per_sample = import_mps;
       scale.vertical_scale = import_vscale;
       scale.vertical_offset = import_voffset;
+      if (!pack_out.empty()) {
+        if (!out_path.empty()) throw std::runtime_error("--png and --pack are separate imports: choose one");
+        if (pack_out.size() < 9 || pack_out.substr(pack_out.size() - 9) != kPackExtension)
+          throw std::runtime_error("--pack: the file name must end in .loampack");
+        auto r = import_dem_to_pack(dem_in, pack_out, scale);
+        if (!r) die(r.error());
+        const PackSummary& p = r->pack;
+        const double mib = double(r->import.width) * double(r->import.height) * 2.0 / double(1 << 20);
+        std::printf(
+            "%spack              %s\n"
+            "identity          %016llx\n"
+            "tiles             %llu (every mip), %.1f MiB (%.2f bytes a sample at mip 0)\n"
+            "time              scan %.1f s, write %.1f s (%.0f MiB/s of 16-bit samples)\n",
+            r->import.summary().c_str(), p.path.c_str(), (unsigned long long)p.identity,
+            (unsigned long long)p.tiles, double(p.file_bytes) / double(1 << 20),
+            double(p.file_bytes) / (double(r->import.width) * double(r->import.height)), r->scan_seconds,
+            r->write_seconds, mib / std::max(1e-9, r->scan_seconds + r->write_seconds));
+        return 0;
+      }
       auto dem = read_dem_file(dem_in, scale);
       if (!dem) die(dem.error());
       auto w = import_dem(*dem);
@@ -433,6 +510,28 @@ int main(int argc, char** argv) {
       if (!out_path.empty()) {
         const Status st = export_png16(w->world, w->world.params().sample_rect(), out_path);
         if (!st.ok()) die(st.error());
+      }
+      return 0;
+    }
+    if (*pack_info_cmd || *pack_verify_cmd) {
+      auto pack = open_tile_pack(pack_path);
+      if (!pack) die(pack.error());
+      const PackSummary& p = (*pack)->summary();
+      std::printf(
+          "pack              %s\n"
+          "identity          %016llx\n"
+          "world             %d x %d tiles at %.6g m/sample, %.6g m/unit, offset %.6f m\n"
+          "tiles             %llu over %d mips, %llu bytes\n",
+          p.path.c_str(), (unsigned long long)p.identity, p.params.tiles_x, p.params.tiles_y,
+          p.params.meters_per_sample, p.params.meters_per_unit, p.params.height_offset,
+          (unsigned long long)p.tiles, p.params.mip_count(), (unsigned long long)p.file_bytes);
+      if (*pack_verify_cmd) {
+        const Status st = (*pack)->verify();
+        if (!st.ok()) {
+          std::fprintf(stderr, "damaged: %s\n", st.error().describe().c_str());
+          return kExitDamaged;
+        }
+        std::printf("verified          every tile decodes to its hash\n");
       }
       return 0;
     }
@@ -503,7 +602,13 @@ int main(int argc, char** argv) {
       return 0;
     }
     if (*info_cmd) {
-      auto snap = read_snapshot(snap_path);
+      // The snapshot's base: one this program generates (a fill, the refined default), else the
+      // session's tile pack that the log beside it names.
+      std::shared_ptr<const TileBase> base;
+      if (auto manifest = read_snapshot_manifest(snap_path)) {
+        if (auto known = server::known_base_of_snapshot(snap_path, manifest->base_identity)) base = *known;
+      }
+      auto snap = read_snapshot(snap_path, base);
       if (!snap) die(snap.error());
       const auto& m = snap->manifest;
       std::printf(

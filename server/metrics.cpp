@@ -67,6 +67,18 @@ std::string prometheus_text(const MetricsSnapshot& m) {
          m.edited_tile_bytes);
   metric(out, "loam_base_cache_bytes", "gauge", "Clean base tiles held in memory (--cache-mb).",
          m.base_cache_bytes);
+  metric(out, "loam_unpersisted_tile_bytes", "gauge",
+         "Samples of edited tiles no snapshot holds yet (a snapshot is due at --snapshot-dirty-mb).",
+         m.unpersisted_tile_bytes);
+  metric(out, "loam_edited_tiles_loaded_total", "counter",
+         "Evicted edited tiles read back from the snapshot store.", m.edited_tiles_loaded);
+  metric(out, "loam_snapshots_total", "counter", "Snapshots written since start.", m.snapshots);
+  metric(out, "loam_snapshot_written_bytes_total", "counter", "Bytes snapshots wrote since start.",
+         m.snapshot_bytes_written);
+  metric(out, "loam_snapshot_store_bytes", "gauge", "Tiles files the newest snapshot names.",
+         m.snapshot_store_bytes);
+  metric(out, "loam_snapshot_live_bytes", "gauge", "Records in those files the newest snapshot uses.",
+         m.snapshot_live_bytes);
   metric(out, "loam_base_tiles_generated_total", "counter", "Base tiles generated or read so far.",
          m.base_tiles_generated);
   metric(out, "loam_pending_deforms", "gauge", "Deforms admitted and waiting for a tick.", m.pending_deforms);

@@ -32,8 +32,12 @@ struct MetricsSnapshot {
   uint64_t region_cache_bytes = 0, history_bytes = 0;
   // The world: samples of edited tiles, clean base tiles cached, base tiles generated so far.
   uint64_t edited_tile_bytes = 0, base_cache_bytes = 0, base_tiles_generated = 0;
-  uint64_t pending_deforms = 0, pending_stamp_cost = 0;  // waiting for a tick
-  uint64_t max_queue_bytes = 0;                          // the largest client send queue
+  // Edited tiles no snapshot holds yet (not evictable), and edited tiles read back from the store.
+  uint64_t unpersisted_tile_bytes = 0, edited_tiles_loaded = 0;
+  uint64_t snapshots = 0, snapshot_bytes_written = 0;          // since start
+  uint64_t snapshot_store_bytes = 0, snapshot_live_bytes = 0;  // the tiles files the newest snapshot names
+  uint64_t pending_deforms = 0, pending_stamp_cost = 0;        // waiting for a tick
+  uint64_t max_queue_bytes = 0;                                // the largest client send queue
   uint64_t tick_overruns = 0, storage_failures = 0;
   uint64_t snapshot_sequence = 0;
   TickHistogram ticks;

@@ -1,8 +1,12 @@
 #include "server/replay.h"
 
+#include <filesystem>
+#include <optional>
+
 #include "dem/stamp_texture_io.h"
 #include "gpu/stamp_backend.h"
 #include "protocol/log/log_file.h"
+#include "protocol/snapshot/snapshot.h"
 #include "server/stamp_image_store.h"
 #include "server/terrain_source.h"
 #include "server/terrain_state.h"
@@ -33,10 +37,31 @@ Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const 
   auto scans = log::read_log(readable);
   if (!scans) return scans.error();
   const log::SegmentHeader& first = scans->front().header.header;
+  // A log whose first segments were pruned (retention) starts at the snapshot its first
+  // remaining segment continues, when the data folder still holds it.
+  std::optional<LoadedSnapshot> start;
   if (first.base_seq != 0) {
-    return make_error(ErrorCode::kInvalidArgument, segments.front(),
-                      "replay starts at segment 0 (this segment continues from sequence " +
-                          std::to_string(first.base_seq) + ")");
+    const std::string snap_path =
+        data_dir.empty()
+            ? std::string()
+            : (std::filesystem::path(data_dir) / "snapshots" / snapshot_dir_name(first.base_snapshot_id))
+                  .string();
+    std::error_code ec;
+    if (snap_path.empty() || !std::filesystem::exists(snap_path, ec)) {
+      return make_error(
+          ErrorCode::kInvalidArgument, segments.front(),
+          "replay starts at segment 0 or at a kept snapshot (this segment continues from sequence " +
+              std::to_string(first.base_seq) + ", and its snapshot is not in the data folder)");
+    }
+    auto manifest = read_snapshot_manifest(snap_path);
+    if (!manifest) return manifest.error();
+    auto base = resolve_base(manifest->base_identity, first.initial, data_dir);
+    if (!base) return base.error();
+    auto loaded = read_snapshot(snap_path, *base);
+    if (!loaded) return loaded.error();
+    if (loaded->manifest.last_seq != first.base_seq)
+      return make_error(ErrorCode::kCorrupt, snap_path, "the snapshot is not at the segment's base sequence");
+    start.emplace(std::move(*loaded));
   }
   for (size_t i = 0; i < scans->size(); ++i) {
     const log::SegmentScan& scan = (*scans)[i];
@@ -47,9 +72,13 @@ Result<ReplayResult> replay_log(const std::vector<std::string>& segments, const 
                           "; the records after it cannot be read, so the hash would not be the session's "
                           "(--allow-damaged replays what can be read)");
   }
-  auto world = load_described_terrain(first.initial, first.world, data_dir);
+  auto world = start ? Result<World>(std::move(start->world))
+                     : load_described_terrain(first.initial, first.world, data_dir);
   if (!world) return world.error();
-  TerrainState terrain(std::move(*world), 0);
+  TerrainState terrain(std::move(*world), start ? first.base_seq : 0);
+  if (start) {
+    for (const StampTexture& t : start->textures) (void)terrain.textures().add(t.width, t.height, t.samples);
+  }
   if (!data_dir.empty()) {
     const LoadedImages stored = load_stamp_images(data_dir, terrain.textures());
     (void)stored;  // a damaged image fails the record that needs it, by name

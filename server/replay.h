@@ -21,8 +21,10 @@ struct ReplayResult {
   std::string tail_damage;  // a damaged tail that was ignored (only with allow_damaged)
 };
 
-// `segments` in order (segment 0 first); `data_dir` is where snapshot-based initial terrains
-// are found (the folder holding snapshots/). Stops after `until_seq`. `backend` evaluates the
+// `segments` in order (segment 0 first, or, where retention removed the first segments, the
+// first one kept: the replay then starts from the snapshot it continues, which must be in
+// `data_dir`); `data_dir` is where snapshot-based initial terrains are found (the folder
+// holding snapshots/). Stops after `until_seq`. `backend` evaluates the
 // stamps (the GPU must give the CPU reference's integers, so the hash is the same).
 // `stamp_images` are texture-stamp image files to register besides those stored under
 // <data_dir>/images. A damaged segment (its records end before the file does) is an Error

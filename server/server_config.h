@@ -18,7 +18,7 @@ struct ServerConfig {
   std::string metrics_bind;               // HOST:PORT of the Prometheus /metrics endpoint; empty: none
   std::string dem_path;                   // empty: the embedded terrain `terrain` names
   std::string terrain = "crop";           // crop | refined (server/terrain_source.h)
-  uint64_t cache_mb = 256;                // clean base tiles kept in memory (World's base cache)
+  uint64_t cache_mb = 256;                // clean tiles kept in memory: the base's and persisted edits
   int dem_band = 0;                       // the DEM's height band (1-based); 0: its only band
   std::vector<std::string> stamp_images;  // texture-stamp image files to register
   std::string data_dir = "loam-data";
@@ -67,8 +67,13 @@ struct ServerConfig {
   // Persistence and reporting.
   uint64_t snapshot_every_stamps = 20000;  // 0: only at shutdown
   double snapshot_interval_s = 600.0;      // 0: only by count and at shutdown
-  uint32_t hashes_every_ticks = 30;        // TileHashes to each client (0: never)
-  double stats_interval_s = 10.0;          // 0: no periodic stats lines
+  // A snapshot is also due when edited tiles no snapshot holds reach this many bytes (they
+  // cannot be evicted until one does). 0: never for that reason.
+  uint64_t snapshot_dirty_bytes = 32ull << 20;
+  uint32_t keep_snapshots = 3;                       // retention: the newest snapshots kept
+  uint64_t log_retention_bytes = uint64_t(1) << 30;  // covered segments go beyond this (UINT64_MAX: keep all)
+  uint32_t hashes_every_ticks = 30;                  // TileHashes to each client (0: never)
+  double stats_interval_s = 10.0;                    // 0: no periodic stats lines
   StampLimits stamp_limits;
 };
 

@@ -132,6 +132,7 @@ struct StorageOpener {
     if (!read_only) report.partial_snapshots_removed = remove_partial_snapshots(data_dir);
     Storage storage;
     storage.data_dir_ = data_dir;
+    storage.store_ = SnapshotStore::open(data_dir);
     std::vector<std::string> segments = list_segments(data_dir);
 
     if (segments.empty()) {
@@ -142,6 +143,8 @@ struct StorageOpener {
       log::InitialTerrain initial;
       auto world = load_initial_terrain(dem_path, &initial, dem_band, terrain_kind);
       if (!world) return world.error();
+      if (initial.import_params == kPackImportParams && !read_only)
+        LOAM_TRY(keep_pack_in_session(dem_path, data_dir));
       TerrainState terrain(std::move(*world), 0, limits);
       LOAM_TRY(register_images(terrain, data_dir, stamp_images, report));
       log::SegmentHeader h;
@@ -178,6 +181,10 @@ struct StorageOpener {
     }
     const uint64_t log_last = recovered->scan.last_seq();
 
+    // The session's initial terrain (every segment's header repeats it): a snapshot's base may
+    // be the tile pack it names.
+    log::InitialTerrain last_initial;
+    if (auto h = read_segment_header(segments.back())) last_initial = h->header.initial;
     // Newest valid snapshot that the log reaches, and the segment that continues it.
     std::optional<LoadedSnapshot> snap;
     size_t start = 0;
@@ -186,8 +193,10 @@ struct StorageOpener {
       auto loaded = [&]() -> Result<LoadedSnapshot> {
         auto manifest = read_snapshot_manifest(path);
         if (!manifest) return manifest.error();
-        auto snap_base = known_base(manifest->base_identity);
+        auto snap_base = resolve_base(manifest->base_identity, last_initial, data_dir);
         if (!snap_base) return snap_base.error();
+        // Incremental snapshots load through the session's store, which then continues them.
+        if (manifest->format == kSnapshotFormatIncremental) return storage.store_->load(path, *snap_base);
         return read_snapshot(path, *snap_base);
       }();
       if (!loaded) {
@@ -273,6 +282,8 @@ struct StorageOpener {
                                 ". Recovery stops rather than serve a world without an acknowledged stamp");
         }
         ++report.replayed_records;
+        // Clean tiles read by the replay go back under the cache budget as the server's ticks do.
+        if (report.replayed_records % 256 == 0) terrain.mutable_world().trim_base_cache();
       }
     }
     report.last_seq = terrain.last_seq();
@@ -343,17 +354,18 @@ Status Storage::resume(uint64_t last_seq) {
   return {};
 }
 
-Result<std::string> Storage::snapshot(const TerrainState& terrain, uint64_t tick, bool reuse_existing) {
+Result<SnapshotOutcome> Storage::snapshot(TerrainState& terrain, uint64_t tick, bool reuse_existing) {
   LOAM_TRY(writer_->sync());
   const uint32_t next = writer_->header().segment_index + 1;
-  std::string path;
+  SnapshotOutcome out;
   if (reuse_existing) {
-    path = (fs::path(data_dir_) / "snapshots" / snapshot_dir_name(terrain.last_seq())).string();
+    out.write.path = (fs::path(data_dir_) / "snapshots" / snapshot_dir_name(terrain.last_seq())).string();
+    out.write.last_seq = terrain.last_seq();
   } else {
-    auto written = write_snapshot(data_dir_, terrain.world(), terrain.last_seq(), next, terrain.textures(),
-                                  SnapshotSession{terrain.limits(), tick});
+    auto written = store_->write(terrain.mutable_world(), terrain.last_seq(), next, terrain.textures(),
+                                 SnapshotSession{terrain.limits(), tick});
     if (!written) return written.error();
-    path = *written;
+    out.write = *written;
   }
   log::SegmentHeader h;
   h.world = terrain.world().params();
@@ -370,8 +382,46 @@ Result<std::string> Storage::snapshot(const TerrainState& terrain, uint64_t tick
   if (!writer) return writer.error();
   writer_.emplace(std::move(*writer));
   last_snapshot_seq_ = terrain.last_seq();
-  return path;
+
+  // Retention. A failure here loses nothing (the snapshot and the log are in place): it is
+  // retried after the next snapshot.
+  auto pruned = store_->prune(RetentionPolicy{retention_.keep_snapshots});
+  if (!pruned) return out;
+  out.prune = *pruned;
+  std::vector<std::pair<std::string, uint64_t>> segments;  // oldest first
+  uint64_t total = 0;
+  std::error_code ec;
+  for (const std::string& seg : list_segments(data_dir_)) {
+    const uint64_t size = fs::file_size(seg, ec);
+    segments.push_back({seg, ec ? 0 : size});
+    total += ec ? 0 : size;
+  }
+  for (const auto& [seg, size] : segments) {
+    if (total <= retention_.log_cap_bytes) break;
+    auto seg_header = read_segment_header(seg);
+    if (!seg_header || seg_header->header.segment_index >= out.prune.oldest_needed_segment) break;
+    if (fs::remove(seg, ec) && !ec) {
+      total -= size;
+      ++out.segments_removed;
+      out.segment_bytes_removed += size;
+    }
+  }
+  if (out.segments_removed > 0) (void)fsync_path((fs::path(data_dir_) / "log").string());
+  return out;
 }
+
+namespace {
+uint64_t folder_bytes(const fs::path& dir) {
+  uint64_t n = 0;
+  std::error_code ec;
+  for (const auto& e : fs::recursive_directory_iterator(dir, ec))
+    if (e.is_regular_file(ec)) n += e.file_size(ec);
+  return n;
+}
+}  // namespace
+
+uint64_t Storage::log_bytes() const { return folder_bytes(fs::path(data_dir_) / "log"); }
+uint64_t Storage::snapshot_bytes() const { return folder_bytes(fs::path(data_dir_) / "snapshots"); }
 
 std::string Storage::segment_path_of(uint32_t index) const {
   return (fs::path(data_dir_) / "log" / log::segment_file_name(index)).string();

@@ -10,13 +10,21 @@
 // apply is an error naming it. If the options' limits differ from the recorded ones, a new
 // segment recording them starts before any new stamp. Durability is explicit: append()
 // buffers, sync() makes everything appended durable (the server acknowledges only after it).
+//
+// Snapshots are incremental (protocol/snapshot/snapshot_store.h): each writes the tiles changed
+// since the previous one. The store is also where the world reads evicted edited tiles back, so
+// the terrain's memory follows the server's cache budget and what changed since the last
+// snapshot. After each snapshot the retention policy prunes older snapshots, the tiles files
+// only they named, and log segments that the kept snapshots cover once the log exceeds its cap.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 
 #include "protocol/log/log_file.h"
 #include "protocol/result.h"
+#include "protocol/snapshot/snapshot_store.h"
 #include "server/terrain_source.h"
 #include "server/terrain_state.h"
 
@@ -44,6 +52,22 @@ struct RecoveryReport {
   uint64_t last_tick = 0;
 };
 
+// What the data folder keeps (docs/configuration.md, "Retention").
+struct StorageRetention {
+  uint32_t keep_snapshots = 3;  // the newest snapshots (at least 1)
+  // Log segments older than the oldest kept snapshot are removed, oldest first, while the log
+  // exceeds this many bytes; until then a replay from the initial terrain stays possible.
+  // UINT64_MAX: keep the whole log.
+  uint64_t log_cap_bytes = uint64_t(1) << 30;
+};
+
+struct SnapshotOutcome {
+  SnapshotWrite write;
+  PruneReport prune;
+  size_t segments_removed = 0;
+  uint64_t segment_bytes_removed = 0;
+};
+
 class Storage {
  public:
   Storage(Storage&&) noexcept = default;
@@ -65,8 +89,14 @@ class Storage {
   // behind and the log goes on in the current segment.
   // `reuse_existing`: a valid snapshot at the terrain's sequence is already there (only the
   // segment is new: the limits changed).
-  Result<std::string> snapshot(const TerrainState& terrain, uint64_t tick, bool reuse_existing = false);
+  // The tiles written become clean in the world (evictable under its cache budget).
+  Result<SnapshotOutcome> snapshot(TerrainState& terrain, uint64_t tick, bool reuse_existing = false);
   uint64_t last_snapshot_seq() const { return last_snapshot_seq_; }
+  void set_retention(const StorageRetention& r) { retention_ = r; }
+  const SnapshotStore& store() const { return *store_; }
+  // Bytes of the data folder's log segments and snapshots (walks the folder).
+  uint64_t log_bytes() const;
+  uint64_t snapshot_bytes() const;
   const std::string& data_dir() const { return data_dir_; }
   uint32_t segment_index() const { return writer_->header().segment_index; }
   // The tick of the last record (or segment start): the server's ticks continue from it.
@@ -84,6 +114,8 @@ class Storage {
   std::optional<log::LogWriter> writer_;
   log::InitialTerrain initial_;
   uint64_t last_snapshot_seq_ = 0;
+  std::shared_ptr<SnapshotStore> store_;
+  StorageRetention retention_;
 };
 
 struct OpenedStorage {

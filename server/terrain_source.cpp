@@ -1,11 +1,15 @@
 #include "server/terrain_source.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <functional>
 
 #include "dem/default_terrain.h"
 #include "dem/dem_import.h"
 #include "dem/refined_default.h"
+#include "protocol/base/tile_pack.h"
 #include "protocol/snapshot/snapshot.h"
 
 namespace loam::server {
@@ -15,6 +19,18 @@ constexpr const char* kDefaultParams = "embedded default terrain";
 constexpr const char* kRefinedParams = "embedded default terrain refined";
 constexpr const char* kDemParams = "default import options";
 constexpr const char* kBandPrefix = "default import options, band ";
+constexpr const char* kPackParams = kPackImportParams;
+
+bool is_pack_path(const std::string& path) {
+  const std::string ext = kPackExtension;
+  return path.size() > ext.size() && path.compare(path.size() - ext.size(), ext.size(), ext) == 0;
+}
+
+Result<World> load_pack_world(const std::string& path) {
+  auto pack = open_tile_pack(path);
+  if (!pack) return pack.error();
+  return World((*pack)->params(), *pack);
+}
 
 // The import parameters a log records for a DEM, and the band they name (0: none).
 std::string dem_params(int band) { return band > 0 ? kBandPrefix + std::to_string(band) : kDemParams; }
@@ -52,6 +68,22 @@ Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerr
     }
     return world;
   }
+  if (is_pack_path(dem_path)) {
+    // A pack is already a world's tiles: nothing is imported, and memory follows the tiles read.
+    auto world = load_pack_world(dem_path);
+    if (!world) return world.error();
+    world->set_initial_is_base(true);
+    if (described) {
+      *described = {};
+      described->world_hash = world->world_hash();
+      described->source = log::InitialSource::kDem;
+      std::error_code ec;
+      const auto abs = std::filesystem::absolute(dem_path, ec);
+      described->dem_path = ec ? dem_path : abs.string();
+      described->import_params = kPackParams;
+    }
+    return world;
+  }
   if (dem_path.empty() && terrain != kTerrainCrop)
     return make_error(ErrorCode::kInvalidArgument, "terrain",
                       "unknown embedded terrain '" + terrain + "' (crop or refined)");
@@ -79,6 +111,89 @@ Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerr
     }
   }
   return std::move(imported->world);
+}
+
+std::string pack_file_name(uint64_t identity) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%016llx%s", (unsigned long long)identity, kPackExtension);
+  return buf;
+}
+
+Result<std::shared_ptr<const TilePackBase>> find_session_pack(
+    const log::InitialTerrain& initial, const std::string& data_dir,
+    const std::function<bool(const std::shared_ptr<const TilePackBase>&)>& is_it) {
+  if (initial.source != log::InitialSource::kDem || initial.import_params != kPackParams)
+    return make_error(ErrorCode::kNotFound, "log.initial", "the session's base is not a tile pack");
+  // The path the log recorded, then the session's copies under <data>/bases/.
+  std::vector<std::string> candidates{initial.dem_path};
+  std::error_code ec;
+  if (!data_dir.empty()) {
+    for (const auto& e : std::filesystem::directory_iterator(std::filesystem::path(data_dir) / "bases", ec)) {
+      if (e.path().extension() == kPackExtension) candidates.push_back(e.path().string());
+    }
+  }
+  std::string tried;
+  for (const std::string& path : candidates) {
+    tried += (tried.empty() ? "" : ", ") + path;
+    auto pack = open_tile_pack(path);
+    if (!pack) {
+      if (pack.error().code == ErrorCode::kNotFound) continue;
+      return pack.error();
+    }
+    if (is_it(*pack)) return *pack;
+  }
+  return make_error(
+      ErrorCode::kNotFound, "base",
+      "the session's tile pack is missing (looked in " + tried +
+          "): restore it, or import the DEM again into a pack (the same samples give the same pack)");
+}
+
+Result<std::shared_ptr<const TileBase>> resolve_base(uint64_t identity, const log::InitialTerrain& initial,
+                                                     const std::string& data_dir) {
+  if (auto known = known_base(identity)) return known;
+  if (initial.source != log::InitialSource::kDem || initial.import_params != kPackParams)
+    return known_base(identity);
+  auto pack = find_session_pack(initial, data_dir, [&](const std::shared_ptr<const TilePackBase>& p) {
+    return p->identity() == identity;
+  });
+  if (!pack) return pack.error();
+  return std::shared_ptr<const TileBase>(*pack);
+}
+
+Result<std::shared_ptr<const TileBase>> known_base_of_snapshot(const std::string& snapshot_path,
+                                                               uint64_t identity) {
+  if (auto known = known_base(identity)) return known;
+  namespace fs = std::filesystem;
+  const fs::path data_dir = fs::path(snapshot_path).lexically_normal().parent_path().parent_path();
+  std::vector<fs::path> segments;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(data_dir / "log", ec))
+    if (e.path().extension() == ".loamlog") segments.push_back(e.path());
+  std::sort(segments.begin(), segments.end());
+  if (segments.empty()) return known_base(identity);
+  std::ifstream in(segments.back(), std::ios::binary);
+  std::vector<uint8_t> bytes(12 + log::kMaxHeaderBodyBytes + 8);
+  in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size()));
+  bytes.resize(size_t(in.gcount()));
+  auto h = log::decode_segment_header(bytes);
+  if (!h) return h.error();
+  return resolve_base(identity, h->header.initial, data_dir.string());
+}
+
+Status keep_pack_in_session(const std::string& pack_path, const std::string& data_dir) {
+  auto pack = open_tile_pack(pack_path);
+  if (!pack) return pack.error();
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path dir = fs::path(data_dir) / "bases";
+  fs::create_directories(dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, dir.string(), "cannot create: " + ec.message());
+  const fs::path link = dir / pack_file_name((*pack)->identity());
+  if (fs::exists(link, ec)) return {};
+  // A hard link costs nothing and survives the original's removal; across file systems the
+  // session goes on referring to the pack by its path.
+  fs::create_hard_link(pack_path, link, ec);
+  return {};
 }
 
 std::string world_params_difference(const WorldParams& a, const WorldParams& b) {
@@ -118,6 +233,15 @@ Result<World> load_described_terrain(const log::InitialTerrain& initial, const W
         }
         return load_initial_terrain("", nullptr);
       case log::InitialSource::kDem: {
+        if (initial.import_params == kPackParams) {
+          auto pack = find_session_pack(initial, data_dir, [&](const std::shared_ptr<const TilePackBase>& p) {
+            return World(p->params(), p).matches_recorded_hash(initial.world_hash);
+          });
+          if (!pack) return pack.error();
+          World w((*pack)->params(), *pack);
+          w.set_initial_is_base(true);
+          return w;
+        }
         auto band = band_of(initial.import_params);
         if (!band) return band.error();
         return load_initial_terrain(initial.dem_path, nullptr, *band);
@@ -127,7 +251,7 @@ Result<World> load_described_terrain(const log::InitialTerrain& initial, const W
             std::filesystem::path(data_dir) / "snapshots" / snapshot_dir_name(initial.snapshot_id);
         auto manifest = read_snapshot_manifest(path.string());
         if (!manifest) return manifest.error();
-        auto base = known_base(manifest->base_identity);
+        auto base = resolve_base(manifest->base_identity, initial, data_dir);
         if (!base) return base.error();
         auto snap = read_snapshot(path.string(), *base);
         if (!snap) return snap.error();

@@ -17,7 +17,11 @@ namespace loam::server {
 inline constexpr const char* kTerrainCrop = "crop";        // the ETOPO5 crop at 2 m (2 x 1.5 km)
 inline constexpr const char* kTerrainRefined = "refined";  // the crop refined 128x (131 x 98 km at 1 m)
 
-// Loads a DEM file, or without one the embedded terrain `terrain` names, and describes it.
+// What a log records as the import parameters of a session on a tile pack.
+inline constexpr const char* kPackImportParams = "tile pack";
+
+// Loads a DEM file (a tile pack, .loampack, is opened as the world's base: nothing imported),
+// or without one the embedded terrain `terrain` names, and describes it.
 // `band` names the DEM's height band (0: its only band); the description records it.
 Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band = 0,
                                    const std::string& terrain = kTerrainCrop);
@@ -30,6 +34,21 @@ Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerr
 // Snapshot sources are looked up under <data_dir>/snapshots.
 Result<World> load_described_terrain(const log::InitialTerrain& initial, const WorldParams& logged,
                                      const std::string& data_dir);
+
+// The base a snapshot names: one this program generates (known_base), else the session's tile
+// pack (the log's initial terrain names it): its copy under <data_dir>/bases/ or the path the
+// log recorded, with that identity. kNotFound says where it looked.
+Result<std::shared_ptr<const TileBase>> resolve_base(uint64_t identity, const log::InitialTerrain& initial,
+                                                     const std::string& data_dir);
+// The base of the snapshot at `snapshot_path` (<data>/snapshots/snapshot-<seq>) with this
+// identity: resolve_base with the initial terrain of the log beside it.
+Result<std::shared_ptr<const TileBase>> known_base_of_snapshot(const std::string& snapshot_path,
+                                                               uint64_t identity);
+// A fresh session on a tile pack keeps it under <data_dir>/bases/<identity>.loampack (a hard
+// link where the file system allows), so the session still finds its base if the original moves.
+Status keep_pack_in_session(const std::string& pack_path, const std::string& data_dir);
+// "<identity, 16 hex digits>.loampack"
+std::string pack_file_name(uint64_t identity);
 
 // "" when a and b are equal, else the first parameter that differs, with both values.
 std::string world_params_difference(const WorldParams& a, const WorldParams& b);

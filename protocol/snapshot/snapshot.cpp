@@ -14,6 +14,8 @@
 
 #include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
+#include "protocol/snapshot/snapshot_io.h"
+#include "protocol/snapshot/snapshot_store.h"
 #include "protocol/tile_hash.h"
 
 namespace loam {
@@ -28,10 +30,9 @@ Error io_error(const std::string& path, const std::string& what) {
   return make_error(ErrorCode::kIo, path, what + ": " + std::strerror(errno));
 }
 
-void put(std::vector<uint8_t>& out, const void* p, size_t n) {
-  const auto* b = static_cast<const uint8_t*>(p);
-  out.insert(out.end(), b, b + n);
-}
+}  // namespace
+
+namespace {
 
 struct Reader {
   std::span<const uint8_t> bytes;
@@ -46,6 +47,10 @@ struct Reader {
     return v;
   }
 };
+
+}  // namespace
+
+namespace snapshot_io {
 
 Status write_file_synced(const std::string& path, std::span<const uint8_t> bytes) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
@@ -103,7 +108,11 @@ Result<WorldParams> world_from_json(const nlohmann::json& j, const std::string& 
   return p;
 }
 
-}  // namespace
+}  // namespace snapshot_io
+
+using snapshot_io::world_from_json;
+using snapshot_io::world_json;
+using snapshot_io::write_file_synced;
 
 Status fsync_path(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
@@ -120,100 +129,43 @@ std::string snapshot_dir_name(uint64_t snapshot_id) {
   return buf;
 }
 
-Result<std::string> write_snapshot(const std::string& data_dir, const World& world, uint64_t last_seq,
-                                   uint32_t next_segment_index, const TextureRegistry& textures,
-                                   const SnapshotSession& session) {
-  const WorldParams& p = world.params();
-  std::vector<uint8_t> bin;
-  put(bin, kMagic, sizeof kMagic);
-  append_le<uint32_t>(bin, kFormat);
-  size_t coarse = 0, detail = 0;
-  auto put_tile = [&](const TileCoord& c, std::span<const uint8_t> payload) {
-    const TileState st = world.tile_state(c);
-    append_le<uint8_t>(bin, uint8_t(c.layer));
-    append_le<uint8_t>(bin, c.mip);
-    append_le<int32_t>(bin, c.tx);
-    append_le<int32_t>(bin, c.ty);
-    append_le<uint64_t>(bin, st.version);
-    append_le<uint64_t>(bin, st.hash);
-    append_le<uint32_t>(bin, uint32_t(payload.size()));
-    put(bin, payload.data(), payload.size());
-  };
-  // Section 1: mip-0 coarse tiles with samples: the edited ones (tiles never written are the
-  // base's, which the manifest names).
-  const auto edited0 = world.edited_coarse_tiles(0);
-  append_le<uint32_t>(bin, uint32_t(edited0.size()));
-  for (const TileCoord& c : edited0) {
-    const auto samples = world.coarse_tile(0, c.tx, c.ty);
-    auto enc = encode_region(RegionEncoding::kFast, samples, kTileSize, kTileSize);
-    if (!enc) return enc.error();
-    put_tile(c, *enc);
-    ++coarse;
-  }
-  // Section 2: stored detail tiles with samples.
-  const auto dtiles = world.stored_detail_tiles();
-  append_le<uint32_t>(bin, uint32_t(dtiles.size()));
-  for (const TileCoord& c : dtiles) {
-    auto enc = encode_region(RegionEncoding::kFast, world.detail_tile(c.tx, c.ty), kTileSize, kTileSize);
-    if (!enc) return enc.error();
-    put_tile(c, *enc);
-    ++detail;
-  }
-  // Section 3: versions of the edited mip > 0 tiles (content is derived from mip 0).
-  std::vector<TileCoord> mip_tiles;
-  for (int32_t m = 1; m < p.mip_count(); ++m) {
-    const auto edited = world.edited_coarse_tiles(m);
-    mip_tiles.insert(mip_tiles.end(), edited.begin(), edited.end());
-  }
-  append_le<uint32_t>(bin, uint32_t(mip_tiles.size()));
-  for (const TileCoord& c : mip_tiles) put_tile(c, {});
-  // Section 4: texture-stamp images (content-addressed: the id is recomputed on load).
-  const auto images = textures.all();
-  append_le<uint32_t>(bin, uint32_t(images.size()));
-  for (const StampTexture* t : images) {
-    append_le<uint64_t>(bin, t->id);
-    append_le<int32_t>(bin, t->width);
-    append_le<int32_t>(bin, t->height);
-    put(bin, t->samples.data(), t->samples.size() * sizeof(uint16_t));
-  }
-  append_le<uint64_t>(bin, XXH3_64bits(bin.data(), bin.size()));
+namespace snapshot_io {
 
-  const auto now = std::chrono::system_clock::now().time_since_epoch();
-  nlohmann::json m = {
-      {"format", kFormat},
-      {"snapshot_id", last_seq},
-      {"last_seq", last_seq},
-      {"world_hash", world.world_hash()},
-      {"created_unix_us", uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(now).count())},
-      {"next_segment_index", next_segment_index},
-      {"coarse_tiles", coarse},
-      {"detail_tiles", detail},
-      {"tiles_bytes", bin.size()},
-      {"world", world_json(p)},
-      {"world_hash_covers_params", true},
-      {"base_identity", world.base().identity()},
-      {"base", world.base().describe()},
-      {"initial_is_base", world.initial_is_base()},
-      {"tick", session.tick},
-      {"limits",
-       {{"max_radius_samples", session.limits.max_radius_samples},
-        {"max_shockwave_steps", session.limits.max_shockwave_steps},
-        {"max_shockwave_cells", session.limits.max_shockwave_cells}}}};
-  const std::string text = m.dump(1) + "\n";
+nlohmann::json manifest_json(const SnapshotManifest& m, uint32_t format) {
+  return {{"format", format},
+          {"snapshot_id", m.snapshot_id},
+          {"last_seq", m.last_seq},
+          {"world_hash", m.world_hash},
+          {"created_unix_us", m.created_unix_us},
+          {"next_segment_index", m.next_segment_index},
+          {"coarse_tiles", m.coarse_tiles},
+          {"detail_tiles", m.detail_tiles},
+          {"tiles_bytes", m.tiles_bytes},
+          {"world", world_json(m.world)},
+          {"world_hash_covers_params", true},
+          {"base_identity", m.base_identity},
+          {"base", m.base_description},
+          {"initial_is_base", m.initial_is_base},
+          {"tick", m.tick},
+          {"limits",
+           {{"max_radius_samples", m.limits.max_radius_samples},
+            {"max_shockwave_steps", m.limits.max_shockwave_steps},
+            {"max_shockwave_cells", m.limits.max_shockwave_cells}}}};
+}
 
+Result<std::string> publish(const std::string& data_dir, uint64_t snapshot_id,
+                            const std::vector<std::pair<std::string, std::span<const uint8_t>>>& files) {
   std::error_code ec;
   const fs::path root = fs::path(data_dir) / "snapshots";
   fs::create_directories(root, ec);
   if (ec) return make_error(ErrorCode::kIo, root.string(), "cannot create: " + ec.message());
-  const fs::path final_dir = root / snapshot_dir_name(last_seq);
-  const fs::path tmp = root / (".tmp-" + snapshot_dir_name(last_seq));
+  const fs::path final_dir = root / snapshot_dir_name(snapshot_id);
+  const fs::path tmp = root / (".tmp-" + snapshot_dir_name(snapshot_id));
   fs::remove_all(tmp, ec);
   const Status written = [&]() -> Status {
     fs::create_directories(tmp, ec);
     if (ec) return make_error(ErrorCode::kIo, tmp.string(), "cannot create: " + ec.message());
-    LOAM_TRY(write_file_synced((tmp / "tiles.bin").string(), bin));
-    LOAM_TRY(write_file_synced((tmp / "manifest.json").string(),
-                               std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size())));
+    for (const auto& [name, bytes] : files) LOAM_TRY(write_file_synced((tmp / name).string(), bytes));
     LOAM_TRY(fsync_path(tmp.string()));
     if (fs::exists(final_dir)) fs::remove_all(final_dir, ec);  // same id rewritten (e.g. shutdown twice)
     fs::rename(tmp, final_dir, ec);
@@ -228,6 +180,16 @@ Result<std::string> write_snapshot(const std::string& data_dir, const World& wor
   }
   LOAM_TRY(fsync_path(root.string()));
   return final_dir.string();
+}
+
+}  // namespace snapshot_io
+
+Result<std::string> write_snapshot(const std::string& data_dir, World& world, uint64_t last_seq,
+                                   uint32_t next_segment_index, const TextureRegistry& textures,
+                                   const SnapshotSession& session) {
+  auto written = SnapshotStore::open(data_dir)->write(world, last_seq, next_segment_index, textures, session);
+  if (!written) return written.error();
+  return written->path;
 }
 
 size_t remove_partial_snapshots(const std::string& data_dir) {
@@ -254,8 +216,15 @@ Result<SnapshotManifest> read_snapshot_manifest(const std::string& path) {
     return make_error(ErrorCode::kCorrupt, mpath, "manifest does not parse");
   SnapshotManifest m;
   try {
-    if (j.at("format").get<uint32_t>() != kFormat) {
-      return make_error(ErrorCode::kUnsupported, mpath, "unknown snapshot format " + j.at("format").dump());
+    m.format = j.at("format").get<uint32_t>();
+    if (m.format != kFormat && m.format != kSnapshotFormatIncremental) {
+      return make_error(
+          ErrorCode::kUnsupported, mpath,
+          "unknown snapshot format " + j.at("format").dump() + " (this build reads formats 2 and 3)");
+    }
+    if (m.format == kSnapshotFormatIncremental) {
+      m.index_bytes = j.at("index_bytes").get<uint64_t>();
+      m.tile_files = j.at("tile_files").get<std::vector<uint64_t>>();
     }
     m.snapshot_id = j.at("snapshot_id").get<uint64_t>();
     m.last_seq = j.at("last_seq").get<uint64_t>();
@@ -288,9 +257,15 @@ Result<SnapshotManifest> read_snapshot_manifest(const std::string& path) {
   return m;
 }
 
-Result<LoadedSnapshot> read_snapshot(const std::string& path, std::shared_ptr<const TileBase> base) {
+Result<LoadedSnapshot> read_snapshot(const std::string& path, std::shared_ptr<const TileBase> base,
+                                     bool verify_tiles) {
   auto manifest = read_snapshot_manifest(path);
   if (!manifest) return manifest.error();
+  if (manifest->format == kSnapshotFormatIncremental) {
+    // <data>/snapshots/snapshot-<seq>: the store is the data folder's.
+    const std::string data_dir = fs::path(path).lexically_normal().parent_path().parent_path().string();
+    return SnapshotStore::open(data_dir)->load(path, std::move(base), verify_tiles);
+  }
   const std::string tpath = (fs::path(path) / "tiles.bin").string();
   std::ifstream in(tpath, std::ios::binary);
   if (!in) return make_error(ErrorCode::kNotFound, tpath, "cannot open");

@@ -668,7 +668,12 @@ void ReplicationCore::maybe_snapshot(CoreTime now, bool force) {
   if (!force && now < snapshot_retry_after_) return;
   const uint64_t since = terrain_.last_seq() - storage_.last_snapshot_seq();
   const double age = seconds(now - last_snapshot_time_);
-  const bool due = force || (config_.snapshot_every_stamps > 0 && since >= config_.snapshot_every_stamps) ||
+  // Edited tiles no snapshot holds cannot be evicted: past the dirty budget, a snapshot makes
+  // them clean so the world stays within its cache budget.
+  const bool dirty_full = config_.snapshot_dirty_bytes > 0 &&
+                          terrain_.world().unpersisted_bytes() >= config_.snapshot_dirty_bytes;
+  const bool due = force || dirty_full ||
+                   (config_.snapshot_every_stamps > 0 && since >= config_.snapshot_every_stamps) ||
                    (config_.snapshot_interval_s > 0 && age >= config_.snapshot_interval_s && since > 0);
   // Nothing new since the last snapshot (or since the initial terrain, which segment 0's
   // header already describes): a snapshot would add nothing.
@@ -688,10 +693,21 @@ void ReplicationCore::maybe_snapshot(CoreTime now, bool force) {
     return;
   }
   snapshot_backoff_s_ = 0;
+  const SnapshotWrite& w = path->write;
+  stats_.snapshot_bytes_written += w.written_bytes;
+  ++stats_.snapshots;
   log_event(
       "snapshot",
-      {{"path", *path},
+      {{"path", w.path},
        {"seq", std::to_string(terrain_.last_seq())},
+       {"tiles", std::to_string(w.tiles_written)},
+       {"tile_bytes", std::to_string(w.tile_bytes)},
+       {"moved_bytes", std::to_string(w.moved_bytes)},
+       {"index_bytes", std::to_string(w.index_bytes)},
+       {"written_bytes", std::to_string(w.written_bytes)},
+       {"snapshots_removed", std::to_string(path->prune.snapshots_removed)},
+       {"tile_files_removed", std::to_string(path->prune.tile_files_removed)},
+       {"segments_removed", std::to_string(path->segments_removed)},
        {"ms", std::to_string(std::chrono::duration<double, std::milli>(CoreClock::now() - t0).count())}});
 }
 
@@ -732,6 +748,12 @@ MetricsSnapshot ReplicationCore::metrics(uint64_t max_queue_bytes) const {
   m.edited_tile_bytes = terrain_.world().edited_bytes();
   m.base_cache_bytes = terrain_.world().base_cache_bytes();
   m.base_tiles_generated = terrain_.world().base_tiles_generated();
+  m.unpersisted_tile_bytes = terrain_.world().unpersisted_bytes();
+  m.edited_tiles_loaded = terrain_.world().edited_tiles_loaded();
+  m.snapshots = stats_.snapshots;
+  m.snapshot_bytes_written = stats_.snapshot_bytes_written;
+  m.snapshot_store_bytes = storage_.store().file_bytes();
+  m.snapshot_live_bytes = storage_.store().live_bytes();
   m.pending_deforms = pending_.size();
   for (const PendingDeform& p : pending_) m.pending_stamp_cost += p.cost;
   m.max_queue_bytes = max_queue_bytes;
@@ -771,6 +793,8 @@ void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
                       {"edited_tile_bytes", std::to_string(terrain_.world().edited_bytes())},
                       {"base_cache_bytes", std::to_string(terrain_.world().base_cache_bytes())},
                       {"base_tiles_generated", std::to_string(terrain_.world().base_tiles_generated())},
+                      {"unpersisted_tile_bytes", std::to_string(terrain_.world().unpersisted_bytes())},
+                      {"edited_tiles_loaded", std::to_string(terrain_.world().edited_tiles_loaded())},
                       {"max_queue_bytes", std::to_string(max_queue_bytes)},
                       {"tick_p50_ms", std::to_string(last_p50_ms_)},
                       {"tick_p99_ms", std::to_string(last_p99_ms_)},

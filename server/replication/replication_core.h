@@ -58,6 +58,7 @@ struct ServerStats {
   uint64_t regions_sent = 0, partial_regions_sent = 0, events_sent = 0;
   uint64_t tick_overruns = 0;
   uint64_t storage_failures = 0;  // syncs that failed (a full disk): edits refused until resumed
+  uint64_t snapshots = 0, snapshot_bytes_written = 0;
 };
 
 // What the transport must do after a call into the core.

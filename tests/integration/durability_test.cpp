@@ -16,6 +16,7 @@
 
 #include "dem/default_terrain.h"
 #include "dem/dem_export.h"
+#include "protocol/hex64.h"
 #include "protocol/log/log_file.h"
 #include "protocol/snapshot/snapshot.h"
 #include "server/storage.h"
@@ -188,6 +189,55 @@ TEST(Durability, DamagedOldSegmentCoveredByASnapshotDoesNotBlockStartup) {
   EXPECT_EQ(c.welcome().global_sequence, last);
   EXPECT_EQ(deform_all(c, 2, 99), last + 2);
   EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
+// The server's terrain memory follows --cache-mb: edited tiles a snapshot holds are evicted and
+// read back from the store. With a cache of one tile and a snapshot at every 64 KiB of dirty
+// tiles, a session evicts and reloads edited tiles all the time; it must serve the replayed
+// world before and after a restart, and retention must leave only the kept snapshots and
+// the log they need, from which `replay` still reproduces the world.
+TEST(Durability, EditedTilesEvictedToIncrementalSnapshotsServeTheLoggedWorldAcrossARestart) {
+  const std::string dir = temp_data_dir("evict");
+  const std::vector<std::string> opts = {"--cache-mb",         "1",  "--snapshot-dirty-mb", "0",
+                                         "--snapshot-every",   "15", "--keep-snapshots",    "2",
+                                         "--log-retention-mb", "0",  "--tick-hz",           "120"};
+  uint64_t last = 0;
+  {
+    ServerProcess server;
+    ASSERT_TRUE(server.start(dir, opts)) << server.log();
+    client::TerrainClient c;
+    ASSERT_TRUE(c.connect("127.0.0.1", server.port(), "evict").ok());
+    for (uint32_t round = 0; round < 6; ++round) last = deform_all(c, 10, 300 + round);
+    EXPECT_EQ(server.terminate(), 0) << server.log();
+    EXPECT_NE(server.log().find("event=snapshot "), std::string::npos) << server.log();
+  }
+  // Retention: two snapshots, and no segment older than the older one's.
+  EXPECT_EQ(list_snapshots(dir).size(), 2u);
+  const auto segs = server::list_segments(dir);
+  ASSERT_FALSE(segs.empty());
+  EXPECT_EQ(segs.front().find("segment-00000000"), std::string::npos) << "segment 0 is pruned";
+  const Exit replay = run("replay " + dir);
+  ASSERT_EQ(replay.code, 0) << replay.out;
+  auto snap = read_snapshot_manifest(list_snapshots(dir).front());
+  ASSERT_TRUE(snap.ok());
+  EXPECT_NE(replay.out.find(hex64(snap->world_hash)), std::string::npos)
+      << "replay from the kept snapshot reproduces the newest one: " << replay.out;
+
+  ServerProcess restarted;
+  ASSERT_TRUE(restarted.start(dir, opts)) << restarted.log();
+  EXPECT_NE(restarted.log().find("snapshot=" + list_snapshots(dir).front()), std::string::npos)
+      << restarted.log();
+  client::TerrainClient c;
+  ASSERT_TRUE(c.connect("127.0.0.1", restarted.port(), "after").ok());
+  EXPECT_EQ(c.welcome().global_sequence, last);
+  std::vector<TileCoord> tiles = c.all_coarse_tiles(0);
+  ASSERT_TRUE(c.subscribe(tiles).ok());
+  ASSERT_TRUE(c.wait_until([&] { return c.store().held().size() == tiles.size(); }, 30s));
+  auto loaded = read_snapshot(list_snapshots(dir).front());
+  ASSERT_TRUE(loaded.ok()) << loaded.error().describe();
+  EXPECT_TRUE(store_matches(c, loaded->world)) << restarted.log();
+  EXPECT_EQ(deform_all(c, 5, 77), last + 5);
+  EXPECT_EQ(restarted.terminate(), 0) << restarted.log();
 }
 
 TEST(Durability, ReplayAndLogToolsExitNonZeroOnADamagedLogUnlessAllowed) {

@@ -1,0 +1,721 @@
+#include "protocol/snapshot/snapshot_store.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <xxhash.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <set>
+
+#include "protocol/byte_order.h"
+#include "protocol/codec/region_codec.h"
+#include "protocol/snapshot/snapshot_io.h"
+#include "protocol/tile_hash.h"
+
+namespace loam {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr char kTilesMagic[8] = {'L', 'O', 'A', 'M', 'T', 'I', 'L', 'E'};
+constexpr char kIndexMagic[8] = {'L', 'O', 'A', 'M', 'S', 'I', 'D', 'X'};
+constexpr uint32_t kTilesFormat = 1;
+constexpr size_t kTilesHeaderSize = 16;
+constexpr size_t kRecordHeaderSize = 30;  // kind, mip, tx, ty, version, hash, size
+constexpr size_t kTilesTrailerSize = 16;  // record count, checksum
+constexpr size_t kIndexHeaderSize = 24;   // magic, format, entry count, image count
+constexpr size_t kIndexEntrySize = 54;
+constexpr size_t kIndexImageSize = 36;
+constexpr uint8_t kKindCoarse = 0, kKindDetail = 1, kKindImage = 2;
+// A tile's payload is at most its raw samples plus the codec's header and some slack; an
+// image's is its samples.
+constexpr uint32_t kMaxTilePayload = uint32_t(kRegionHeaderSize + kTileSamples * 2 + 64);
+constexpr uint64_t kMaxImagePayload = uint64_t(kMaxTextureSide) * kMaxTextureSide * 2;
+
+Error io_error(const std::string& path, const std::string& what) {
+  return make_error(ErrorCode::kIo, path, what + ": " + std::strerror(errno));
+}
+
+Status pread_all(int fd, uint64_t offset, std::span<uint8_t> out, const std::string& path) {
+  size_t done = 0;
+  while (done < out.size()) {
+    const ssize_t n = ::pread(fd, out.data() + done, out.size() - done, off_t(offset + done));
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return io_error(path, "read failed");
+    }
+    if (n == 0) return make_error(ErrorCode::kTruncated, path, "the file ends inside a record");
+    done += size_t(n);
+  }
+  return {};
+}
+
+Status write_all(int fd, std::span<const uint8_t> bytes, const std::string& path) {
+  size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return io_error(path, "write failed");
+    }
+    done += size_t(n);
+  }
+  return {};
+}
+
+void put_record_header(std::vector<uint8_t>& out, uint8_t kind, uint8_t mip, int32_t tx, int32_t ty,
+                       uint64_t version, uint64_t hash, uint32_t size) {
+  append_le<uint8_t>(out, kind);
+  append_le<uint8_t>(out, mip);
+  append_le<int32_t>(out, tx);
+  append_le<int32_t>(out, ty);
+  append_le<uint64_t>(out, version);
+  append_le<uint64_t>(out, hash);
+  append_le<uint32_t>(out, size);
+}
+
+std::string describe_entry(const StoredTile& e) {
+  if (e.kind == kKindImage) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "stamp image %016llx", (unsigned long long)e.hash);
+    return buf;
+  }
+  return to_string(TileCoord{Layer(e.kind), e.mip, e.tx, e.ty});
+}
+
+}  // namespace
+
+Result<SnapshotIndex> parse_snapshot_index(std::span<const uint8_t> bytes, const WorldParams& world,
+                                           const std::string& path) {
+  if (bytes.size() < kIndexHeaderSize + 8)
+    return make_error(ErrorCode::kTruncated, path, "shorter than an index");
+  if (std::memcmp(bytes.data(), kIndexMagic, 8) != 0)
+    return make_error(ErrorCode::kCorrupt, path, "not a snapshot index (bad magic)");
+  if (XXH3_64bits(bytes.data(), bytes.size() - 8) != load_le<uint64_t>(bytes.data() + bytes.size() - 8))
+    return make_error(ErrorCode::kCorrupt, path, "index checksum mismatch");
+  const uint32_t format = load_le<uint32_t>(bytes.data() + 8);
+  if (format != kSnapshotFormatIncremental)
+    return make_error(ErrorCode::kUnsupported, path, "index format " + std::to_string(format));
+  const uint64_t entries = load_le<uint64_t>(bytes.data() + 12);
+  const uint32_t images = load_le<uint32_t>(bytes.data() + 20);
+  const uint64_t body = bytes.size() - kIndexHeaderSize - 8;
+  if (entries > body / kIndexEntrySize || images > 4096 ||
+      entries * kIndexEntrySize + uint64_t(images) * kIndexImageSize != body)
+    return make_error(ErrorCode::kCorrupt, path, "entry counts do not match the index's size");
+  SnapshotIndex out;
+  out.tiles.reserve(size_t(entries));
+  const RectI detail_tiles = tiles_overlapping(world.detail_sample_rect());
+  const uint8_t* p = bytes.data() + kIndexHeaderSize;
+  std::set<TileCoord> seen;
+  for (uint64_t i = 0; i < entries; ++i, p += kIndexEntrySize) {
+    StoredTile e;
+    e.kind = p[0];
+    e.mip = p[1];
+    e.tx = load_le<int32_t>(p + 2);
+    e.ty = load_le<int32_t>(p + 6);
+    e.version = load_le<uint64_t>(p + 10);
+    e.hash = load_le<uint64_t>(p + 18);
+    e.base_hash = load_le<uint64_t>(p + 26);
+    e.file = load_le<uint64_t>(p + 34);
+    e.offset = load_le<uint64_t>(p + 42);
+    e.size = load_le<uint32_t>(p + 50);
+    const std::string what = "index entry " + std::to_string(i);
+    if (e.kind == kKindCoarse) {
+      if (e.mip >= world.mip_count() || !world.tile_range(e.mip).contains(e.tx, e.ty))
+        return make_error(ErrorCode::kCorrupt, path, what + ": coarse tile outside the world");
+      if (e.size < kRegionHeaderSize || e.size > kMaxTilePayload)
+        return make_error(ErrorCode::kCorrupt, path, what + ": payload size out of range");
+    } else if (e.kind == kKindDetail) {
+      if (e.mip != 0 || !detail_tiles.contains(e.tx, e.ty))
+        return make_error(ErrorCode::kCorrupt, path, what + ": detail tile outside the world");
+      if ((e.size != 0 && e.size < kRegionHeaderSize) || e.size > kMaxTilePayload)
+        return make_error(ErrorCode::kCorrupt, path, what + ": payload size out of range");
+      if (e.size == 0 && e.hash != zero_detail_tile_hash())
+        return make_error(ErrorCode::kCorrupt, path, what + ": a tile without samples must hash as zeros");
+    } else {
+      return make_error(ErrorCode::kCorrupt, path, what + ": unknown kind " + std::to_string(e.kind));
+    }
+    if (!seen.insert(TileCoord{Layer(e.kind), e.mip, e.tx, e.ty}).second)
+      return make_error(ErrorCode::kCorrupt, path, what + ": tile listed twice");
+    out.tiles.push_back(e);
+  }
+  for (uint32_t i = 0; i < images; ++i, p += kIndexImageSize) {
+    StoredTile e;
+    e.kind = kKindImage;
+    e.hash = load_le<uint64_t>(p);
+    e.tx = load_le<int32_t>(p + 8);
+    e.ty = load_le<int32_t>(p + 12);
+    e.file = load_le<uint64_t>(p + 16);
+    e.offset = load_le<uint64_t>(p + 24);
+    e.size = load_le<uint32_t>(p + 32);
+    if (e.tx <= 0 || e.ty <= 0 || e.tx > kMaxTextureSide || e.ty > kMaxTextureSide ||
+        uint64_t(e.size) != uint64_t(e.tx) * uint64_t(e.ty) * 2)
+      return make_error(ErrorCode::kCorrupt, path,
+                        "index image " + std::to_string(i) + ": size out of range");
+    out.images.push_back(e);
+  }
+  return out;
+}
+
+namespace {
+
+std::vector<uint8_t> serialize_index(const std::vector<StoredTile>& tiles,
+                                     const std::vector<StoredTile>& images) {
+  std::vector<uint8_t> b;
+  b.reserve(kIndexHeaderSize + tiles.size() * kIndexEntrySize + images.size() * kIndexImageSize + 8);
+  b.resize(8);
+  std::memcpy(b.data(), kIndexMagic, 8);
+  append_le<uint32_t>(b, kSnapshotFormatIncremental);
+  append_le<uint64_t>(b, uint64_t(tiles.size()));
+  append_le<uint32_t>(b, uint32_t(images.size()));
+  for (const StoredTile& e : tiles) {
+    append_le<uint8_t>(b, e.kind);
+    append_le<uint8_t>(b, e.mip);
+    append_le<int32_t>(b, e.tx);
+    append_le<int32_t>(b, e.ty);
+    append_le<uint64_t>(b, e.version);
+    append_le<uint64_t>(b, e.hash);
+    append_le<uint64_t>(b, e.base_hash);
+    append_le<uint64_t>(b, e.file);
+    append_le<uint64_t>(b, e.offset);
+    append_le<uint32_t>(b, e.size);
+  }
+  for (const StoredTile& e : images) {
+    append_le<uint64_t>(b, e.hash);
+    append_le<int32_t>(b, e.tx);
+    append_le<int32_t>(b, e.ty);
+    append_le<uint64_t>(b, e.file);
+    append_le<uint64_t>(b, e.offset);
+    append_le<uint32_t>(b, e.size);
+  }
+  append_le<uint64_t>(b, XXH3_64bits(b.data(), b.size()));
+  return b;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+uint64_t now_unix_us() {
+  return uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(
+                      std::chrono::system_clock::now().time_since_epoch())
+                      .count());
+}
+
+// Tiles files in the folder, by number.
+std::map<uint64_t, uint64_t> list_tiles_files(const std::string& dir) {
+  std::map<uint64_t, uint64_t> out;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    unsigned long long n = 0;
+    char tail[16] = {};
+    if (std::sscanf(name.c_str(), "tiles-%20llu.%15s", &n, tail) == 2 && std::string(tail) == "loamtiles") {
+      std::error_code sec;
+      out[n] = fs::file_size(e.path(), sec);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string snapshot_tiles_file_name(uint64_t n) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "tiles-%020llu.loamtiles", (unsigned long long)n);
+  return buf;
+}
+
+std::string snapshot_tiles_dir(const std::string& data_dir) {
+  return (fs::path(data_dir) / "snapshots" / "tiles").string();
+}
+
+std::shared_ptr<SnapshotStore> SnapshotStore::open(const std::string& data_dir) {
+  std::shared_ptr<SnapshotStore> s(new SnapshotStore(data_dir));
+  const auto existing = list_tiles_files(snapshot_tiles_dir(data_dir));
+  if (!existing.empty()) s->next_file_ = existing.rbegin()->first + 1;
+  return s;
+}
+
+SnapshotStore::~SnapshotStore() {
+  for (const auto& [n, fd] : fds_) ::close(fd);
+}
+
+std::string SnapshotStore::tiles_path(uint64_t file) const {
+  return (fs::path(snapshot_tiles_dir(data_dir_)) / snapshot_tiles_file_name(file)).string();
+}
+
+int SnapshotStore::fd_of(uint64_t file) const {
+  if (const auto it = fds_.find(file); it != fds_.end()) return it->second;
+  const int fd = ::open(tiles_path(file).c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd >= 0) fds_[file] = fd;
+  return fd;
+}
+
+Result<std::vector<uint8_t>> SnapshotStore::read_payload(const StoredTile& e) const {
+  const std::string path = tiles_path(e.file);
+  const int fd = fd_of(e.file);
+  if (fd < 0) return io_error(path, "cannot open");
+  std::vector<uint8_t> rec(kRecordHeaderSize + e.size);
+  LOAM_TRY(pread_all(fd, e.offset, rec, path));
+  const uint8_t* h = rec.data();
+  if (h[0] != e.kind || h[1] != e.mip || load_le<int32_t>(h + 2) != e.tx || load_le<int32_t>(h + 6) != e.ty ||
+      load_le<uint64_t>(h + 10) != e.version || load_le<uint64_t>(h + 18) != e.hash ||
+      load_le<uint32_t>(h + 26) != e.size)
+    return make_error(ErrorCode::kCorrupt, path,
+                      "the record at offset " + std::to_string(e.offset) + " is not " + describe_entry(e));
+  rec.erase(rec.begin(), rec.begin() + ptrdiff_t(kRecordHeaderSize));
+  return rec;
+}
+
+void SnapshotStore::damaged(const StoredTile& e, const Error& error) const {
+  std::fprintf(
+      stderr,
+      "loam: the snapshot store is damaged: %s: %s (check it with loam-server snapshot info --verify)\n",
+      describe_entry(e).c_str(), error.describe().c_str());
+  std::abort();
+}
+
+void SnapshotStore::read_coarse_tile(int32_t mip, int32_t tx, int32_t ty, std::span<uint16_t> out) const {
+  const auto it = index_.find(TileCoord{Layer::kCoarse, uint8_t(mip), tx, ty});
+  if (it == index_.end()) {
+    damaged(StoredTile{kKindCoarse, uint8_t(mip), tx, ty},
+            make_error(ErrorCode::kNotFound, "index", "the store does not hold this tile"));
+  }
+  const StoredTile& e = it->second;
+  auto payload = read_payload(e);
+  if (!payload) damaged(e, payload.error());
+  auto samples = decode_region(*payload, kTileSize, kTileSize, {}, e.hash);
+  if (!samples) damaged(e, samples.error());
+  std::copy(samples->begin(), samples->end(), out.begin());
+}
+
+void SnapshotStore::read_detail_tile(int32_t tx, int32_t ty, std::span<int8_t> out) const {
+  const auto it = index_.find(TileCoord{Layer::kDetail, 0, tx, ty});
+  if (it == index_.end()) {
+    damaged(StoredTile{kKindDetail, 0, tx, ty},
+            make_error(ErrorCode::kNotFound, "index", "the store does not hold this tile"));
+  }
+  const StoredTile& e = it->second;
+  if (e.size == 0) {
+    std::fill(out.begin(), out.end(), int8_t{0});
+    return;
+  }
+  auto payload = read_payload(e);
+  if (!payload) damaged(e, payload.error());
+  auto samples = decode_detail_region(*payload, kTileSize, kTileSize, {}, e.hash);
+  if (!samples) damaged(e, samples.error());
+  std::copy(samples->begin(), samples->end(), out.begin());
+}
+
+void SnapshotStore::recount_live() {
+  for (auto& [n, f] : files_) f.live = 0;
+  const auto add = [&](const StoredTile& e) { files_[e.file].live += kRecordHeaderSize + e.size; };
+  for (const auto& [c, e] : index_)
+    if (!(e.kind == kKindDetail && e.size == 0)) add(e);
+  for (const auto& [id, e] : images_) add(e);
+}
+
+uint64_t SnapshotStore::file_bytes() const {
+  uint64_t n = 0;
+  for (const auto& [k, f] : files_) n += f.bytes;
+  return n;
+}
+
+uint64_t SnapshotStore::live_bytes() const {
+  uint64_t n = 0;
+  for (const auto& [k, f] : files_) n += f.live;
+  return n;
+}
+
+Result<LoadedSnapshot> SnapshotStore::load(const std::string& path, std::shared_ptr<const TileBase> base,
+                                           bool verify_tiles) {
+  auto manifest = read_snapshot_manifest(path);
+  if (!manifest) return manifest.error();
+  const std::string mpath = (fs::path(path) / "manifest.json").string();
+  if (manifest->format != kSnapshotFormatIncremental)
+    return make_error(ErrorCode::kUnsupported, mpath, "not an incremental snapshot");
+  const std::string ipath = (fs::path(path) / "index.bin").string();
+  std::ifstream in(ipath, std::ios::binary);
+  if (!in) return make_error(ErrorCode::kNotFound, ipath, "cannot open");
+  const std::vector<uint8_t> bytes{std::istreambuf_iterator<char>(in), {}};
+  if (bytes.size() != manifest->index_bytes)
+    return make_error(ErrorCode::kCorrupt, ipath,
+                      "size " + std::to_string(bytes.size()) + " does not match the manifest");
+  auto parsed = parse_snapshot_index(bytes, manifest->world, ipath);
+  if (!parsed) return parsed.error();
+
+  // Every file the entries name must be one the manifest lists, present and long enough.
+  std::map<uint64_t, FileInfo> files;
+  for (const uint64_t n : manifest->tile_files) {
+    const std::string tp = tiles_path(n);
+    std::error_code ec;
+    const uint64_t size = fs::file_size(tp, ec);
+    if (ec) return make_error(ErrorCode::kNotFound, tp, "a tiles file the snapshot names is missing");
+    if (size < kTilesHeaderSize + kTilesTrailerSize)
+      return make_error(ErrorCode::kTruncated, tp, "shorter than a tiles file");
+    files[n].bytes = size;
+  }
+  for (const std::vector<StoredTile>* list : {&parsed->tiles, &parsed->images}) {
+    for (const StoredTile& e : *list) {
+      if (e.kind == kKindDetail && e.size == 0) continue;
+      const auto f = files.find(e.file);
+      if (f == files.end())
+        return make_error(ErrorCode::kCorrupt, ipath,
+                          describe_entry(e) + " names a file the manifest does not");
+      if (e.offset < kTilesHeaderSize || e.offset > f->second.bytes - kTilesTrailerSize ||
+          f->second.bytes - kTilesTrailerSize - e.offset < kRecordHeaderSize + e.size)
+        return make_error(ErrorCode::kCorrupt, ipath, describe_entry(e) + " lies outside its file");
+    }
+  }
+
+  if (!base) base = std::make_shared<FillBase>(0);
+  if (base->identity() != manifest->base_identity)
+    return make_error(ErrorCode::kUnsupported, mpath,
+                      "the snapshot edits the base '" + manifest->base_description +
+                          "', not the session's base '" + base->describe() + "'");
+
+  // The store now describes this snapshot.
+  index_.clear();
+  images_.clear();
+  for (const auto& [n, fd] : fds_) ::close(fd);
+  fds_.clear();
+  files_ = std::move(files);
+  for (const StoredTile& e : parsed->tiles) index_[TileCoord{Layer(e.kind), e.mip, e.tx, e.ty}] = e;
+  for (const StoredTile& e : parsed->images) images_[e.hash] = e;
+  recount_live();
+
+  const auto fail = [&](const Error& e) -> Error {
+    index_.clear();
+    images_.clear();
+    files_.clear();
+    return e;
+  };
+  if (verify_tiles) {
+    // Every record decodes to its hash, in file order (sequential reads).
+    std::vector<const StoredTile*> order;
+    for (const auto& [c, e] : index_)
+      if (!(e.kind == kKindDetail && e.size == 0)) order.push_back(&e);
+    std::sort(order.begin(), order.end(), [](const StoredTile* a, const StoredTile* b) {
+      return a->file != b->file ? a->file < b->file : a->offset < b->offset;
+    });
+    for (const StoredTile* e : order) {
+      auto payload = read_payload(*e);
+      if (!payload) return fail(payload.error());
+      std::optional<Error> bad;
+      if (e->kind == kKindCoarse) {
+        if (auto s = decode_region(*payload, kTileSize, kTileSize, {}, e->hash); !s) bad = s.error();
+      } else if (auto s = decode_detail_region(*payload, kTileSize, kTileSize, {}, e->hash); !s) {
+        bad = s.error();
+      }
+      if (bad)
+        return fail(make_error(ErrorCode::kCorrupt, tiles_path(e->file),
+                               describe_entry(*e) + ": " + bad->describe()));
+    }
+  }
+  std::vector<StampTexture> textures;
+  for (const auto& [id, e] : images_) {
+    auto payload = read_payload(e);
+    if (!payload) return fail(payload.error());
+    StampTexture t;
+    t.width = e.tx;
+    t.height = e.ty;
+    t.samples.resize(size_t(e.tx) * size_t(e.ty));
+    for (size_t i = 0; i < t.samples.size(); ++i) t.samples[i] = load_le<uint16_t>(payload->data() + i * 2);
+    t.id = texture_content_id(t.width, t.height, t.samples);
+    if (t.id != id)
+      return fail(
+          make_error(ErrorCode::kCorrupt, tiles_path(e.file), "texture content does not match its id"));
+    textures.push_back(std::move(t));
+  }
+
+  World world(manifest->world, std::move(base));
+  world.set_edit_source(shared_from_this());
+  for (const auto& [c, e] : index_) {
+    if (!world.adopt_persisted(c, TileState{e.version, e.hash}, e.base_hash))
+      return fail(make_error(ErrorCode::kCorrupt, ipath, describe_entry(e) + " is outside the world"));
+  }
+  world.set_initial_is_base(manifest->initial_is_base);
+  if (world.world_hash() != manifest->world_hash)
+    return fail(make_error(ErrorCode::kCorrupt, ipath, "world hash mismatch"));
+  return LoadedSnapshot{*manifest, std::move(world), path, std::move(textures)};
+}
+
+Result<SnapshotWrite> SnapshotStore::write(World& world, uint64_t last_seq, uint32_t next_segment_index,
+                                           const TextureRegistry& textures, const SnapshotSession& session) {
+  const auto t0 = std::chrono::steady_clock::now();
+  SnapshotWrite report;
+  report.last_seq = last_seq;
+  const std::string dir = snapshot_tiles_dir(data_dir_);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, dir, "cannot create: " + ec.message());
+
+  // What this snapshot writes: every edited tile this store does not hold at its state.
+  const auto edited = world.edited_tiles();
+  std::unordered_map<TileCoord, StoredTile, TileCoordHash> index;
+  index.reserve(edited.size());
+  std::vector<const World::EditedTileInfo*> changed;
+  for (const World::EditedTileInfo& t : edited) {
+    const auto it = index_.find(t.coord);
+    if (it != index_.end() && it->second.version == t.state.version && it->second.hash == t.state.hash) {
+      index.emplace(t.coord, it->second);
+    } else {
+      changed.push_back(&t);
+    }
+  }
+
+  const uint64_t file = next_file_;
+  const std::string path = tiles_path(file);
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return io_error(path, "cannot create");
+  uint64_t offset = 0, records = 0;
+  XXH3_state_t* sum = XXH3_createState();
+  XXH3_64bits_reset(sum);
+  std::vector<uint8_t> buf;
+  const auto flush = [&]() -> Status {
+    XXH3_64bits_update(sum, buf.data(), buf.size());
+    LOAM_TRY(write_all(fd, buf, path));
+    offset += buf.size();
+    buf.clear();
+    return {};
+  };
+  std::map<uint64_t, StoredTile> images = images_;
+  const Status body = [&]() -> Status {
+    buf.resize(8);
+    std::memcpy(buf.data(), kTilesMagic, 8);
+    append_le<uint32_t>(buf, kTilesFormat);
+    append_le<uint32_t>(buf, 0);
+    const auto add = [&](StoredTile e, std::span<const uint8_t> payload) -> Status {
+      e.file = file;
+      e.offset = offset + buf.size();
+      e.size = uint32_t(payload.size());
+      put_record_header(buf, e.kind, e.mip, e.tx, e.ty, e.version, e.hash, e.size);
+      buf.insert(buf.end(), payload.begin(), payload.end());
+      ++records;
+      if (e.kind == kKindImage) {
+        images[e.hash] = e;
+      } else {
+        index[TileCoord{Layer(e.kind), e.mip, e.tx, e.ty}] = e;
+      }
+      if (buf.size() >= (size_t(4) << 20)) LOAM_TRY(flush());
+      return {};
+    };
+    // The changed tiles.
+    for (const World::EditedTileInfo* t : changed) {
+      const TileCoord& c = t->coord;
+      StoredTile e{uint8_t(c.layer), c.mip,        c.tx, c.ty, t->state.version,
+                   t->state.hash,    t->base_hash, 0,    0,    0};
+      const size_t before = buf.size() + size_t(offset);
+      if (c.layer == Layer::kCoarse) {
+        auto enc =
+            encode_region(RegionEncoding::kFast, world.coarse_tile(c.mip, c.tx, c.ty), kTileSize, kTileSize);
+        if (!enc) return enc.error();
+        LOAM_TRY(add(e, *enc));
+        report.tile_raw_bytes += kTileSamples * sizeof(uint16_t);
+      } else {
+        const auto samples = world.detail_tile(c.tx, c.ty);
+        if (samples.empty()) {
+          e.size = 0;  // all zero: the index alone records its version
+          e.file = 0;
+          index[c] = e;
+        } else {
+          auto enc = encode_region(RegionEncoding::kFast, samples, kTileSize, kTileSize);
+          if (!enc) return enc.error();
+          LOAM_TRY(add(e, *enc));
+        }
+        report.tile_raw_bytes += kTileSamples;
+      }
+      report.tile_bytes += buf.size() + size_t(offset) - before;
+      ++report.tiles_written;
+    }
+    // Stamp images not stored yet.
+    for (const StampTexture* t : textures.all()) {
+      if (images.count(t->id)) continue;
+      std::vector<uint8_t> raw(t->samples.size() * 2);
+      for (size_t i = 0; i < t->samples.size(); ++i) store_le<uint16_t>(raw.data() + i * 2, t->samples[i]);
+      LOAM_TRY(add(StoredTile{kKindImage, 0, t->width, t->height, 0, t->id, 0, 0, 0, 0}, raw));
+      ++report.images_written;
+    }
+    // Compaction: live records of files at most half live move here, whole files at a time,
+    // within the bytes just written for changed tiles.
+    std::map<uint64_t, uint64_t> live;
+    for (const auto& [c, e] : index)
+      if (e.file != file && !(e.kind == kKindDetail && e.size == 0))
+        live[e.file] += kRecordHeaderSize + e.size;
+    for (const auto& [id, e] : images)
+      if (e.file != file) live[e.file] += kRecordHeaderSize + e.size;
+    std::vector<std::pair<double, uint64_t>> sparse;  // live fraction, file
+    for (const auto& [n, l] : live) {
+      const auto f = files_.find(n);
+      if (f != files_.end() && f->second.bytes > 0 && 2 * l <= f->second.bytes)
+        sparse.push_back({double(l) / double(f->second.bytes), n});
+    }
+    std::sort(sparse.begin(), sparse.end());
+    uint64_t budget = report.tile_bytes;
+    for (const auto& [fraction, n] : sparse) {
+      if (live[n] > budget) continue;
+      budget -= live[n];
+      std::vector<StoredTile> moving;
+      for (const auto& [c, e] : index)
+        if (e.file == n && !(e.kind == kKindDetail && e.size == 0)) moving.push_back(e);
+      for (const auto& [id, e] : images)
+        if (e.file == n) moving.push_back(e);
+      std::sort(moving.begin(), moving.end(),
+                [](const StoredTile& a, const StoredTile& b) { return a.offset < b.offset; });
+      for (const StoredTile& e : moving) {
+        auto payload = read_payload(e);
+        if (!payload) return payload.error();
+        LOAM_TRY(add(e, *payload));
+        report.moved_bytes += kRecordHeaderSize + e.size;
+        ++report.records_moved;
+      }
+    }
+    LOAM_TRY(flush());
+    append_le<uint64_t>(buf, records);
+    XXH3_64bits_update(sum, buf.data(), buf.size());
+    append_le<uint64_t>(buf, XXH3_64bits_digest(sum));
+    LOAM_TRY(write_all(fd, buf, path));
+    offset += buf.size();
+    buf.clear();
+    if (::fsync(fd) != 0) return io_error(path, "fsync failed");
+    return {};
+  }();
+  XXH3_freeState(sum);
+  if (::close(fd) != 0 && body.ok()) {
+    fs::remove(path, ec);
+    return io_error(path, "close failed");
+  }
+  if (!body.ok()) {
+    fs::remove(path, ec);
+    return body.error();
+  }
+  const uint64_t tiles_file_bytes = offset;
+
+  // The index and the manifest, published together.
+  std::vector<StoredTile> entries;
+  entries.reserve(index.size());
+  for (const auto& [c, e] : index) entries.push_back(e);
+  std::sort(entries.begin(), entries.end(), [](const StoredTile& a, const StoredTile& b) {
+    return TileCoord{Layer(a.kind), a.mip, a.tx, a.ty} < TileCoord{Layer(b.kind), b.mip, b.tx, b.ty};
+  });
+  std::vector<StoredTile> image_entries;
+  for (const auto& [id, e] : images) image_entries.push_back(e);
+  const std::vector<uint8_t> index_bin = serialize_index(entries, image_entries);
+
+  std::set<uint64_t> named;
+  for (const StoredTile& e : entries)
+    if (!(e.kind == kKindDetail && e.size == 0)) named.insert(e.file);
+  for (const StoredTile& e : image_entries) named.insert(e.file);
+  SnapshotManifest m;
+  m.snapshot_id = m.last_seq = last_seq;
+  m.world_hash = world.world_hash();
+  m.created_unix_us = now_unix_us();
+  m.next_segment_index = next_segment_index;
+  m.world = world.params();
+  for (const StoredTile& e : entries) {
+    if (e.kind == kKindCoarse && e.mip == 0) ++m.coarse_tiles;  // mip-0 edits, as format 2 counted
+    if (e.kind == kKindDetail && e.size != 0) ++m.detail_tiles;
+  }
+  m.tiles_bytes = tiles_file_bytes;
+  m.base_identity = world.base().identity();
+  m.base_description = world.base().describe();
+  m.initial_is_base = world.initial_is_base();
+  m.tick = session.tick;
+  m.limits = session.limits;
+  nlohmann::json j = snapshot_io::manifest_json(m, kSnapshotFormatIncremental);
+  j["index_bytes"] = index_bin.size();
+  j["tile_files"] = std::vector<uint64_t>(named.begin(), named.end());
+  j["written"] = {{"tiles", report.tiles_written},           {"tile_bytes", report.tile_bytes},
+                  {"tile_raw_bytes", report.tile_raw_bytes}, {"images", report.images_written},
+                  {"records_moved", report.records_moved},   {"moved_bytes", report.moved_bytes}};
+  const std::string text = j.dump(1) + "\n";
+  auto published = snapshot_io::publish(
+      data_dir_, last_seq,
+      {{"index.bin", index_bin},
+       {"manifest.json", std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size())}});
+  if (!published) {
+    fs::remove(path, ec);
+    return published.error();
+  }
+  LOAM_TRY(fsync_path(dir));
+
+  // In place: the store describes the new snapshot and the world's tiles are clean.
+  ++next_file_;
+  index_ = std::move(index);
+  images_ = std::move(images);
+  files_[file].bytes = tiles_file_bytes;
+  for (auto it = files_.begin(); it != files_.end();)
+    it = named.count(it->first) || it->first == file ? std::next(it) : files_.erase(it);
+  recount_live();
+  world.set_edit_source(shared_from_this());
+  for (const World::EditedTileInfo* t : changed) world.mark_persisted(t->coord, t->state.version);
+  for (const World::EditedTileInfo& t : edited)
+    if (!t.persisted) world.mark_persisted(t.coord, t.state.version);
+
+  report.path = *published;
+  report.index_bytes = index_bin.size();
+  report.index_entries = entries.size();
+  report.written_bytes = tiles_file_bytes + index_bin.size() + text.size();
+  report.seconds = seconds_since(t0);
+  return report;
+}
+
+Result<PruneReport> SnapshotStore::prune(const RetentionPolicy& policy) {
+  PruneReport report;
+  const uint32_t keep = std::max<uint32_t>(1, policy.keep_snapshots);
+  remove_partial_snapshots(data_dir_);
+  const std::vector<std::string> all = list_snapshots(data_dir_);  // newest first
+  std::set<uint64_t> named;
+  std::error_code ec;
+  size_t kept = 0;
+  bool oldest_set = false;
+  for (const std::string& path : all) {
+    auto m = read_snapshot_manifest(path);
+    if (kept < keep && m) {
+      ++kept;
+      named.insert(m->tile_files.begin(), m->tile_files.end());
+      report.oldest_needed_segment = m->next_segment_index;
+      oldest_set = true;
+      continue;
+    }
+    if (kept < keep) continue;  // unreadable: not counted, and left for an operator to see
+    uint64_t bytes = 0;
+    for (const auto& e : fs::recursive_directory_iterator(path, ec))
+      if (e.is_regular_file(ec)) bytes += e.file_size(ec);
+    if (fs::remove_all(path, ec) > 0 && !ec) {
+      ++report.snapshots_removed;
+      report.bytes_freed += bytes;
+    }
+  }
+  if (!oldest_set) report.oldest_needed_segment = 0;
+  // Files no kept snapshot names (and that the current index does not use: a write between
+  // a snapshot and its prune cannot leave one), including orphans of failed writes.
+  for (const auto& [c, e] : index_) named.insert(e.file);
+  for (const auto& [id, e] : images_) named.insert(e.file);
+  for (const auto& [n, size] : list_tiles_files(snapshot_tiles_dir(data_dir_))) {
+    if (named.count(n) || n >= next_file_) continue;
+    if (const auto fd = fds_.find(n); fd != fds_.end()) {
+      ::close(fd->second);
+      fds_.erase(fd);
+    }
+    if (fs::remove(tiles_path(n), ec) && !ec) {
+      ++report.tile_files_removed;
+      report.bytes_freed += size;
+    }
+    files_.erase(n);
+  }
+  LOAM_TRY(fsync_path(snapshot_tiles_dir(data_dir_)));
+  return report;
+}
+
+}  // namespace loam
