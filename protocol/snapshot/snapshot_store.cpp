@@ -36,10 +36,9 @@ constexpr size_t kIndexHeaderSize = 24;   // magic, format, entry count, image c
 constexpr size_t kIndexEntrySize = 54;
 constexpr size_t kIndexImageSize = 36;
 constexpr uint8_t kKindCoarse = 0, kKindDetail = 1, kKindImage = 2;
-// A tile's payload is at most its raw samples plus the codec's header and some slack; an
-// image's is its samples.
+// A tile's payload is at most its raw samples plus the codec's header and some slack (an
+// image's is exactly its samples: checked against its size).
 constexpr uint32_t kMaxTilePayload = uint32_t(kRegionHeaderSize + kTileSamples * 2 + 64);
-constexpr uint64_t kMaxImagePayload = uint64_t(kMaxTextureSide) * kMaxTextureSide * 2;
 
 Error io_error(const std::string& path, const std::string& what) {
   return make_error(ErrorCode::kIo, path, what + ": " + std::strerror(errno));
