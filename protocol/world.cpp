@@ -168,7 +168,13 @@ std::vector<int8_t>* World::detail_samples(int64_t k) const {
 
 void World::trim_base_cache() {
   memo_.data = nullptr;
-  if (cache_bytes_ + persisted_resident_bytes_ <= cache_budget_) return;
+  // Dirty tiles cannot go, but they count: clean tiles make room for them.
+  const size_t dirty = unpersisted_bytes();
+  const size_t budget = cache_budget_ > dirty ? cache_budget_ - dirty : 0;
+  if (cache_bytes_ + persisted_resident_bytes_ <= budget) return;
+  // Trimming sorts every clean tile: go 1/16 under a large budget, so it runs once in many
+  // ticks rather than on every one at the budget.
+  const size_t target = budget >= 16 * kTileSamples * sizeof(uint16_t) ? budget - budget / 16 : budget;
   // Clean tiles of both kinds, least recently used first: base tiles (cache_), and edited
   // tiles the store holds at their current state (read back on the next use).
   struct Candidate {
@@ -196,7 +202,7 @@ void World::trim_base_cache() {
   std::sort(order.begin(), order.end(),
             [](const Candidate& a, const Candidate& b) { return a.last_use < b.last_use; });
   for (const Candidate& o : order) {
-    if (cache_bytes_ + persisted_resident_bytes_ <= cache_budget_) break;
+    if (cache_bytes_ + persisted_resident_bytes_ <= target) break;
     if (o.kind == 0) {
       const auto it = cache_.find(o.c);
       cache_bytes_ -= it->second.data.size() * sizeof(uint16_t);
@@ -212,6 +218,17 @@ void World::trim_base_cache() {
       t.evicted = true;
     }
   }
+}
+
+void World::replace_base(std::shared_ptr<const TileBase> base) {
+  assert(base && base->identity() == base_->identity());
+  base_ = std::move(base);
+}
+
+bool World::needs_base_read(int32_t mip, int32_t tx, int32_t ty) const {
+  if (!tile_in_range(mip, tx, ty) || base_->uniform()) return false;
+  if (edited(mip, tx, ty)) return false;
+  return !cache_.count(TileCoord{Layer::kCoarse, uint8_t(mip), tx, ty});
 }
 
 void World::set_edit_source(std::shared_ptr<const EditedTileSource> source) { source_ = std::move(source); }
@@ -610,6 +627,16 @@ TileState World::tile_state(const TileCoord& c) const {
   const auto it = detail_.find(key(c.tx, c.ty));
   if (it == detail_.end()) return TileState{0, zero_detail_tile_hash()};
   return it->second.state;
+}
+
+uint64_t World::tile_version(const TileCoord& c) const {
+  if (c.layer == Layer::kCoarse) {
+    if (!tile_in_range(c.mip, c.tx, c.ty)) return 0;
+    const EditedTile* e = edited(c.mip, c.tx, c.ty);
+    return e ? e->state.version : 0;
+  }
+  const auto it = detail_.find(key(c.tx, c.ty));
+  return c.mip != 0 || it == detail_.end() ? 0 : it->second.state.version;
 }
 
 bool World::restore_version(const TileCoord& c, uint64_t version) {

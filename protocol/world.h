@@ -105,6 +105,8 @@ class World {
 
   // --- Versions and hashes (committed state) ---
   TileState tile_state(const TileCoord& c) const;
+  // The version alone: never reads a tile (tile_state may generate an untouched one to hash it).
+  uint64_t tile_version(const TileCoord& c) const;
   // Sets a tile's version without changing its content (loading a snapshot, which stores
   // versions beside the samples). Returns false for a tile outside the world.
   bool restore_version(const TileCoord& c, uint64_t version);
@@ -153,13 +155,20 @@ class World {
   // commit() keeps mip 0 alone: coarser mips are neither computed nor held (their tile states
   // stay at the base's). For a holder that gets its mip tiles elsewhere (a client's mirror).
   void set_mip0_only(bool on) { mip0_only_ = on; }
+  // Replaces the base by one with the same identity and samples (a decorator that prepares
+  // tiles ahead, server/tile_prefetcher.h); what is cached stays.
+  void replace_base(std::shared_ptr<const TileBase> base);
+  // Whether reading this coarse tile now would ask the base (in range, not edited, not cached).
+  bool needs_base_read(int32_t mip, int32_t tx, int32_t ty) const;
   // The clean-tile cache: its budget (bytes of samples), what it holds, how many tiles the
   // base was asked for so far, and the trim that brings it under budget (LRU first).
   void set_base_cache_budget(size_t bytes) { cache_budget_ = bytes; }
   size_t base_cache_budget() const { return cache_budget_; }
   size_t base_cache_bytes() const { return cache_bytes_; }
   uint64_t base_tiles_generated() const { return base_generated_; }
-  // Brings clean tiles (the base's, and persisted edited tiles) under the budget.
+  // Brings the tiles in memory under the budget by dropping clean ones (the base's, and
+  // persisted edited tiles), least recently used first. Edited tiles no store holds count
+  // against the budget but stay: over budget with those alone, every clean tile goes.
   void trim_base_cache();
 
   // --- Persistence: edited tiles a store holds, which the world may evict and read back ---

@@ -277,6 +277,12 @@ int main(int argc, char** argv) {
       ->add_option("--snapshot-interval", config.snapshot_interval_s, "Seconds between snapshots (0: off)")
       ->capture_default_str()
       ->check(cli::FiniteRange(0, 1e7));
+  serve_cmd
+      ->add_option("--prefetch-tiles", config.prefetch_tiles,
+                   "Base tiles (refined or from a pack) made ahead on a worker thread, for stamps admitted "
+                   "and tiles subscribed before the tick reads them (0: off)")
+      ->capture_default_str()
+      ->check(cli::IntRange(0, 1 << 16));
   uint64_t dirty_mb = config.snapshot_dirty_bytes >> 20;
   serve_cmd
       ->add_option("--snapshot-dirty-mb", dirty_mb,
@@ -296,7 +302,16 @@ int main(int argc, char** argv) {
                    "Retention: log segments older than the oldest kept snapshot are removed while the log "
                    "exceeds this many MiB ('all': keep the whole log, so a replay from the initial terrain "
                    "stays possible)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Validator(
+          [](std::string& text) -> std::string {
+            if (text == "all") return {};
+            std::string probe = text;
+            return cli::FiniteRange(0, 1e9)(probe).empty()
+                       ? std::string()
+                       : "must be a finite number in [0, 1e+09] or 'all', got " + text;
+          },
+          "[0, 1e+09]|all", "LogRetention"));
   serve_cmd->add_option("--hashes-every", config.hashes_every_ticks, "Ticks between TileHashes (0: never)")
       ->capture_default_str()
       ->check(cli::IntRange(0, 1000000));
@@ -416,12 +431,7 @@ int main(int argc, char** argv) {
       if (log_retention == "all") {
         config.log_retention_bytes = UINT64_MAX;
       } else {
-        char* end = nullptr;
-        const double mb = std::strtod(log_retention.c_str(), &end);
-        if (end == log_retention.c_str() || *end != '\0' || !std::isfinite(mb) || mb < 0 || mb > 1e9)
-          throw std::runtime_error("--log-retention-mb: a number of MiB (0 or more) or 'all', not '" +
-                                   log_retention + "'");
-        config.log_retention_bytes = uint64_t(mb * double(1 << 20));
+        config.log_retention_bytes = uint64_t(std::strtod(log_retention.c_str(), nullptr) * double(1 << 20));
       }
       return serve(config);
     }

@@ -63,7 +63,8 @@ std::string prometheus_text(const MetricsSnapshot& m) {
   metric(out, "loam_region_cache_bytes", "gauge", "Encoded regions held for other clients.",
          m.region_cache_bytes);
   metric(out, "loam_history_bytes", "gauge", "Replaced samples kept for delta patches.", m.history_bytes);
-  metric(out, "loam_edited_tile_bytes", "gauge", "Samples of tiles changed since the base.",
+  metric(out, "loam_edited_tile_bytes", "gauge",
+         "Samples of edited tiles held in memory (those a snapshot holds are evicted under --cache-mb).",
          m.edited_tile_bytes);
   metric(out, "loam_base_cache_bytes", "gauge", "Clean base tiles held in memory (--cache-mb).",
          m.base_cache_bytes);
@@ -73,6 +74,12 @@ std::string prometheus_text(const MetricsSnapshot& m) {
   metric(out, "loam_edited_tiles_loaded_total", "counter",
          "Evicted edited tiles read back from the snapshot store.", m.edited_tiles_loaded);
   metric(out, "loam_snapshots_total", "counter", "Snapshots written since start.", m.snapshots);
+  metric(out, "loam_prefetch_queued_total", "counter",
+         "Base tiles queued to be made ahead (--prefetch-tiles).", m.prefetch_queued);
+  metric(out, "loam_prefetch_hits_total", "counter", "Base tile reads answered by a tile made ahead.",
+         m.prefetch_hits);
+  metric(out, "loam_prefetch_inline_total", "counter", "Base tile reads made on the tick thread.",
+         m.prefetch_inline);
   metric(out, "loam_snapshot_written_bytes_total", "counter", "Bytes snapshots wrote since start.",
          m.snapshot_bytes_written);
   metric(out, "loam_snapshot_store_bytes", "gauge", "Tiles files the newest snapshot names.",

@@ -34,7 +34,9 @@ struct MetricsSnapshot {
   uint64_t edited_tile_bytes = 0, base_cache_bytes = 0, base_tiles_generated = 0;
   // Edited tiles no snapshot holds yet (not evictable), and edited tiles read back from the store.
   uint64_t unpersisted_tile_bytes = 0, edited_tiles_loaded = 0;
-  uint64_t snapshots = 0, snapshot_bytes_written = 0;          // since start
+  uint64_t snapshots = 0, snapshot_bytes_written = 0;  // since start
+  // Base tiles made ahead by the prefetcher: queued, answered from it, made on the tick thread.
+  uint64_t prefetch_queued = 0, prefetch_hits = 0, prefetch_inline = 0;
   uint64_t snapshot_store_bytes = 0, snapshot_live_bytes = 0;  // the tiles files the newest snapshot names
   uint64_t pending_deforms = 0, pending_stamp_cost = 0;        // waiting for a tick
   uint64_t max_queue_bytes = 0;                                // the largest client send queue

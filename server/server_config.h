@@ -18,6 +18,7 @@ struct ServerConfig {
   std::string metrics_bind;               // HOST:PORT of the Prometheus /metrics endpoint; empty: none
   std::string dem_path;                   // empty: the embedded terrain `terrain` names
   std::string terrain = "crop";           // crop | refined (server/terrain_source.h)
+  uint32_t prefetch_tiles = 256;          // base tiles made ahead off the tick thread (0: off)
   uint64_t cache_mb = 256;                // clean tiles kept in memory: the base's and persisted edits
   int dem_band = 0;                       // the DEM's height band (1-based); 0: its only band
   std::vector<std::string> stamp_images;  // texture-stamp image files to register
@@ -70,6 +71,9 @@ struct ServerConfig {
   // A snapshot is also due when edited tiles no snapshot holds reach this many bytes (they
   // cannot be evicted until one does). 0: never for that reason.
   uint64_t snapshot_dirty_bytes = 32ull << 20;
+  // Snapshots are written on a worker thread (the tick copies what changed); false: on the tick
+  // thread (deterministic for tests that drive the core).
+  bool async_snapshots = true;
   uint32_t keep_snapshots = 3;                       // retention: the newest snapshots kept
   uint64_t log_retention_bytes = uint64_t(1) << 30;  // covered segments go beyond this (UINT64_MAX: keep all)
   uint32_t hashes_every_ticks = 30;                  // TileHashes to each client (0: never)

@@ -354,19 +354,13 @@ Status Storage::resume(uint64_t last_seq) {
   return {};
 }
 
-Result<SnapshotOutcome> Storage::snapshot(TerrainState& terrain, uint64_t tick, bool reuse_existing) {
+Storage::~Storage() {
+  if (pending_ && pending_->worker.joinable()) pending_->worker.join();
+}
+
+Status Storage::roll_segment(const TerrainState& terrain, uint64_t tick) {
   LOAM_TRY(writer_->sync());
   const uint32_t next = writer_->header().segment_index + 1;
-  SnapshotOutcome out;
-  if (reuse_existing) {
-    out.write.path = (fs::path(data_dir_) / "snapshots" / snapshot_dir_name(terrain.last_seq())).string();
-    out.write.last_seq = terrain.last_seq();
-  } else {
-    auto written = store_->write(terrain.mutable_world(), terrain.last_seq(), next, terrain.textures(),
-                                 SnapshotSession{terrain.limits(), tick});
-    if (!written) return written.error();
-    out.write = *written;
-  }
   log::SegmentHeader h;
   h.world = terrain.world().params();
   h.initial = initial_;
@@ -381,12 +375,59 @@ Result<SnapshotOutcome> Storage::snapshot(TerrainState& terrain, uint64_t tick, 
   auto writer = log::LogWriter::create(segment_path_of(next), h);
   if (!writer) return writer.error();
   writer_.emplace(std::move(*writer));
-  last_snapshot_seq_ = terrain.last_seq();
+  return {};
+}
 
-  // Retention. A failure here loses nothing (the snapshot and the log are in place): it is
-  // retried after the next snapshot.
+Result<SnapshotOutcome> Storage::snapshot(TerrainState& terrain, uint64_t tick, bool reuse_existing) {
+  if (reuse_existing) {
+    LOAM_TRY(roll_segment(terrain, tick));
+    SnapshotOutcome out;
+    out.write.path = (fs::path(data_dir_) / "snapshots" / snapshot_dir_name(terrain.last_seq())).string();
+    out.write.last_seq = terrain.last_seq();
+    last_snapshot_seq_ = terrain.last_seq();
+    return out;
+  }
+  LOAM_TRY(begin_snapshot(terrain, tick));
+  return *poll_snapshot(terrain, true);
+}
+
+Status Storage::begin_snapshot(TerrainState& terrain, uint64_t tick) {
+  if (pending_) return make_error(ErrorCode::kInvalidArgument, data_dir_, "a snapshot is being written");
+  LOAM_TRY(writer_->sync());
+  const uint32_t next = writer_->header().segment_index + 1;
+  SnapshotJobHandle job = store_->begin(terrain.world(), terrain.last_seq(), next, terrain.textures(),
+                                        SnapshotSession{terrain.limits(), tick});
+  // The records after this sequence go to the segment that continues the snapshot. Should the
+  // snapshot fail, recovery reads on through it from the previous one.
+  LOAM_TRY(roll_segment(terrain, tick));
+  last_snapshot_seq_ = terrain.last_seq();
+  pending_ = std::make_unique<PendingSnapshot>(std::move(job));
+  PendingSnapshot* p = pending_.get();
+  p->worker = std::thread([p] {
+    p->status = SnapshotStore::run(p->job);
+    p->done = true;
+  });
+  return {};
+}
+
+std::optional<Result<SnapshotOutcome>> Storage::poll_snapshot(TerrainState& terrain, bool wait) {
+  if (!pending_ || (!wait && !pending_->done)) return std::nullopt;
+  pending_->worker.join();
+  const std::unique_ptr<PendingSnapshot> p = std::move(pending_);
+  if (!p->status.ok()) return Result<SnapshotOutcome>(p->status.error());
+  auto written = store_->finish(terrain.mutable_world(), std::move(p->job));
+  if (!written) return Result<SnapshotOutcome>(written.error());
+  SnapshotOutcome out;
+  out.write = *written;
+  apply_retention(out);
+  return Result<SnapshotOutcome>(std::move(out));
+}
+
+void Storage::apply_retention(SnapshotOutcome& out) {
+  // A failure here loses nothing (the snapshot and the log are in place): it is retried after
+  // the next snapshot.
   auto pruned = store_->prune(RetentionPolicy{retention_.keep_snapshots});
-  if (!pruned) return out;
+  if (!pruned) return;
   out.prune = *pruned;
   std::vector<std::pair<std::string, uint64_t>> segments;  // oldest first
   uint64_t total = 0;
@@ -407,7 +448,6 @@ Result<SnapshotOutcome> Storage::snapshot(TerrainState& terrain, uint64_t tick, 
     }
   }
   if (out.segments_removed > 0) (void)fsync_path((fs::path(data_dir_) / "log").string());
-  return out;
 }
 
 namespace {

@@ -18,9 +18,11 @@
 // only they named, and log segments that the kept snapshots cover once the log exceeds its cap.
 #pragma once
 
+#include <atomic>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 
 #include "protocol/log/log_file.h"
 #include "protocol/result.h"
@@ -72,6 +74,7 @@ class Storage {
  public:
   Storage(Storage&&) noexcept = default;
   Storage& operator=(Storage&&) noexcept = default;
+  ~Storage();  // waits for a snapshot being written
 
   Status append(const log::LogRecord& r) {
     if (!writer_->is_open())
@@ -91,6 +94,14 @@ class Storage {
   // segment is new: the limits changed).
   // The tiles written become clean in the world (evictable under its cache budget).
   Result<SnapshotOutcome> snapshot(TerrainState& terrain, uint64_t tick, bool reuse_existing = false);
+  // The same with the writing on a worker thread: begin_snapshot() copies what changed and
+  // starts the new segment at once (so the tick goes on logging); poll_snapshot() adopts the
+  // snapshot once written (nullopt while it is being written; `wait`: block until it is) and
+  // applies retention. A failed write leaves the previous snapshots and the whole log in place.
+  // One at a time.
+  Status begin_snapshot(TerrainState& terrain, uint64_t tick);
+  bool snapshot_in_flight() const { return pending_ != nullptr; }
+  std::optional<Result<SnapshotOutcome>> poll_snapshot(TerrainState& terrain, bool wait);
   uint64_t last_snapshot_seq() const { return last_snapshot_seq_; }
   void set_retention(const StorageRetention& r) { retention_ = r; }
   const SnapshotStore& store() const { return *store_; }
@@ -110,12 +121,23 @@ class Storage {
   friend struct StorageOpener;
   Storage() = default;
   std::string segment_path_of(uint32_t index) const;
+  // Syncs the log and starts segment `next` continuing from the terrain's last sequence.
+  Status roll_segment(const TerrainState& terrain, uint64_t tick);
+  void apply_retention(SnapshotOutcome& out);
+  struct PendingSnapshot {
+    explicit PendingSnapshot(SnapshotJobHandle j) : job(std::move(j)) {}
+    SnapshotJobHandle job;
+    Status status;
+    std::atomic<bool> done{false};
+    std::thread worker;
+  };
   std::string data_dir_;
   std::optional<log::LogWriter> writer_;
   log::InitialTerrain initial_;
   uint64_t last_snapshot_seq_ = 0;
   std::shared_ptr<SnapshotStore> store_;
   StorageRetention retention_;
+  std::unique_ptr<PendingSnapshot> pending_;
 };
 
 struct OpenedStorage {

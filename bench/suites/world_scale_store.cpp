@@ -220,6 +220,7 @@ SnapshotBench bench_snapshots(const Context& ctx, uint64_t stamps, uint64_t ever
         round.log_bytes = storage.log_bytes();
         round.snapshot_bytes = storage.snapshot_bytes();
         round.data_dir_bytes = folder_bytes(dir);
+        round.live_bytes = storage.store().live_bytes();
         if (round.tile_bytes > 0)
           r.worst_ratio = std::max(r.worst_ratio, double(round.written_bytes) / double(round.tile_bytes));
         r.rounds.push_back(round);

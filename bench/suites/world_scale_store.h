@@ -34,6 +34,7 @@ struct SnapshotRound {
   uint64_t tile_bytes = 0, written_bytes = 0, moved_bytes = 0, index_bytes = 0;
   double write_s = 0;
   uint64_t data_dir_bytes = 0, log_bytes = 0, snapshot_bytes = 0;
+  uint64_t live_bytes = 0;  // records the newest snapshot's index uses
 };
 
 struct SnapshotBench {

@@ -449,34 +449,116 @@ Result<LoadedSnapshot> SnapshotStore::load(const std::string& path, std::shared_
   return LoadedSnapshot{*manifest, std::move(world), path, std::move(textures)};
 }
 
-Result<SnapshotWrite> SnapshotStore::write(World& world, uint64_t last_seq, uint32_t next_segment_index,
-                                           const TextureRegistry& textures, const SnapshotSession& session) {
-  const auto t0 = std::chrono::steady_clock::now();
+// What one snapshot writes, captured on the owner's thread (begin), written on any thread
+// (run: touches only the job and immutable tiles files), adopted on the owner's thread (finish).
+struct SnapshotJob {
+  std::string data_dir;
+  uint64_t file = 0;  // the tiles file this snapshot writes
+  SnapshotManifest manifest;
+  // Tiles changed since the store's index, with their samples.
+  struct Changed {
+    StoredTile entry;
+    std::vector<uint16_t> coarse;
+    std::vector<int8_t> detail;  // empty: all zero
+  };
+  std::vector<Changed> changed;
+  std::unordered_map<TileCoord, StoredTile, TileCoordHash> index;  // unchanged entries, then all
+  std::map<uint64_t, StoredTile> images;                           // stored ones, then all
+  std::vector<StampTexture> new_images;
+  std::map<uint64_t, uint64_t> file_sizes;                // of the files the store's index names
+  std::vector<std::pair<TileCoord, uint64_t>> persisted;  // (tile, version) clean once in place
   SnapshotWrite report;
-  report.last_seq = last_seq;
-  const std::string dir = snapshot_tiles_dir(data_dir_);
+  uint64_t tiles_file_bytes = 0;
+  std::set<uint64_t> named;
+  std::chrono::steady_clock::time_point started;
+};
+
+SnapshotJobHandle::SnapshotJobHandle(std::unique_ptr<SnapshotJob> job) : job_(std::move(job)) {}
+SnapshotJobHandle::SnapshotJobHandle(SnapshotJobHandle&&) noexcept = default;
+SnapshotJobHandle& SnapshotJobHandle::operator=(SnapshotJobHandle&&) noexcept = default;
+SnapshotJobHandle::~SnapshotJobHandle() {
+  if (job_ && !done_) {
+    // Never run or failed: no snapshot names its file.
+    std::error_code ec;
+    fs::remove(fs::path(snapshot_tiles_dir(job_->data_dir)) / snapshot_tiles_file_name(job_->file), ec);
+  }
+}
+
+SnapshotJobHandle SnapshotStore::begin(const World& world, uint64_t last_seq, uint32_t next_segment_index,
+                                       const TextureRegistry& textures, const SnapshotSession& session) {
+  auto job = std::make_unique<SnapshotJob>();
+  job->started = std::chrono::steady_clock::now();
+  job->data_dir = data_dir_;
+  job->file = next_file_++;
+  job->report.last_seq = last_seq;
+  SnapshotManifest& m = job->manifest;
+  m.snapshot_id = m.last_seq = last_seq;
+  m.world_hash = world.world_hash();
+  m.next_segment_index = next_segment_index;
+  m.world = world.params();
+  m.base_identity = world.base().identity();
+  m.base_description = world.base().describe();
+  m.initial_is_base = world.initial_is_base();
+  m.tick = session.tick;
+  m.limits = session.limits;
+  // Every edited tile this store does not hold at its state is copied out.
+  for (const World::EditedTileInfo& t : world.edited_tiles()) {
+    const auto it = index_.find(t.coord);
+    if (it != index_.end() && it->second.version == t.state.version && it->second.hash == t.state.hash) {
+      job->index.emplace(t.coord, it->second);
+      if (!t.persisted) job->persisted.push_back({t.coord, t.state.version});
+      continue;
+    }
+    const TileCoord& c = t.coord;
+    SnapshotJob::Changed ch;
+    ch.entry =
+        StoredTile{uint8_t(c.layer), c.mip, c.tx, c.ty, t.state.version, t.state.hash, t.base_hash, 0, 0, 0};
+    if (c.layer == Layer::kCoarse) {
+      const auto samples = world.coarse_tile(c.mip, c.tx, c.ty);
+      ch.coarse.assign(samples.begin(), samples.end());
+    } else {
+      const auto samples = world.detail_tile(c.tx, c.ty);
+      ch.detail.assign(samples.begin(), samples.end());
+    }
+    job->changed.push_back(std::move(ch));
+    job->persisted.push_back({c, t.state.version});
+  }
+  job->images = images_;
+  for (const StampTexture* t : textures.all())
+    if (!images_.count(t->id)) job->new_images.push_back(*t);
+  for (const auto& [n, f] : files_) job->file_sizes[n] = f.bytes;
+  return SnapshotJobHandle(std::move(job));
+}
+
+Status SnapshotStore::run(SnapshotJobHandle& handle) {
+  SnapshotJob& job = *handle.job_;
+  SnapshotWrite& report = job.report;
+  const std::string dir = snapshot_tiles_dir(job.data_dir);
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) return make_error(ErrorCode::kIo, dir, "cannot create: " + ec.message());
-
-  // What this snapshot writes: every edited tile this store does not hold at its state.
-  const auto edited = world.edited_tiles();
-  std::unordered_map<TileCoord, StoredTile, TileCoordHash> index;
-  index.reserve(edited.size());
-  std::vector<const World::EditedTileInfo*> changed;
-  for (const World::EditedTileInfo& t : edited) {
-    const auto it = index_.find(t.coord);
-    if (it != index_.end() && it->second.version == t.state.version && it->second.hash == t.state.hash) {
-      index.emplace(t.coord, it->second);
-    } else {
-      changed.push_back(&t);
-    }
-  }
-
-  const uint64_t file = next_file_;
-  const std::string path = tiles_path(file);
+  const std::string path = (fs::path(dir) / snapshot_tiles_file_name(job.file)).string();
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) return io_error(path, "cannot create");
+  // Files read for compaction, opened here: the owner's descriptors are not shared.
+  std::map<uint64_t, int> readers;
+  const auto read_record = [&](const StoredTile& e) -> Result<std::vector<uint8_t>> {
+    auto it = readers.find(e.file);
+    if (it == readers.end()) {
+      const std::string rp = (fs::path(dir) / snapshot_tiles_file_name(e.file)).string();
+      const int rfd = ::open(rp.c_str(), O_RDONLY | O_CLOEXEC);
+      if (rfd < 0) return io_error(rp, "cannot open");
+      it = readers.emplace(e.file, rfd).first;
+    }
+    std::vector<uint8_t> rec(kRecordHeaderSize + e.size);
+    LOAM_TRY(pread_all(it->second, e.offset, rec, snapshot_tiles_file_name(e.file)));
+    const uint8_t* h = rec.data();
+    if (h[0] != e.kind || load_le<uint64_t>(h + 18) != e.hash || load_le<uint32_t>(h + 26) != e.size)
+      return make_error(ErrorCode::kCorrupt, snapshot_tiles_file_name(e.file),
+                        "the record at offset " + std::to_string(e.offset) + " is not " + describe_entry(e));
+    rec.erase(rec.begin(), rec.begin() + ptrdiff_t(kRecordHeaderSize));
+    return rec;
+  };
   uint64_t offset = 0, records = 0;
   XXH3_state_t* sum = XXH3_createState();
   XXH3_64bits_reset(sum);
@@ -488,47 +570,41 @@ Result<SnapshotWrite> SnapshotStore::write(World& world, uint64_t last_seq, uint
     buf.clear();
     return {};
   };
-  std::map<uint64_t, StoredTile> images = images_;
   const Status body = [&]() -> Status {
     buf.resize(8);
     std::memcpy(buf.data(), kTilesMagic, 8);
     append_le<uint32_t>(buf, kTilesFormat);
     append_le<uint32_t>(buf, 0);
     const auto add = [&](StoredTile e, std::span<const uint8_t> payload) -> Status {
-      e.file = file;
+      e.file = job.file;
       e.offset = offset + buf.size();
       e.size = uint32_t(payload.size());
       put_record_header(buf, e.kind, e.mip, e.tx, e.ty, e.version, e.hash, e.size);
       buf.insert(buf.end(), payload.begin(), payload.end());
       ++records;
       if (e.kind == kKindImage) {
-        images[e.hash] = e;
+        job.images[e.hash] = e;
       } else {
-        index[TileCoord{Layer(e.kind), e.mip, e.tx, e.ty}] = e;
+        job.index[TileCoord{Layer(e.kind), e.mip, e.tx, e.ty}] = e;
       }
       if (buf.size() >= (size_t(4) << 20)) LOAM_TRY(flush());
       return {};
     };
-    // The changed tiles.
-    for (const World::EditedTileInfo* t : changed) {
-      const TileCoord& c = t->coord;
-      StoredTile e{uint8_t(c.layer), c.mip,        c.tx, c.ty, t->state.version,
-                   t->state.hash,    t->base_hash, 0,    0,    0};
+    for (const SnapshotJob::Changed& ch : job.changed) {
+      StoredTile e = ch.entry;
       const size_t before = buf.size() + size_t(offset);
-      if (c.layer == Layer::kCoarse) {
-        auto enc =
-            encode_region(RegionEncoding::kFast, world.coarse_tile(c.mip, c.tx, c.ty), kTileSize, kTileSize);
+      if (e.kind == kKindCoarse) {
+        auto enc = encode_region(RegionEncoding::kFast, ch.coarse, kTileSize, kTileSize);
         if (!enc) return enc.error();
         LOAM_TRY(add(e, *enc));
         report.tile_raw_bytes += kTileSamples * sizeof(uint16_t);
       } else {
-        const auto samples = world.detail_tile(c.tx, c.ty);
-        if (samples.empty()) {
+        if (ch.detail.empty()) {
           e.size = 0;  // all zero: the index alone records its version
           e.file = 0;
-          index[c] = e;
+          job.index[TileCoord{Layer::kDetail, 0, e.tx, e.ty}] = e;
         } else {
-          auto enc = encode_region(RegionEncoding::kFast, samples, kTileSize, kTileSize);
+          auto enc = encode_region(RegionEncoding::kFast, ch.detail, kTileSize, kTileSize);
           if (!enc) return enc.error();
           LOAM_TRY(add(e, *enc));
         }
@@ -537,42 +613,44 @@ Result<SnapshotWrite> SnapshotStore::write(World& world, uint64_t last_seq, uint
       report.tile_bytes += buf.size() + size_t(offset) - before;
       ++report.tiles_written;
     }
-    // Stamp images not stored yet.
-    for (const StampTexture* t : textures.all()) {
-      if (images.count(t->id)) continue;
-      std::vector<uint8_t> raw(t->samples.size() * 2);
-      for (size_t i = 0; i < t->samples.size(); ++i) store_le<uint16_t>(raw.data() + i * 2, t->samples[i]);
-      LOAM_TRY(add(StoredTile{kKindImage, 0, t->width, t->height, 0, t->id, 0, 0, 0, 0}, raw));
+    for (const StampTexture& t : job.new_images) {
+      std::vector<uint8_t> raw(t.samples.size() * 2);
+      for (size_t i = 0; i < t.samples.size(); ++i) store_le<uint16_t>(raw.data() + i * 2, t.samples[i]);
+      LOAM_TRY(add(StoredTile{kKindImage, 0, t.width, t.height, 0, t.id, 0, 0, 0, 0}, raw));
       ++report.images_written;
     }
     // Compaction: live records of files at most half live move here, whole files at a time,
-    // within the bytes just written for changed tiles.
+    // within a budget that keeps the whole write (tiles, moves, the index and the manifest)
+    // within twice the changed tiles' bytes.
     std::map<uint64_t, uint64_t> live;
-    for (const auto& [c, e] : index)
-      if (e.file != file && !(e.kind == kKindDetail && e.size == 0))
+    for (const auto& [c, e] : job.index)
+      if (e.file != job.file && !(e.kind == kKindDetail && e.size == 0))
         live[e.file] += kRecordHeaderSize + e.size;
-    for (const auto& [id, e] : images)
-      if (e.file != file) live[e.file] += kRecordHeaderSize + e.size;
+    for (const auto& [id, e] : job.images)
+      if (e.file != job.file) live[e.file] += kRecordHeaderSize + e.size;
     std::vector<std::pair<double, uint64_t>> sparse;  // live fraction, file
     for (const auto& [n, l] : live) {
-      const auto f = files_.find(n);
-      if (f != files_.end() && f->second.bytes > 0 && 2 * l <= f->second.bytes)
-        sparse.push_back({double(l) / double(f->second.bytes), n});
+      const auto f = job.file_sizes.find(n);
+      if (f != job.file_sizes.end() && f->second > 0 && 2 * l <= f->second)
+        sparse.push_back({double(l) / double(f->second), n});
     }
     std::sort(sparse.begin(), sparse.end());
-    uint64_t budget = report.tile_bytes;
+    const uint64_t index_size =
+        kIndexHeaderSize + job.index.size() * kIndexEntrySize + job.images.size() * kIndexImageSize + 8;
+    const uint64_t overhead = index_size + 4096;
+    uint64_t budget = report.tile_bytes > overhead ? report.tile_bytes - overhead : 0;
     for (const auto& [fraction, n] : sparse) {
       if (live[n] > budget) continue;
       budget -= live[n];
       std::vector<StoredTile> moving;
-      for (const auto& [c, e] : index)
+      for (const auto& [c, e] : job.index)
         if (e.file == n && !(e.kind == kKindDetail && e.size == 0)) moving.push_back(e);
-      for (const auto& [id, e] : images)
+      for (const auto& [id, e] : job.images)
         if (e.file == n) moving.push_back(e);
       std::sort(moving.begin(), moving.end(),
                 [](const StoredTile& a, const StoredTile& b) { return a.offset < b.offset; });
       for (const StoredTile& e : moving) {
-        auto payload = read_payload(e);
+        auto payload = read_record(e);
         if (!payload) return payload.error();
         LOAM_TRY(add(e, *payload));
         report.moved_bytes += kRecordHeaderSize + e.size;
@@ -590,83 +668,74 @@ Result<SnapshotWrite> SnapshotStore::write(World& world, uint64_t last_seq, uint
     return {};
   }();
   XXH3_freeState(sum);
-  if (::close(fd) != 0 && body.ok()) {
-    fs::remove(path, ec);
-    return io_error(path, "close failed");
-  }
-  if (!body.ok()) {
-    fs::remove(path, ec);
-    return body.error();
-  }
-  const uint64_t tiles_file_bytes = offset;
+  for (const auto& [n, rfd] : readers) ::close(rfd);
+  if (::close(fd) != 0 && body.ok()) return io_error(path, "close failed");
+  LOAM_TRY(body);
+  job.tiles_file_bytes = offset;
 
   // The index and the manifest, published together.
   std::vector<StoredTile> entries;
-  entries.reserve(index.size());
-  for (const auto& [c, e] : index) entries.push_back(e);
+  entries.reserve(job.index.size());
+  for (const auto& [c, e] : job.index) entries.push_back(e);
   std::sort(entries.begin(), entries.end(), [](const StoredTile& a, const StoredTile& b) {
     return TileCoord{Layer(a.kind), a.mip, a.tx, a.ty} < TileCoord{Layer(b.kind), b.mip, b.tx, b.ty};
   });
   std::vector<StoredTile> image_entries;
-  for (const auto& [id, e] : images) image_entries.push_back(e);
+  for (const auto& [id, e] : job.images) image_entries.push_back(e);
   const std::vector<uint8_t> index_bin = serialize_index(entries, image_entries);
-
-  std::set<uint64_t> named;
   for (const StoredTile& e : entries)
-    if (!(e.kind == kKindDetail && e.size == 0)) named.insert(e.file);
-  for (const StoredTile& e : image_entries) named.insert(e.file);
-  SnapshotManifest m;
-  m.snapshot_id = m.last_seq = last_seq;
-  m.world_hash = world.world_hash();
+    if (!(e.kind == kKindDetail && e.size == 0)) job.named.insert(e.file);
+  for (const StoredTile& e : image_entries) job.named.insert(e.file);
+  SnapshotManifest& m = job.manifest;
   m.created_unix_us = now_unix_us();
-  m.next_segment_index = next_segment_index;
-  m.world = world.params();
   for (const StoredTile& e : entries) {
     if (e.kind == kKindCoarse && e.mip == 0) ++m.coarse_tiles;  // mip-0 edits, as format 2 counted
     if (e.kind == kKindDetail && e.size != 0) ++m.detail_tiles;
   }
-  m.tiles_bytes = tiles_file_bytes;
-  m.base_identity = world.base().identity();
-  m.base_description = world.base().describe();
-  m.initial_is_base = world.initial_is_base();
-  m.tick = session.tick;
-  m.limits = session.limits;
+  m.tiles_bytes = job.tiles_file_bytes;
   nlohmann::json j = snapshot_io::manifest_json(m, kSnapshotFormatIncremental);
   j["index_bytes"] = index_bin.size();
-  j["tile_files"] = std::vector<uint64_t>(named.begin(), named.end());
+  j["tile_files"] = std::vector<uint64_t>(job.named.begin(), job.named.end());
   j["written"] = {{"tiles", report.tiles_written},           {"tile_bytes", report.tile_bytes},
                   {"tile_raw_bytes", report.tile_raw_bytes}, {"images", report.images_written},
                   {"records_moved", report.records_moved},   {"moved_bytes", report.moved_bytes}};
   const std::string text = j.dump(1) + "\n";
   auto published = snapshot_io::publish(
-      data_dir_, last_seq,
+      job.data_dir, m.last_seq,
       {{"index.bin", index_bin},
        {"manifest.json", std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size())}});
-  if (!published) {
-    fs::remove(path, ec);
-    return published.error();
-  }
+  if (!published) return published.error();
   LOAM_TRY(fsync_path(dir));
-
-  // In place: the store describes the new snapshot and the world's tiles are clean.
-  ++next_file_;
-  index_ = std::move(index);
-  images_ = std::move(images);
-  files_[file].bytes = tiles_file_bytes;
-  for (auto it = files_.begin(); it != files_.end();)
-    it = named.count(it->first) || it->first == file ? std::next(it) : files_.erase(it);
-  recount_live();
-  world.set_edit_source(shared_from_this());
-  for (const World::EditedTileInfo* t : changed) world.mark_persisted(t->coord, t->state.version);
-  for (const World::EditedTileInfo& t : edited)
-    if (!t.persisted) world.mark_persisted(t.coord, t.state.version);
-
+  handle.done_ = true;  // in place: the tiles file is the snapshot's now
   report.path = *published;
   report.index_bytes = index_bin.size();
   report.index_entries = entries.size();
-  report.written_bytes = tiles_file_bytes + index_bin.size() + text.size();
-  report.seconds = seconds_since(t0);
-  return report;
+  report.written_bytes = job.tiles_file_bytes + index_bin.size() + text.size();
+  return {};
+}
+
+Result<SnapshotWrite> SnapshotStore::finish(World& world, SnapshotJobHandle handle) {
+  SnapshotJob& job = *handle.job_;
+  if (!handle.done_)
+    return make_error(ErrorCode::kInvalidArgument, "snapshot", "the snapshot was not written");
+  index_ = std::move(job.index);
+  images_ = std::move(job.images);
+  files_[job.file].bytes = job.tiles_file_bytes;
+  for (auto it = files_.begin(); it != files_.end();)
+    it = job.named.count(it->first) || it->first == job.file ? std::next(it) : files_.erase(it);
+  recount_live();
+  world.set_edit_source(shared_from_this());
+  // Tiles changed since begin() have a newer version and stay dirty.
+  for (const auto& [c, version] : job.persisted) world.mark_persisted(c, version);
+  job.report.seconds = seconds_since(job.started);
+  return job.report;
+}
+
+Result<SnapshotWrite> SnapshotStore::write(World& world, uint64_t last_seq, uint32_t next_segment_index,
+                                           const TextureRegistry& textures, const SnapshotSession& session) {
+  SnapshotJobHandle job = begin(world, last_seq, next_segment_index, textures, session);
+  LOAM_TRY(run(job));
+  return finish(world, std::move(job));
 }
 
 Result<PruneReport> SnapshotStore::prune(const RetentionPolicy& policy) {

@@ -22,10 +22,10 @@
 // (a tiles file no snapshot names is removed by the next prune).
 //
 // Space: each write also moves the live records of sparse tiles files (at most half live) into
-// its own file, within a budget of the changed tiles' bytes, so a snapshot writes at most twice
-// what changed (plus the index) and the files hold at most about twice the live tiles plus what
-// the retained snapshots still name. prune() keeps the newest `keep_snapshots` snapshots and
-// removes the files only older ones named.
+// its own file, within a budget of the changed tiles' bytes less the index and manifest, so a
+// snapshot writes at most twice what changed (or the index alone, when that is larger) and the
+// files hold about twice the live tiles plus what the retained snapshots still name. prune() keeps the newest
+// `keep_snapshots` snapshots and removes the files only older ones named.
 //
 // Safe on untrusted input: loading checks the manifest, the index checksum, every entry's
 // coordinates, size and file range, and (verify_tiles) decodes every record and compares its
@@ -100,6 +100,24 @@ struct SnapshotIndex {
 Result<SnapshotIndex> parse_snapshot_index(std::span<const uint8_t> bytes, const WorldParams& world,
                                            const std::string& path);
 
+struct SnapshotJob;
+// One snapshot being written (SnapshotStore::begin, run, finish). Dropped unfinished, it
+// removes the tiles file it may have written: no snapshot names it.
+class SnapshotJobHandle {
+ public:
+  SnapshotJobHandle(SnapshotJobHandle&&) noexcept;
+  SnapshotJobHandle& operator=(SnapshotJobHandle&&) noexcept;
+  ~SnapshotJobHandle();
+  // Written and in place (run succeeded).
+  bool written() const { return done_; }
+
+ private:
+  friend class SnapshotStore;
+  explicit SnapshotJobHandle(std::unique_ptr<SnapshotJob> job);
+  std::unique_ptr<SnapshotJob> job_;
+  bool done_ = false;
+};
+
 class SnapshotStore final : public EditedTileSource, public std::enable_shared_from_this<SnapshotStore> {
  public:
   // A store over <data_dir>/snapshots holding nothing yet: the next write writes every edited
@@ -117,6 +135,18 @@ class SnapshotStore final : public EditedTileSource, public std::enable_shared_f
   // the tiles written are clean. On failure nothing is left in place and the world is unchanged.
   Result<SnapshotWrite> write(World& world, uint64_t last_seq, uint32_t next_segment_index,
                               const TextureRegistry& textures, const SnapshotSession& session = {});
+  // write() in three steps, so the expensive one runs off the owner's thread:
+  //   begin (owner's thread): copies the tiles that changed and what the index needs;
+  //   run (any thread, one job at a time): encodes, writes the tiles file, the index and the
+  //     manifest, and publishes the snapshot; it reads only the job and immutable files;
+  //   finish (owner's thread, after run succeeded): the store describes the new snapshot and
+  //     the world's tiles still at their captured versions are clean.
+  // The world may change between begin and finish (its tiles changed since stay dirty); no
+  // other write or prune may run meanwhile.
+  SnapshotJobHandle begin(const World& world, uint64_t last_seq, uint32_t next_segment_index,
+                          const TextureRegistry& textures, const SnapshotSession& session = {});
+  static Status run(SnapshotJobHandle& job);
+  Result<SnapshotWrite> finish(World& world, SnapshotJobHandle job);
 
   // Removes snapshots beyond the newest `keep_snapshots`, the tiles files no remaining one
   // names, and partial folders and orphan files a crash left.

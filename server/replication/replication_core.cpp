@@ -54,6 +54,12 @@ ReplicationCore::ReplicationCore(ServerConfig config, OpenedStorage opened, Core
     access_ = std::move(*access);
   else
     access_.deny_all = true;
+  // A base that costs something to read (a refined source, a pack) gets a worker that makes
+  // the tiles admitted stamps and new subscriptions will read before the tick reads them.
+  if (config_.prefetch_tiles > 0 && !terrain_.world().base().uniform()) {
+    prefetch_ = std::make_shared<PrefetchingBase>(terrain_.world().base_ptr(), config_.prefetch_tiles);
+    terrain_.mutable_world().replace_base(prefetch_);
+  }
 }
 
 const ClientTiles* ReplicationCore::tiles_of(ClientId id) const {
@@ -347,9 +353,40 @@ void ReplicationCore::on_subscribe(Client& c, const wire::Subscribe& sub) {
     // resumes without a transfer; otherwise the whole tile is due (it leaves under the budget).
     const std::optional<uint64_t> held = e.held ? std::optional<uint64_t>(e.held_version) : std::nullopt;
     // Resuming behind: only the samples changed since, when the history reaches back that far.
-    c.tiles.subscribe(e.tile, held, terrain_.world().tile_state(e.tile).version,
+    c.tiles.subscribe(e.tile, held, terrain_.world().tile_version(e.tile),
                       held ? history_.changed_since(e.tile, *held) : std::nullopt);
   }
+  // The tiles this subscription will read (hashes, regions) get made ahead, off this thread.
+  if (prefetch_) {
+    std::vector<TileCoord> ahead;
+    for (const wire::SubscribeEntry& e : sub.entries) {
+      if (e.tile.layer == Layer::kCoarse && valid_tile(e.tile) &&
+          terrain_.world().needs_base_read(e.tile.mip, e.tile.tx, e.tile.ty))
+        ahead.push_back(e.tile);
+    }
+    prefetch_->prefetch(ahead);
+  }
+}
+
+void ReplicationCore::prefetch_reach(const QuantizedStamp& q) {
+  if (!prefetch_ || q.layer != Layer::kCoarse) return;
+  auto reach = stamp_reach(q, terrain_.world().params(), &terrain_.textures(), terrain_.limits());
+  if (!reach || reach->empty()) return;
+  // Every mip's tiles under the reach: the stamp writes mip 0, commit() updates the mips above.
+  const World& w = terrain_.world();
+  const WorldParams& p = w.params();
+  std::vector<TileCoord> ahead;
+  const RectI r0 = reach->intersect(p.sample_rect());
+  for (int32_t m = 0; m < p.mip_count(); ++m) {
+    const RectI samples = m == 0 ? r0 : mip_samples_reaching(p, m, r0);
+    const RectI t = tiles_overlapping(samples).intersect(p.tile_range(m));
+    if (t.area() > 64) return;  // a stamp this wide costs more than a prefetch saves
+    for (int64_t ty = t.y0; ty < t.y1; ++ty)
+      for (int64_t tx = t.x0; tx < t.x1; ++tx)
+        if (w.needs_base_read(m, int32_t(tx), int32_t(ty)))
+          ahead.push_back({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)});
+  }
+  prefetch_->prefetch(ahead);
 }
 
 void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) {
@@ -438,6 +475,7 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
   c.tokens -= 1.0;
   ++c.unacked;
   pending_.push_back({c.id, d.client_seq, d.stamp, *cost, c.resume_key});
+  prefetch_reach(d.stamp);
   if (c.resume_key != 0) ledger_.admitted(c.resume_key, d.client_seq);
 }
 
@@ -664,6 +702,13 @@ void ReplicationCore::try_resume_storage(CoreTime now) {
 }
 
 void ReplicationCore::maybe_snapshot(CoreTime now, bool force) {
+  // A snapshot being written on its worker: adopted once written (at shutdown, waited for).
+  if (storage_.snapshot_in_flight()) {
+    auto done = storage_.poll_snapshot(terrain_, force);
+    if (!done) return;
+    snapshot_done(*done, now);
+    if (!force) return;
+  }
   if (!storage_.writable()) return;  // the log must be writable to start the next segment
   if (!force && now < snapshot_retry_after_) return;
   const uint64_t since = terrain_.last_seq() - storage_.last_snapshot_seq();
@@ -678,37 +723,48 @@ void ReplicationCore::maybe_snapshot(CoreTime now, bool force) {
   // Nothing new since the last snapshot (or since the initial terrain, which segment 0's
   // header already describes): a snapshot would add nothing.
   if (!due || since == 0 || terrain_.last_seq() == 0) return;
-  const auto t0 = CoreClock::now();  // for the log line only
-  auto path = storage_.snapshot(terrain_, tick_);
+  snapshot_started_ = CoreClock::now();  // for the log line only
   last_snapshot_time_ = now;
-  if (!path) {
-    // Nothing is left behind (write_snapshot removes its partial folder); retrying at once on a
+  // The tick thread copies what changed and starts the next segment; the encoding and writing
+  // run on the storage's worker, so acks and events do not wait for them.
+  const Status begun = storage_.begin_snapshot(terrain_, tick_);
+  if (!begun.ok()) {
+    snapshot_done(Result<SnapshotOutcome>(begun.error()), now);
+    return;
+  }
+  if (force || !config_.async_snapshots) snapshot_done(*storage_.poll_snapshot(terrain_, true), now);
+}
+
+void ReplicationCore::snapshot_done(const Result<SnapshotOutcome>& done, CoreTime now) {
+  if (!done) {
+    // Nothing is left behind (a failed write removes what it wrote); retrying at once on a
     // full disk would only churn, so the interval grows.
     snapshot_backoff_s_ = snapshot_backoff_s_ == 0
                               ? kSnapshotBackoffMinS
                               : std::min(snapshot_backoff_s_ * 2.0, kSnapshotBackoffMaxS);
     snapshot_retry_after_ = now + after(snapshot_backoff_s_);
     log_event("snapshot_error",
-              {{"error", path.error().describe()}, {"retry_in_s", std::to_string(snapshot_backoff_s_)}});
+              {{"error", done.error().describe()}, {"retry_in_s", std::to_string(snapshot_backoff_s_)}});
     return;
   }
   snapshot_backoff_s_ = 0;
-  const SnapshotWrite& w = path->write;
+  const SnapshotWrite& w = done->write;
   stats_.snapshot_bytes_written += w.written_bytes;
   ++stats_.snapshots;
   log_event(
       "snapshot",
       {{"path", w.path},
-       {"seq", std::to_string(terrain_.last_seq())},
+       {"seq", std::to_string(w.last_seq)},
        {"tiles", std::to_string(w.tiles_written)},
        {"tile_bytes", std::to_string(w.tile_bytes)},
        {"moved_bytes", std::to_string(w.moved_bytes)},
        {"index_bytes", std::to_string(w.index_bytes)},
        {"written_bytes", std::to_string(w.written_bytes)},
-       {"snapshots_removed", std::to_string(path->prune.snapshots_removed)},
-       {"tile_files_removed", std::to_string(path->prune.tile_files_removed)},
-       {"segments_removed", std::to_string(path->segments_removed)},
-       {"ms", std::to_string(std::chrono::duration<double, std::milli>(CoreClock::now() - t0).count())}});
+       {"snapshots_removed", std::to_string(done->prune.snapshots_removed)},
+       {"tile_files_removed", std::to_string(done->prune.tile_files_removed)},
+       {"segments_removed", std::to_string(done->segments_removed)},
+       {"ms", std::to_string(
+                  std::chrono::duration<double, std::milli>(CoreClock::now() - snapshot_started_).count())}});
 }
 
 void ReplicationCore::record_tick_ms(double ms) {
@@ -751,6 +807,12 @@ MetricsSnapshot ReplicationCore::metrics(uint64_t max_queue_bytes) const {
   m.unpersisted_tile_bytes = terrain_.world().unpersisted_bytes();
   m.edited_tiles_loaded = terrain_.world().edited_tiles_loaded();
   m.snapshots = stats_.snapshots;
+  if (prefetch_) {
+    const PrefetchingBase::Stats ps = prefetch_->stats();
+    m.prefetch_queued = ps.queued;
+    m.prefetch_hits = ps.ready_hits;
+    m.prefetch_inline = ps.made_inline;
+  }
   m.snapshot_bytes_written = stats_.snapshot_bytes_written;
   m.snapshot_store_bytes = storage_.store().file_bytes();
   m.snapshot_live_bytes = storage_.store().live_bytes();
@@ -795,6 +857,8 @@ void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
                       {"base_tiles_generated", std::to_string(terrain_.world().base_tiles_generated())},
                       {"unpersisted_tile_bytes", std::to_string(terrain_.world().unpersisted_bytes())},
                       {"edited_tiles_loaded", std::to_string(terrain_.world().edited_tiles_loaded())},
+                      {"prefetch_hits", std::to_string(prefetch_ ? prefetch_->stats().ready_hits : 0)},
+                      {"prefetch_inline", std::to_string(prefetch_ ? prefetch_->stats().made_inline : 0)},
                       {"max_queue_bytes", std::to_string(max_queue_bytes)},
                       {"tick_p50_ms", std::to_string(last_p50_ms_)},
                       {"tick_p99_ms", std::to_string(last_p99_ms_)},

@@ -40,6 +40,7 @@
 #include "server/replication/tile_history.h"
 #include "server/server_config.h"
 #include "server/storage.h"
+#include "server/tile_prefetcher.h"
 
 namespace loam::server {
 
@@ -114,6 +115,8 @@ class ReplicationCore {
   size_t clients() const { return clients_.size(); }
   // The core's view of a client's tiles (tests).
   const ClientTiles* tiles_of(ClientId id) const;
+  // The base's worker that makes tiles ahead (null when off or the base is uniform).
+  const PrefetchingBase* prefetcher() const { return prefetch_.get(); }
 
  private:
   struct Client {
@@ -167,6 +170,10 @@ class ReplicationCore {
   void acknowledge(const PendingDeform& p, std::optional<uint64_t> seq);
   void stream_regions(CoreTime now, const std::function<uint64_t(ClientId)>& unsent);
   void send_hashes(Client& c);
+  // Logs a snapshot's outcome; a failure backs off the next try.
+  void snapshot_done(const Result<SnapshotOutcome>& done, CoreTime now);
+  // Queues the base tiles an admitted stamp will read, at every mip under its reach.
+  void prefetch_reach(const QuantizedStamp& q);
   void maybe_snapshot(CoreTime now, bool force);
   void try_resume_storage(CoreTime now);
 
@@ -176,6 +183,8 @@ class ReplicationCore {
   TerrainState terrain_;
   RegionFrames frames_;
   TileHistory history_;
+  std::shared_ptr<PrefetchingBase> prefetch_;
+  CoreTime snapshot_started_{};
   std::map<ClientId, Client> clients_;
   // Connections still in their handshake (all, and per address) and clients in session: the
   // pools --max-handshakes, --max-handshakes-per-address and --max-clients bound.

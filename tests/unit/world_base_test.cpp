@@ -103,6 +103,25 @@ TEST(WorldBase, AnUntouchedWorldOfTheRefinedDefaultHashesWithoutGeneratingATile)
   EXPECT_NE(World(other, *base).world_hash(), h);
 }
 
+// A server answers Subscribe with versions and queues what it will read for its prefetcher:
+// neither may make a tile on the receiving thread.
+TEST(WorldBase, TileVersionsAndTheBaseReadsANewTileNeedsCostNoTile) {
+  const SmallRefined s = small_refined();
+  World w(s.params, s.base);
+  const TileCoord c{Layer::kCoarse, 0, 1, 0};
+  EXPECT_EQ(w.tile_version(c), 0u);
+  EXPECT_TRUE(w.needs_base_read(0, 1, 0));
+  EXPECT_FALSE(w.needs_base_read(0, 9, 9)) << "outside the world";
+  EXPECT_EQ(w.base_tiles_generated(), 0u);
+  (void)w.coarse_tile(0, 1, 0);
+  EXPECT_FALSE(w.needs_base_read(0, 1, 0)) << "cached now";
+  ASSERT_TRUE(apply_stamp(w, crater_at(300, 100, 20, -100)).ok());
+  w.commit(5);
+  EXPECT_EQ(w.tile_version(c), 5u);
+  EXPECT_EQ(w.tile_version(c), w.tile_state(c).version);
+  EXPECT_FALSE(w.needs_base_read(0, 1, 0)) << "edited";
+}
+
 TEST(WorldBase, ATileEvictedAndReadAgainHashesTheSameAndTheCacheStaysInItsBudget) {
   const SmallRefined s = small_refined();
   World w(s.params, s.base);
