@@ -629,6 +629,13 @@ TileState World::tile_state(const TileCoord& c) const {
   return it->second.state;
 }
 
+std::optional<TileState> World::known_tile_state(const TileCoord& c) const {
+  if (c.layer == Layer::kCoarse && tile_in_range(c.mip, c.tx, c.ty) && !base_->uniform() &&
+      !edited(c.mip, c.tx, c.ty) && !base_hashes_.count(c) && !cache_.count(c))
+    return std::nullopt;
+  return tile_state(c);
+}
+
 uint64_t World::tile_version(const TileCoord& c) const {
   if (c.layer == Layer::kCoarse) {
     if (!tile_in_range(c.mip, c.tx, c.ty)) return 0;

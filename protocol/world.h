@@ -22,6 +22,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <unordered_map>
 #include <vector>
@@ -107,6 +108,9 @@ class World {
   TileState tile_state(const TileCoord& c) const;
   // The version alone: never reads a tile (tile_state may generate an untouched one to hash it).
   uint64_t tile_version(const TileCoord& c) const;
+  // tile_state() when it is known without asking the base (the tile is edited, cached, or its
+  // hash remembered); nullopt when it would have to be generated or read first.
+  std::optional<TileState> known_tile_state(const TileCoord& c) const;
   // Sets a tile's version without changing its content (loading a snapshot, which stores
   // versions beside the samples). Returns false for a tile outside the world.
   bool restore_version(const TileCoord& c, uint64_t version);

@@ -3,7 +3,7 @@
 # (GCC, AddressSanitizer + UndefinedBehaviorSanitizer, warnings as errors) and runs them
 # under ctest; then builds protocol/ with clang 14, runs each libFuzzer target briefly and
 # checks that clang's build of the stamp code reproduces the golden stamp-sequence hash.
-# Environment: LOAM_FUZZ_SECONDS (default 30), LOAM_SKIP_FUZZ=1 to skip the fuzzers.
+# Environment: LOAM_FUZZ_SECONDS (default 20), LOAM_SKIP_FUZZ=1 to skip the fuzzers.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -25,8 +25,8 @@ if [ -z "${DISPLAY:-}" ] && command -v xvfb-run >/dev/null; then xvfb=(xvfb-run 
 (cd build/asan && "${xvfb[@]}" ctest --output-on-failure -j "$jobs" --timeout 900)
 
 if [ "${LOAM_SKIP_FUZZ:-0}" != "1" ] && [ -f fuzz/CMakeLists.txt ]; then
-  echo "== fuzz (clang 14 build of protocol/, ${LOAM_FUZZ_SECONDS:-30} s per target)"
-  bash fuzz/run.sh all "${LOAM_FUZZ_SECONDS:-30}"
+  echo "== fuzz (clang 14 build of protocol/, ${LOAM_FUZZ_SECONDS:-20} s per target)"
+  bash fuzz/run.sh all "${LOAM_FUZZ_SECONDS:-20}"
   echo "== clang determinism (the golden stamp sequence and refinement built with clang 14)"
   ninja -C build-fuzz stamp_golden_check
   ./build-fuzz/fuzz/stamp_golden_check

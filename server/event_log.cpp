@@ -14,8 +14,10 @@ namespace loam::server {
 namespace {
 
 // The kinds a client (authenticated or not) can cause at will.
-constexpr std::array<std::string_view, 8> kLimitedKinds = {
-    "connect", "disconnect", "hello", "reject", "violation", "deform_rejected", "client_error", "drop"};
+// And tick_overrun: on a loaded machine every tick may overrun.
+constexpr std::array<std::string_view, 9> kLimitedKinds = {"connect",      "disconnect", "hello",
+                                                           "reject",       "violation",  "deform_rejected",
+                                                           "client_error", "drop",       "tick_overrun"};
 
 std::mutex limit_mutex;
 LogRateLimit& limit() {

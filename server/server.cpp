@@ -76,15 +76,6 @@ Status Server::start() {
     log_event("metrics_listening",
               {{"bind", config_.metrics_bind}, {"port", std::to_string(metrics_.port())}});
   }
-  if (!config_.port_file.empty()) {
-    const std::string tmp = config_.port_file + ".tmp";
-    {
-      std::ofstream f(tmp);
-      f << port_ << "\n";
-      if (!f) return make_error(ErrorCode::kIo, config_.port_file, "cannot write the port file");
-    }
-    std::rename(tmp.c_str(), config_.port_file.c_str());
-  }
   signals_.async_wait([this](const asio::error_code& e, int sig) {
     if (!e) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
   });
@@ -102,6 +93,16 @@ Status Server::start() {
                           {"editor_tokens", std::to_string(access.editors.size())},
                           {"viewer_tokens", std::to_string(access.viewers.size())},
                           {"client_bytes_per_second", std::to_string(config_.client_bytes_per_second)}});
+  // The port file last: whoever waits for it may count on the listening line being logged.
+  if (!config_.port_file.empty()) {
+    const std::string tmp = config_.port_file + ".tmp";
+    {
+      std::ofstream f(tmp);
+      f << port_ << "\n";
+      if (!f) return make_error(ErrorCode::kIo, config_.port_file, "cannot write the port file");
+    }
+    std::rename(tmp.c_str(), config_.port_file.c_str());
+  }
   if (!access.required() && config_.bind_address != "127.0.0.1" && config_.bind_address != "::1" &&
       config_.bind_address != "localhost") {
     log_event("warning", {{"what",

@@ -18,7 +18,7 @@ struct ServerConfig {
   std::string metrics_bind;               // HOST:PORT of the Prometheus /metrics endpoint; empty: none
   std::string dem_path;                   // empty: the embedded terrain `terrain` names
   std::string terrain = "crop";           // crop | refined (server/terrain_source.h)
-  uint32_t prefetch_tiles = 256;          // base tiles made ahead off the tick thread (0: off)
+  uint32_t prefetch_tiles = 64;           // base tiles made ahead off the tick thread (0: off)
   uint64_t cache_mb = 256;                // clean tiles kept in memory: the base's and persisted edits
   int dem_band = 0;                       // the DEM's height band (1-based); 0: its only band
   std::vector<std::string> stamp_images;  // texture-stamp image files to register
@@ -57,20 +57,20 @@ struct ServerConfig {
   // events, pongs and errors go at once, outside it. 0: no limit.
   uint32_t client_bytes_per_second = 128u << 10;
   uint32_t max_encodes_per_tick = 32;         // regions encoded per tick, all clients together
-  uint64_t region_cache_bytes = 64ull << 20;  // encoded regions kept for other clients
+  uint64_t region_cache_bytes = 32ull << 20;  // encoded regions kept for other clients
   uint32_t best_after_uses = 2;  // a whole tile sent this often is re-encoded in the best mode (0: never)
   // Resume: the last changes of recently changed tiles and the samples they replaced, so a
   // client back from a disconnect, or missing a shockwave, gets a delta against the version it
   // holds (~40 bytes a change plus the replaced samples, within history_bytes).
   uint32_t history_changes_per_tile = 64;
   uint32_t history_tiles = 16384;
-  uint64_t history_bytes = 32ull << 20;
+  uint64_t history_bytes = 16ull << 20;
   // Persistence and reporting.
   uint64_t snapshot_every_stamps = 20000;  // 0: only at shutdown
   double snapshot_interval_s = 600.0;      // 0: only by count and at shutdown
   // A snapshot is also due when edited tiles no snapshot holds reach this many bytes (they
   // cannot be evicted until one does). 0: never for that reason.
-  uint64_t snapshot_dirty_bytes = 32ull << 20;
+  uint64_t snapshot_dirty_bytes = 16ull << 20;
   // Snapshots are written on a worker thread (the tick copies what changed); false: on the tick
   // thread (deterministic for tests that drive the core).
   bool async_snapshots = true;

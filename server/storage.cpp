@@ -450,18 +450,18 @@ void Storage::apply_retention(SnapshotOutcome& out) {
   if (out.segments_removed > 0) (void)fsync_path((fs::path(data_dir_) / "log").string());
 }
 
-namespace {
-uint64_t folder_bytes(const fs::path& dir) {
+uint64_t folder_bytes(const std::string& dir) {
   uint64_t n = 0;
   std::error_code ec;
   for (const auto& e : fs::recursive_directory_iterator(dir, ec))
     if (e.is_regular_file(ec)) n += e.file_size(ec);
   return n;
 }
-}  // namespace
 
-uint64_t Storage::log_bytes() const { return folder_bytes(fs::path(data_dir_) / "log"); }
-uint64_t Storage::snapshot_bytes() const { return folder_bytes(fs::path(data_dir_) / "snapshots"); }
+uint64_t Storage::log_bytes() const { return folder_bytes((fs::path(data_dir_) / "log").string()); }
+uint64_t Storage::snapshot_bytes() const {
+  return folder_bytes((fs::path(data_dir_) / "snapshots").string());
+}
 
 std::string Storage::segment_path_of(uint32_t index) const {
   return (fs::path(data_dir_) / "log" / log::segment_file_name(index)).string();

@@ -157,6 +157,9 @@ Result<OpenedStorage> open_storage(const std::string& data_dir, const std::strin
                                    const std::vector<std::string>& stamp_images = {}, int dem_band = 0,
                                    const std::string& terrain = kTerrainCrop);
 
+// Bytes of the regular files under `dir`, recursively (0 where it is absent).
+uint64_t folder_bytes(const std::string& dir);
+
 // The session's current world without changing the folder (export, inspection): like a
 // recovery, but a damaged tail is left alone (its records before the damage count), nothing is
 // written, and the returned Storage must not be used to log.

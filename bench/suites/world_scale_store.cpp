@@ -63,14 +63,6 @@ std::string tail_of(const std::string& path) {
   return all.size() > 400 ? all.substr(all.size() - 400) : all;
 }
 
-uint64_t folder_bytes(const fs::path& dir) {
-  uint64_t n = 0;
-  std::error_code ec;
-  for (const auto& e : fs::recursive_directory_iterator(dir, ec))
-    if (e.is_regular_file(ec)) n += e.file_size(ec);
-  return n;
-}
-
 }  // namespace
 
 PackImportBench bench_pack_import(const Context& ctx, const std::string& dir, int64_t side, bool tiled) {
@@ -219,7 +211,7 @@ SnapshotBench bench_snapshots(const Context& ctx, uint64_t stamps, uint64_t ever
         round.write_s = snap->write.seconds;
         round.log_bytes = storage.log_bytes();
         round.snapshot_bytes = storage.snapshot_bytes();
-        round.data_dir_bytes = folder_bytes(dir);
+        round.data_dir_bytes = server::folder_bytes(dir);
         round.live_bytes = storage.store().live_bytes();
         if (round.tile_bytes > 0)
           r.worst_ratio = std::max(r.worst_ratio, double(round.written_bytes) / double(round.tile_bytes));

@@ -12,6 +12,7 @@
 #include <filesystem>
 
 #include "protocol/byte_order.h"
+#include "protocol/file_io.h"
 #include "protocol/tile_hash.h"
 
 namespace loam {
@@ -25,9 +26,7 @@ constexpr uint32_t kMaxTilePayload = uint32_t(kRegionHeaderSize + kTileSamples *
 constexpr size_t kParamsAt = 16, kParamsEnd = 72, kTileCountAt = 72, kIndexAt = 80, kIdentityAt = 88,
                  kChecksumAt = 120;
 
-Error io_error(const std::string& path, const std::string& what) {
-  return make_error(ErrorCode::kIo, path, what + ": " + std::strerror(errno));
-}
+Error io_error(const std::string& path, const std::string& what) { return file_error(path, what); }
 
 uint64_t f64_bits(double v) {
   uint64_t u;
@@ -82,20 +81,6 @@ uint64_t pack_identity(const uint8_t* header, std::span<const uint64_t> hashes) 
   return XXH3_64bits(record.data(), record.size());
 }
 
-Status pread_all(int fd, uint64_t offset, std::span<uint8_t> out, const std::string& path) {
-  size_t done = 0;
-  while (done < out.size()) {
-    const ssize_t n = ::pread(fd, out.data() + done, out.size() - done, off_t(offset + done));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return io_error(path, "read failed");
-    }
-    if (n == 0) return make_error(ErrorCode::kTruncated, path, "the pack ends inside a read");
-    done += size_t(n);
-  }
-  return {};
-}
-
 }  // namespace
 
 uint64_t pack_tile_count(const WorldParams& p) {
@@ -135,7 +120,7 @@ Status TilePackBase::read_tile(int32_t mip, int32_t tx, int32_t ty, std::span<ui
     return make_error(ErrorCode::kInvalidArgument, "out", "a tile is 256 x 256 samples");
   const Entry& e = index_[size_t(*at)];
   std::vector<uint8_t> payload(e.size);
-  LOAM_TRY(pread_all(fd_, e.offset, payload, summary_.path));
+  LOAM_TRY(pread_exact(fd_, e.offset, payload, summary_.path));
   auto samples = decode_region(payload, kTileSize, kTileSize, {}, e.hash);
   if (!samples) {
     return make_error(samples.error().code, summary_.path, tile + ": " + samples.error().describe());
@@ -180,7 +165,7 @@ Result<std::shared_ptr<const TilePackBase>> open_tile_pack(const std::string& pa
     return make_error(ErrorCode::kTruncated, path, "shorter than a tile pack header");
 
   uint8_t h[kPackHeaderSize];
-  LOAM_TRY(pread_all(pack->fd_, 0, h, path));
+  LOAM_TRY(pread_exact(pack->fd_, 0, h, path));
   if (std::memcmp(h, kMagic, sizeof kMagic) != 0)
     return make_error(ErrorCode::kCorrupt, path, "not a tile pack (bad magic)");
   const uint32_t format = load_le<uint32_t>(h + 8);
@@ -212,7 +197,7 @@ Result<std::shared_ptr<const TilePackBase>> open_tile_pack(const std::string& pa
   s.payload_bytes = index_at - kPackHeaderSize;
 
   std::vector<uint8_t> index(size_t(index_bytes + 8));
-  LOAM_TRY(pread_all(pack->fd_, index_at, index, path));
+  LOAM_TRY(pread_exact(pack->fd_, index_at, index, path));
   if (XXH3_64bits(index.data(), size_t(index_bytes)) != load_le<uint64_t>(index.data() + index_bytes))
     return make_error(ErrorCode::kCorrupt, path, "index checksum mismatch");
   pack->index_.resize(size_t(s.tiles));
@@ -283,16 +268,7 @@ TilePackWriter::~TilePackWriter() {
 }
 
 Status TilePackWriter::write_at(uint64_t offset, std::span<const uint8_t> bytes) {
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::pwrite(fd_, bytes.data() + done, bytes.size() - done, off_t(offset + done));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return io_error(partial_, "write failed");
-    }
-    done += size_t(n);
-  }
-  return {};
+  return pwrite_exact(fd_, offset, bytes, partial_);
 }
 
 Status TilePackWriter::add(int32_t mip, int32_t tx, int32_t ty, std::span<const uint16_t> samples) {

@@ -9,6 +9,8 @@
 #include <cstring>
 #include <utility>
 
+#include "protocol/file_io.h"
+
 namespace loam::log {
 
 namespace {
@@ -18,16 +20,7 @@ Error io_error(const std::string& path, const char* what) {
 }
 
 Status write_all(int fd, const uint8_t* p, size_t n, const std::string& path) {
-  while (n > 0) {
-    const ssize_t w = ::write(fd, p, n);
-    if (w < 0) {
-      if (errno == EINTR) continue;
-      return io_error(path, "write");
-    }
-    p += w;
-    n -= size_t(w);
-  }
-  return {};
+  return write_exact(fd, std::span<const uint8_t>(p, n), path);
 }
 
 // A new file's directory entry is durable only once the directory itself is synced.

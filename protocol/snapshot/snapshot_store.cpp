@@ -18,6 +18,7 @@
 
 #include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
+#include "protocol/file_io.h"
 #include "protocol/snapshot/snapshot_io.h"
 #include "protocol/tile_hash.h"
 
@@ -40,36 +41,7 @@ constexpr uint8_t kKindCoarse = 0, kKindDetail = 1, kKindImage = 2;
 // image's is exactly its samples: checked against its size).
 constexpr uint32_t kMaxTilePayload = uint32_t(kRegionHeaderSize + kTileSamples * 2 + 64);
 
-Error io_error(const std::string& path, const std::string& what) {
-  return make_error(ErrorCode::kIo, path, what + ": " + std::strerror(errno));
-}
-
-Status pread_all(int fd, uint64_t offset, std::span<uint8_t> out, const std::string& path) {
-  size_t done = 0;
-  while (done < out.size()) {
-    const ssize_t n = ::pread(fd, out.data() + done, out.size() - done, off_t(offset + done));
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return io_error(path, "read failed");
-    }
-    if (n == 0) return make_error(ErrorCode::kTruncated, path, "the file ends inside a record");
-    done += size_t(n);
-  }
-  return {};
-}
-
-Status write_all(int fd, std::span<const uint8_t> bytes, const std::string& path) {
-  size_t done = 0;
-  while (done < bytes.size()) {
-    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return io_error(path, "write failed");
-    }
-    done += size_t(n);
-  }
-  return {};
-}
+Error io_error(const std::string& path, const std::string& what) { return file_error(path, what); }
 
 void put_record_header(std::vector<uint8_t>& out, uint8_t kind, uint8_t mip, int32_t tx, int32_t ty,
                        uint64_t version, uint64_t hash, uint32_t size) {
@@ -265,7 +237,7 @@ Result<std::vector<uint8_t>> SnapshotStore::read_payload(const StoredTile& e) co
   const int fd = fd_of(e.file);
   if (fd < 0) return io_error(path, "cannot open");
   std::vector<uint8_t> rec(kRecordHeaderSize + e.size);
-  LOAM_TRY(pread_all(fd, e.offset, rec, path));
+  LOAM_TRY(pread_exact(fd, e.offset, rec, path));
   const uint8_t* h = rec.data();
   if (h[0] != e.kind || h[1] != e.mip || load_le<int32_t>(h + 2) != e.tx || load_le<int32_t>(h + 6) != e.ty ||
       load_le<uint64_t>(h + 10) != e.version || load_le<uint64_t>(h + 18) != e.hash ||
@@ -551,7 +523,7 @@ Status SnapshotStore::run(SnapshotJobHandle& handle) {
       it = readers.emplace(e.file, rfd).first;
     }
     std::vector<uint8_t> rec(kRecordHeaderSize + e.size);
-    LOAM_TRY(pread_all(it->second, e.offset, rec, snapshot_tiles_file_name(e.file)));
+    LOAM_TRY(pread_exact(it->second, e.offset, rec, snapshot_tiles_file_name(e.file)));
     const uint8_t* h = rec.data();
     if (h[0] != e.kind || load_le<uint64_t>(h + 18) != e.hash || load_le<uint32_t>(h + 26) != e.size)
       return make_error(ErrorCode::kCorrupt, snapshot_tiles_file_name(e.file),
@@ -565,7 +537,7 @@ Status SnapshotStore::run(SnapshotJobHandle& handle) {
   std::vector<uint8_t> buf;
   const auto flush = [&]() -> Status {
     XXH3_64bits_update(sum, buf.data(), buf.size());
-    LOAM_TRY(write_all(fd, buf, path));
+    LOAM_TRY(write_exact(fd, buf, path));
     offset += buf.size();
     buf.clear();
     return {};
@@ -661,7 +633,7 @@ Status SnapshotStore::run(SnapshotJobHandle& handle) {
     append_le<uint64_t>(buf, records);
     XXH3_64bits_update(sum, buf.data(), buf.size());
     append_le<uint64_t>(buf, XXH3_64bits_digest(sum));
-    LOAM_TRY(write_all(fd, buf, path));
+    LOAM_TRY(write_exact(fd, buf, path));
     offset += buf.size();
     buf.clear();
     if (::fsync(fd) != 0) return io_error(path, "fsync failed");

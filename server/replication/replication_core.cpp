@@ -1,6 +1,8 @@
 #include "server/replication/replication_core.h"
 
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <cstring>
 
 #include "protocol/hex64.h"
@@ -18,6 +20,16 @@ bool editor_role(wire::Role r) { return r != wire::Role::kSpectator; }
 // the two never disagree on the same ticks. `sorted` ascending; 0 when empty.
 double percentile(const std::vector<double>& sorted, double p) {
   return sorted.empty() ? 0.0 : sorted[size_t(p * double(sorted.size() - 1))];
+}
+
+// Untouched tiles a hashes round may generate (or read from a pack) to hash them: about 4 ms
+// of refinement. A roaming client's new tiles would otherwise all be made in one tick.
+constexpr uint32_t kHashBaseReadsPerRound = 16;
+
+std::string fmt_ms(double ms) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f", ms);
+  return buf;
 }
 
 double seconds(CoreClock::duration d) { return std::chrono::duration<double>(d).count(); }
@@ -531,20 +543,45 @@ void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>
                                    std::make_move_iterator(pending_.begin() + ptrdiff_t(n)));
   pending_.erase(pending_.begin(), pending_.begin() + ptrdiff_t(n));
   last_batch_ = batch.size();
+  // Where the tick's time went, for a tick_overrun line (wall clock: `now` is fixed).
+  using Wall = std::chrono::steady_clock;
+  const auto ms_since = [](Wall::time_point t) {
+    return std::chrono::duration<double, std::milli>(Wall::now() - t).count();
+  };
+  const auto t_start = Wall::now();
+  const uint64_t generated0 = terrain_.world().base_tiles_generated();
+  const uint64_t loaded0 = terrain_.world().edited_tiles_loaded();
+  sync_ms_ = 0;
   if (!storage_.writable()) try_resume_storage(now);
   if (!batch.empty()) commit_batch(std::move(batch), now);
   if (failed_) return;
+  const double commit_ms = ms_since(t_start);
+  auto t = Wall::now();
   frames_.adopt_best();
   stream_regions(now, unsent);
   if (config_.hashes_every_ticks > 0 && tick_ % config_.hashes_every_ticks == 0) {
+    uint32_t base_reads_left = kHashBaseReadsPerRound;
+    std::vector<TileCoord> later;
     for (auto& [id, c] : clients_) {
-      if (c.state == Client::State::kReady && c.tiles.size() != 0) send_hashes(c);
+      if (c.state == Client::State::kReady && c.tiles.size() != 0) send_hashes(c, base_reads_left, later);
     }
+    if (prefetch_ && !later.empty()) prefetch_->prefetch(later);
   }
+  const double stream_ms = ms_since(t);
+  t = Wall::now();
   maybe_snapshot(now, false);
+  const double snapshot_ms = ms_since(t);
+  t = Wall::now();
   // Clean base tiles read this tick (subscriptions, stamps' neighbourhoods) back under budget;
   // nothing holds a span into them between ticks.
   terrain_.mutable_world().trim_base_cache();
+  last_phases_ = TickPhases{sync_ms_,
+                            commit_ms,
+                            stream_ms,
+                            snapshot_ms,
+                            ms_since(t),
+                            terrain_.world().base_tiles_generated() - generated0,
+                            terrain_.world().edited_tiles_loaded() - loaded0};
 }
 
 void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime now) {
@@ -570,7 +607,10 @@ void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime no
       return;
     }
   }
-  if (const Status st = storage_.sync(); !st.ok()) {
+  const auto sync_start = std::chrono::steady_clock::now();
+  const Status synced = storage_.sync();
+  sync_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - sync_start).count();
+  if (const Status& st = synced; !st.ok()) {
     // A full disk or an I/O error: nothing of this tick is durable (the writer cut the file
     // back), so nothing of it is applied or acknowledged. The server keeps serving reads and
     // hashes, refuses edits, and retries the log with a growing interval.
@@ -676,11 +716,21 @@ void ReplicationCore::stream_regions(CoreTime now, const std::function<uint64_t(
   }
 }
 
-void ReplicationCore::send_hashes(Client& c) {
+void ReplicationCore::send_hashes(Client& c, uint32_t& base_reads_left, std::vector<TileCoord>& later) {
   wire::TileHashes msg;
   for (const auto& [t, interest] : c.tiles.tiles()) {
-    const TileState st = terrain_.world().tile_state(t);
-    msg.entries.push_back({t, st.version, st.hash});
+    // An untouched tile whose hash is not known costs a generation or a pack read: the round
+    // makes a few, and the rest are made ahead and hashed in a later round.
+    std::optional<TileState> st = terrain_.world().known_tile_state(t);
+    if (!st) {
+      if (base_reads_left == 0) {
+        later.push_back(t);
+        continue;
+      }
+      --base_reads_left;
+      st = terrain_.world().tile_state(t);
+    }
+    msg.entries.push_back({t, st->version, st->hash});
     if (msg.entries.size() == wire::kMaxTileHashEntries) {
       send(c, msg);
       msg.entries.clear();
@@ -772,9 +822,17 @@ void ReplicationCore::record_tick_ms(double ms) {
   ticks_.add(ms);
   if (ms > 1000.0 / config_.tick_hz) {
     ++stats_.tick_overruns;
+    const TickPhases& p = last_phases_;
     log_event("tick_overrun", {{"tick", std::to_string(tick_)},
-                               {"ms", std::to_string(ms)},
-                               {"stamps", std::to_string(last_batch_)}});
+                               {"ms", fmt_ms(ms)},
+                               {"stamps", std::to_string(last_batch_)},
+                               {"sync_ms", fmt_ms(p.sync_ms)},
+                               {"commit_ms", fmt_ms(p.commit_ms)},
+                               {"stream_ms", fmt_ms(p.stream_ms)},
+                               {"snapshot_ms", fmt_ms(p.snapshot_ms)},
+                               {"trim_ms", fmt_ms(p.trim_ms)},
+                               {"base_tiles_read", std::to_string(p.base_tiles_read)},
+                               {"edited_tiles_loaded", std::to_string(p.edited_tiles_loaded)}});
   }
 }
 

@@ -169,7 +169,8 @@ class ReplicationCore {
   void commit_batch(std::vector<PendingDeform> batch, CoreTime now);
   void acknowledge(const PendingDeform& p, std::optional<uint64_t> seq);
   void stream_regions(CoreTime now, const std::function<uint64_t(ClientId)>& unsent);
-  void send_hashes(Client& c);
+  // Untouched tiles it must read to hash come out of base_reads_left; past it they go to later.
+  void send_hashes(Client& c, uint32_t& base_reads_left, std::vector<TileCoord>& later);
   // Logs a snapshot's outcome; a failure backs off the next try.
   void snapshot_done(const Result<SnapshotOutcome>& done, CoreTime now);
   // Queues the base tiles an admitted stamp will read, at every mip under its reach.
@@ -209,8 +210,17 @@ class ReplicationCore {
   static constexpr double kResumeBackoffMinS = 0.25, kResumeBackoffMaxS = 10.0;
   double resume_backoff_s_ = kResumeBackoffMinS;
   CoreTime next_resume_try_{};
-  size_t stream_cursor_ = 0;     // bulk turns rotate so no client always goes first
-  size_t last_batch_ = 0;        // stamps in the last tick
+  size_t stream_cursor_ = 0;  // bulk turns rotate so no client always goes first
+  size_t last_batch_ = 0;     // stamps in the last tick
+  double sync_ms_ = 0;        // the last tick's log sync
+  // Where the last tick's time went (logged when it overran its period): committing (the log
+  // sync within it), streaming regions and hashes, the snapshot's start or adoption, the trim;
+  // and the tiles it had to read from the base or reload from the snapshot store.
+  struct TickPhases {
+    double sync_ms = 0, commit_ms = 0, stream_ms = 0, snapshot_ms = 0, trim_ms = 0;
+    uint64_t base_tiles_read = 0, edited_tiles_loaded = 0;
+  };
+  TickPhases last_phases_;
   std::vector<double> tick_ms_;  // since the last stats line
   TickHistogram ticks_;          // every tick since start, for /metrics
   double last_p50_ms_ = 0, last_p99_ms_ = 0;

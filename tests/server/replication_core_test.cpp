@@ -14,6 +14,7 @@
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/tile_rect.h"
 #include "protocol/wire/framing.h"
+#include "server/terrain_source.h"
 
 namespace loam::server {
 namespace {
@@ -35,14 +36,14 @@ struct Received {
 
 class CoreHarness {
  public:
-  explicit CoreHarness(ServerConfig config = {}) {
+  explicit CoreHarness(ServerConfig config = {}, const std::string& terrain = kTerrainCrop) {
     dir_ = std::filesystem::temp_directory_path() /
            ("loam_core_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
     std::filesystem::remove_all(dir_);
     config.data_dir = dir_.string();
     config.snapshot_every_stamps = 0;
     config.snapshot_interval_s = 0;
-    auto opened = open_storage(config.data_dir, "", config.stamp_limits);
+    auto opened = open_storage(config.data_dir, "", config.stamp_limits, {}, 0, terrain);
     EXPECT_TRUE(opened.ok()) << (opened.ok() ? "" : opened.error().describe());
     core_ = std::make_unique<ReplicationCore>(config, std::move(*opened), now_);
   }
@@ -250,6 +251,43 @@ TEST(ReplicationCore, EncodesPerTickAreBoundedSoATickStaysShort) {
   EXPECT_EQ(h.core().region_counters().encodes, 3u);
   h.tick();
   EXPECT_EQ(h.core().region_counters().encodes, 6u);
+}
+
+// On a generated base, an untouched tile's hash costs a refinement the first time: a hashes
+// round makes a few and leaves the rest to later rounds, so a client subscribing a hundred new
+// tiles does not stall the tick; every tile is hashed within a few rounds, and right.
+TEST(ReplicationCore, AHashesRoundGeneratesAFewUntouchedTilesAndHashesTheRestInLaterRounds) {
+  ServerConfig config;
+  config.hashes_every_ticks = 1;
+  config.prefetch_tiles = 0;
+  CoreHarness h(config, kTerrainRefined);
+  const ClientId a = h.join("a");
+  wire::Subscribe sub;
+  for (int32_t i = 0; i < 100; ++i)
+    sub.entries.push_back({TileCoord{Layer::kCoarse, 0, 100 + i % 10, 100 + i / 10}, true, 0});
+  h.send(a, sub);
+  const World& w = h.core().terrain().world();
+  std::map<TileCoord, uint64_t> hashed;
+  int rounds = 0;
+  while (hashed.size() < sub.entries.size() && rounds < 20) {
+    h.clear();
+    const uint64_t generated = w.base_tiles_generated();
+    h.tick();
+    ++rounds;
+    EXPECT_LE(w.base_tiles_generated() - generated, 16u);
+    size_t entries = 0;
+    for (const wire::TileHashes& m : h.of(a).all<wire::TileHashes>()) {
+      for (const wire::TileHashEntry& e : m.entries) {
+        EXPECT_EQ(e.version, 0u);
+        hashed[e.tile] = e.hash;
+        ++entries;
+      }
+    }
+    EXPECT_LE(entries, size_t(16 * rounds));  // the known ones again, and at most 16 new
+  }
+  EXPECT_EQ(hashed.size(), sub.entries.size());
+  EXPECT_EQ(rounds, 7);  // 100 tiles, 16 a round
+  for (const auto& [t, hash] : hashed) EXPECT_EQ(hash, w.tile_state(t).hash) << to_string(t);
 }
 
 TEST(ReplicationCore, UnacknowledgedDeformsAreCappedPerClientNotPerTick) {

@@ -17,6 +17,7 @@
 #include "protocol/tile_hash.h"
 #include "protocol/world.h"
 #include "tests/support/random_stamps.h"
+#include "tests/support/small_refined.h"
 
 namespace loam {
 namespace {
@@ -31,26 +32,13 @@ struct Fixture {
   TextureRegistry textures;
 
   explicit Fixture(const char* name) {
-    std::vector<int32_t> source(9 * 7);
-    uint32_t s = 11;
-    for (auto& v : source) {
-      s = s * 1664525u + 1013904223u;
-      v = 20000 + int32_t(s >> 21);
-    }
-    RefinementParams rp;
-    rp.levels = 7;
-    rp.seed = 9;
-    for (int32_t l = 0; l < 7; ++l) rp.amplitude[size_t(l)] = 200 << l;
-    rp.roughness_gain = 2;
-    auto refined = RefinedBase::create(9, 7, source, rp);
-    EXPECT_TRUE(refined.ok());
-    params.meters_per_sample = 1.0;
-    params.meters_per_unit = 1.0 / 32.0;
-    params.tiles_x = 4;
-    params.tiles_y = 3;
-    auto b = RefinedTileBase::create(std::move(*refined), params);
-    EXPECT_TRUE(b.ok());
-    base = *b;
+    test::SmallRefinedSpec spec;
+    spec.source_w = 9, spec.source_h = 7, spec.levels = 7, spec.source_seed = 11, spec.seed = 9;
+    spec.amplitude = 200, spec.tiles_x = 4, spec.tiles_y = 3;
+    const test::SmallRefined r = test::small_refined(spec);
+    EXPECT_TRUE(r.base != nullptr);
+    params = r.params;
+    base = r.base;
     dir = fs::temp_directory_path() / (std::string("loam_snapshot_store_") + name);
     fs::remove_all(dir);
     fs::create_directories(dir);

@@ -14,6 +14,7 @@
 #include "protocol/stamps/texture_registry.h"
 #include "protocol/tile_hash.h"
 #include "protocol/world.h"
+#include "tests/support/small_refined.h"
 
 namespace loam {
 namespace {
@@ -21,34 +22,11 @@ namespace {
 // A 2 x 1 tile world on a refined 9 x 5 source (x64): the refined extent (576 x 320) is larger
 // than the world, and mip 1's tile reaches past the world's bottom edge, so the base's edge
 // clamping is exercised.
-struct SmallRefined {
-  WorldParams params;
-  std::shared_ptr<const RefinedTileBase> base;
-};
-
+using test::SmallRefined;
 SmallRefined small_refined() {
-  std::vector<int32_t> source(9 * 5);
-  uint32_t s = 5;
-  for (auto& v : source) {
-    s = s * 1664525u + 1013904223u;
-    v = 20000 + int32_t(s >> 20);
-  }
-  RefinementParams rp;
-  rp.levels = 6;
-  rp.seed = 3;
-  for (int32_t l = 0; l < 6; ++l) rp.amplitude[size_t(l)] = 300 << l;
-  rp.roughness_gain = 2;
-  auto refined = RefinedBase::create(9, 5, source, rp);
-  EXPECT_TRUE(refined.ok());
-  SmallRefined out;
-  out.params.meters_per_sample = 1.0;
-  out.params.meters_per_unit = 1.0 / 32.0;
-  out.params.tiles_x = 2;
-  out.params.tiles_y = 1;
-  auto base = RefinedTileBase::create(std::move(*refined), out.params);
-  EXPECT_TRUE(base.ok());
-  out.base = *base;
-  return out;
+  SmallRefined s = test::small_refined();
+  EXPECT_TRUE(s.base != nullptr);
+  return s;
 }
 
 // The same samples as a dense world (every tile written over a fill of 0).
