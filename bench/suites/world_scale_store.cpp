@@ -1,23 +1,16 @@
 #include "bench/suites/world_scale_store.h"
 
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 
+#include "bench/child_process.h"
 #include "client/view/roam_path.h"
 #include "protocol/log/log_format.h"
 #include "server/storage.h"
 #include "tests/support/random_stamps.h"
-
-extern char** environ;
 
 namespace loam::bench {
 namespace {
@@ -34,27 +27,9 @@ struct Ran {
   double seconds = 0, peak_rss_mib = 0;
 };
 Ran run(std::vector<std::string> args, const std::string& log) {
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  pid_t pid = -1;
-  Ran r;
   const auto t0 = std::chrono::steady_clock::now();
-  // posix_spawnp: gdal_translate is found on PATH.
-  const int rc = posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) return r;
-  int status = 0;
-  rusage usage{};
-  if (wait4(pid, &status, 0, &usage) != pid) return r;
-  r.seconds = seconds_since(t0);
-  r.peak_rss_mib = double(usage.ru_maxrss) / 1024.0;
-  r.ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
-  return r;
+  const ChildExit e = wait_child(spawn_child(std::move(args), log, true));
+  return Ran{e.ok(), seconds_since(t0), e.peak_rss_mib};
 }
 
 std::string tail_of(const std::string& path) {

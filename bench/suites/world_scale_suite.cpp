@@ -9,8 +9,6 @@
 // incremental snapshots with retention over a long session (world_scale_store.h).
 #include <OpenImageIO/imageio.h>
 #include <signal.h>
-#include <spawn.h>
-#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -24,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "bench/child_process.h"
 #include "bench/harness.h"
 #include "bench/server_stats.h"
 #include "bench/suites/world_scale_store.h"
@@ -33,8 +32,6 @@
 #include "dem/refined_default.h"
 #include "server/server_config.h"
 #include "tests/integration/server_process.h"
-
-extern char** environ;
 
 namespace loam::bench {
 namespace {
@@ -157,20 +154,6 @@ double peak_rss_mib(pid_t pid) {
   return kib / 1024.0;
 }
 
-// Starts a program with its stdout written to `stdout_path`; its pid, or -1.
-pid_t spawn(std::vector<std::string> args, const std::string& stdout_path) {
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  pid_t pid = -1;
-  if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) != 0) pid = -1;
-  posix_spawn_file_actions_destroy(&actions);
-  return pid;
-}
-
 struct ServeResult {
   bool ran = false;
   size_t view_tiles = 0;  // the whole-world coarse view: every tile of mips 6 and up
@@ -252,7 +235,7 @@ ServeResult serve_world(const std::vector<std::string>& terrain, int bots, int v
                                      "--stamps",         stamps,
                                      "--rate",           std::to_string(rate),
                                      "--seed",           std::to_string(i + 1)};
-    if (const pid_t pid = spawn(args, "/dev/null"); pid > 0) pids.push_back(pid);
+    if (const pid_t pid = spawn_child(args, "/dev/null", false); pid > 0) pids.push_back(pid);
   }
   r.bots = int(pids.size());
   // Headless viewers at n = 255 orbiting the centre and stamping where they look; each prints
@@ -287,24 +270,21 @@ ServeResult serve_world(const std::vector<std::string>& terrain, int bots, int v
       args[10] = "127";                         // --n: the default viewer
       args.insert(args.end(), {"--fly", "300"});
     }
-    if (const pid_t pid = spawn(args, log); pid > 0) viewer_pids.push_back({pid, log});
+    if (const pid_t pid = spawn_child(args, log, false); pid > 0) viewer_pids.push_back({pid, log});
   }
   r.viewers = int(viewer_pids.size()) - (fly ? 1 : 0);
   for (pid_t pid : pids) {
-    int status = 0;
-    rusage usage{};
-    if (wait4(pid, &status, 0, &usage) != pid) continue;
-    r.bot_rss_max_mib = std::max(r.bot_rss_max_mib, double(usage.ru_maxrss) / 1024.0);
-    r.bots_ok += WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    const ChildExit e = wait_child(pid);
+    r.bot_rss_max_mib = std::max(r.bot_rss_max_mib, e.peak_rss_mib);
+    r.bots_ok += e.ok();
   }
   for (size_t v = 0; v < viewer_pids.size(); ++v) {
     const auto& [pid, log] = viewer_pids[v];
-    int status = 0;
-    rusage usage{};
-    if (wait4(pid, &status, 0, &usage) != pid) continue;
+    const ChildExit e = wait_child(pid);
+    if (!e.waited) continue;
     if (fly && v + 1 == viewer_pids.size()) {
       r.flight_ran = true;
-      r.flight_ok = WIFEXITED(status) && WEXITSTATUS(status) == 0;
+      r.flight_ok = e.ok();
       std::ifstream in(log);
       for (std::string line; std::getline(in, line);) {
         std::sscanf(
@@ -315,8 +295,8 @@ ServeResult serve_world(const std::vector<std::string>& terrain, int bots, int v
       }
       continue;
     }
-    r.viewer_rss_max_mib = std::max(r.viewer_rss_max_mib, double(usage.ru_maxrss) / 1024.0);
-    r.viewers_ok += WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    r.viewer_rss_max_mib = std::max(r.viewer_rss_max_mib, e.peak_rss_mib);
+    r.viewers_ok += e.ok();
     std::ifstream in(log);
     for (std::string line; std::getline(in, line);) {
       double gpu = 0, cpu = 0;

@@ -18,6 +18,7 @@
 #include "protocol/world.h"
 #include "tests/support/random_stamps.h"
 #include "tests/support/small_refined.h"
+#include "tests/support/world_compare.h"
 
 namespace loam {
 namespace {
@@ -66,31 +67,7 @@ struct Fixture {
 
 void expect_same_world(const World& a, const World& b) {
   EXPECT_EQ(a.world_hash(), b.world_hash());
-  for (int32_t m = 0; m < a.params().mip_count(); ++m) {
-    const RectI t = a.params().tile_range(m);
-    for (int64_t ty = t.y0; ty < t.y1; ++ty) {
-      for (int64_t tx = t.x0; tx < t.x1; ++tx) {
-        const auto sa = a.coarse_tile(m, int32_t(tx), int32_t(ty));
-        const auto sb = b.coarse_tile(m, int32_t(tx), int32_t(ty));
-        ASSERT_TRUE(std::equal(sa.begin(), sa.end(), sb.begin(), sb.end()))
-            << "mip " << m << " tile " << tx << "," << ty;
-        const TileCoord c{Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)};
-        EXPECT_EQ(a.tile_state(c).hash, b.tile_state(c).hash);
-        EXPECT_EQ(a.tile_state(c).version, b.tile_state(c).version) << to_string(c);
-      }
-    }
-  }
-  const RectI d = tiles_overlapping(a.params().detail_sample_rect());
-  for (int64_t ty = d.y0; ty < d.y1; ++ty) {
-    for (int64_t tx = d.x0; tx < d.x1; ++tx) {
-      const TileCoord c{Layer::kDetail, 0, int32_t(tx), int32_t(ty)};
-      EXPECT_EQ(a.tile_state(c).hash, b.tile_state(c).hash) << to_string(c);
-      EXPECT_EQ(a.tile_state(c).version, b.tile_state(c).version) << to_string(c);
-      const auto sa = a.detail_tile(int32_t(tx), int32_t(ty));
-      const auto sb = b.detail_tile(int32_t(tx), int32_t(ty));
-      ASSERT_TRUE(std::equal(sa.begin(), sa.end(), sb.begin(), sb.end())) << to_string(c);
-    }
-  }
+  EXPECT_EQ(test::first_tile_difference(a, b), std::nullopt);
 }
 
 TEST(SnapshotStore, ASecondSnapshotWritesOnlyTheTilesChangedSinceTheFirst) {

@@ -15,6 +15,7 @@
 #include "protocol/tile_hash.h"
 #include "protocol/world.h"
 #include "tests/support/small_refined.h"
+#include "tests/support/world_compare.h"
 
 namespace loam {
 namespace {
@@ -40,19 +41,7 @@ World dense_copy(const World& w) {
 }
 
 void expect_every_mip_tile_equal(const World& a, const World& b) {
-  for (int32_t m = 0; m < a.params().mip_count(); ++m) {
-    const RectI t = a.params().tile_range(m);
-    for (int64_t ty = t.y0; ty < t.y1; ++ty) {
-      for (int64_t tx = t.x0; tx < t.x1; ++tx) {
-        const auto sa = a.coarse_tile(m, int32_t(tx), int32_t(ty));
-        const auto sb = b.coarse_tile(m, int32_t(tx), int32_t(ty));
-        ASSERT_TRUE(std::equal(sa.begin(), sa.end(), sb.begin(), sb.end()))
-            << "mip " << m << " tile " << tx << "," << ty;
-        EXPECT_EQ(a.tile_state({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)}).hash,
-                  b.tile_state({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)}).hash);
-      }
-    }
-  }
+  EXPECT_EQ(test::first_tile_difference(a, b, {.versions = false, .detail = false}), std::nullopt);
 }
 
 QuantizedStamp crater_at(int64_t x, int64_t y, uint32_t radius, int32_t intensity) {
