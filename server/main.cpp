@@ -6,7 +6,6 @@
 //   log dump|summary human views of a deformation log
 //   snapshot info    what a snapshot holds
 //   tokens new       a fresh tokens file (random editor and viewer tokens) for --tokens-file
-#include <malloc.h>
 
 #include <CLI/CLI.hpp>
 #include <asio.hpp>
@@ -30,6 +29,7 @@
 #include "protocol/wire/access_token.h"
 #include "server/access_tokens.h"
 #include "server/event_log.h"
+#include "server/heap_trimmer.h"
 #include "server/replay.h"
 #include "server/server.h"
 #include "server/storage.h"
@@ -45,11 +45,8 @@ using namespace loam;
 constexpr int kExitDamaged = 3;
 
 int serve(const server::ServerConfig& config) {
-  // Tiles (128 KiB coarse, 64 KiB detail) come and go with the caches all the time. A fixed
-  // mmap threshold keeps them out of the heap, so a freed tile goes back to the system and RSS
-  // follows the caches' budgets (glibc would otherwise raise the threshold after the first
-  // free and serve them from the heap, where freed tiles fragment and stay resident).
-  mallopt(M_MMAP_THRESHOLD, 64 * 1024);
+  // Resident memory follows the caches' budgets: freed heap pages go back to the system.
+  const server::HeapTrimmer trimmer;
   const auto kind = gpu::parse_backend_kind(config.backend);
   if (!kind) die(kind.error());
   const auto access = server::load_access_tokens(config);

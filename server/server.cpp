@@ -23,12 +23,13 @@ Clock::duration after(double s) {
 
 struct Server::Connection {
   Connection(tcp::socket s, asio::io_context& io, uint32_t max_frame)
-      : socket(std::move(s)), assembler(max_frame), timer(io), linger(io) {}
+      : socket(std::move(s)), assembler(max_frame), timer(io), linger(io), read_pause(io) {}
 
   tcp::socket socket;
   wire::FrameAssembler assembler;
-  asio::steady_timer timer;   // handshake, then idle timeout
-  asio::steady_timer linger;  // bounds the time a closing connection may take to flush
+  asio::steady_timer timer;       // handshake, then idle timeout
+  asio::steady_timer linger;      // bounds the time a closing connection may take to flush
+  asio::steady_timer read_pause;  // a client over its request rate is read again when it ends
   std::array<uint8_t, 64 * 1024> read_buffer{};
   std::deque<FramePtr> out;
   uint64_t queued_bytes = 0;
@@ -181,17 +182,29 @@ void Server::read(const ConnectionPtr& c) {
       finish_close(c, ec == asio::error::eof ? "peer closed" : "read error: " + ec.message());
       return;
     }
-    on_bytes(c, n);
-    if (!c->closed && !c->closing) read(c);
+    core_.mutable_stats().bytes_in += n;
+    c->assembler.feed(std::span(c->read_buffer.data(), n));
+    if (drain(c)) read(c);
   });
 }
 
-void Server::on_bytes(const ConnectionPtr& c, size_t n) {
-  core_.mutable_stats().bytes_in += n;
-  c->assembler.feed(std::span(c->read_buffer.data(), n));
+bool Server::drain(const ConnectionPtr& c) {
   const auto now = Clock::now();
-  bool complete = false;
+  bool complete = false, paused = false;
   while (!c->closing) {
+    // A client past its request rate (refused once, its bucket still empty) is not decoded
+    // further until the bucket refills: reading stops, its socket fills, and the flood waits
+    // on its own side instead of costing this thread a decode per dropped request.
+    if (const auto until = core_.reads_paused_until(c->id, now)) {
+      paused = true;
+      c->read_pause.expires_at(*until);
+      c->read_pause.async_wait([this, weak = std::weak_ptr<Connection>(c)](const asio::error_code& e) {
+        auto cp = weak.lock();
+        if (e || !cp || cp->closed || cp->closing) return;
+        if (drain(cp)) read(cp);
+      });
+      break;
+    }
     auto next = c->assembler.next_message();
     if (!next) {
       core_.stream_error(c->id, next.error());
@@ -207,6 +220,7 @@ void Server::on_bytes(const ConnectionPtr& c, size_t n) {
   // on). Bytes alone do not: a byte now and then of a frame never finished must not hold a
   // session open.
   if (complete && !c->closing && !core_.in_handshake(c->id)) arm_timer(c, config_.idle_timeout_s, false);
+  return !paused && !c->closed && !c->closing;
 }
 
 void Server::deliver() {
@@ -300,6 +314,7 @@ void Server::finish_close(const ConnectionPtr& c, const std::string& reason) {
   c->socket.close(ec);
   c->timer.cancel();
   c->linger.cancel();
+  c->read_pause.cancel();
   // Deferred: finish_close can run inside a loop over connections_.
   asio::post(io_, [this, id = c->id] { connections_.erase(id); });
 }

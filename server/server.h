@@ -51,7 +51,9 @@ class Server {
   void accept();
   void on_accept(asio::ip::tcp::socket socket);
   void read(const ConnectionPtr& c);
-  void on_bytes(const ConnectionPtr& c, size_t n);
+  // Hands the frames buffered for `c` to the core; false when reading must wait (the client
+  // is over its request rate: read_pause resumes it) or the connection is closing.
+  bool drain(const ConnectionPtr& c);
   // Queues the core's output: frames to their connections, then closes.
   void deliver();
   void queue(const ConnectionPtr& c, FramePtr frame);

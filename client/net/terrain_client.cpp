@@ -14,9 +14,21 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   hello.requested_role = role_;
   hello.access_token = token_;
   hello.resume_key = resume_key_;
+  // A reconnect must find the session it left: the same world, and a sequence at least the one
+  // this client saw (what the server acknowledged or announced is durable). Anything else is
+  // another server, or a session restored from an older backup: nothing in flight goes there.
+  const bool resuming = store_ != nullptr;
+  const WorldParams before = welcome_.world;
   auto w = connection_->connect(host, port, hello);
   if (!w) return w.error();
   welcome_ = *w;
+  if (resuming && !(welcome_.world == before))
+    return make_error(ErrorCode::kUnsupported, "welcome.world", "the server hosts a different world now");
+  if (resuming && welcome_.global_sequence < last_seen_seq_)
+    return make_error(ErrorCode::kUnsupported, "welcome.global_sequence",
+                      "the server is at sequence " + std::to_string(welcome_.global_sequence) +
+                          ", behind the " + std::to_string(last_seen_seq_) +
+                          " this client saw: not the session it left");
   // The base version 0 is, when this program can generate it: untouched tiles are made here.
   base_.reset();
   if (welcome_.base_identity != 0 && base_provider_) {
@@ -50,6 +62,7 @@ Status TerrainClient::connect(const std::string& host, uint16_t port, const std:
     std::random_device rd;
     while (resume_key_ == 0) resume_key_ = (uint64_t(rd()) << 32) ^ uint64_t(rd());
   }
+  store_.reset();  // a fresh session: nothing to resume
   LOAM_TRY(handshake(host, port));
   store_ = std::make_unique<ConfirmedStore>(welcome_.world);
   last_seen_seq_ = welcome_.global_sequence;
@@ -58,13 +71,9 @@ Status TerrainClient::connect(const std::string& host, uint16_t port, const std:
 
 Status TerrainClient::reconnect(const std::string& host, uint16_t port) {
   if (!store_) return make_error(ErrorCode::kInvalidArgument, "reconnect", "never connected");
-  const WorldParams before = welcome_.world;
   connection_ = std::make_unique<Connection>();
   assemblers_.clear();  // a region cut off mid-transfer is requested again below
   LOAM_TRY(handshake(host, port));
-  if (!(welcome_.world == before)) {
-    return make_error(ErrorCode::kUnsupported, "welcome.world", "the server hosts a different world now");
-  }
   std::vector<TileCoord> tiles = store_->wanted();
   return subscribe(tiles);
 }

@@ -251,6 +251,16 @@ void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now)
   }
 }
 
+std::optional<CoreTime> ReplicationCore::reads_paused_until(ClientId id, CoreTime now) const {
+  const auto it = clients_.find(id);
+  if (it == clients_.end() || !it->second.requests_refused) return std::nullopt;
+  const Client& c = it->second;
+  const double tokens = std::min(config_.request_burst,
+                                 c.requests + seconds(now - c.requests_refill) * config_.requests_per_second);
+  if (tokens >= 1.0) return std::nullopt;
+  return now + after((1.0 - tokens) / config_.requests_per_second);
+}
+
 bool ReplicationCore::admit_request(Client& c, wire::MessageType type, CoreTime now) {
   switch (type) {
     case wire::MessageType::kPing:

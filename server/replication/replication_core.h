@@ -83,6 +83,10 @@ class ReplicationCore {
   // The connection is gone (closed by either side, or dropped by the transport).
   void disconnected(ClientId id, const std::string& reason);
   bool in_handshake(ClientId id) const;
+  // When a client that has had a request refused for its rate may be read again (its request
+  // bucket holds a token by then); nullopt when it may be read now. The transport stops
+  // decoding its frames until then, so a flood costs the flooder, not this thread.
+  std::optional<CoreTime> reads_paused_until(ClientId id, CoreTime now) const;
 
   // One tick at `now`. `unsent(id)`: bytes queued for the client and not yet written (bulk
   // waits while it is over the client's one-second budget: a client that does not read gets

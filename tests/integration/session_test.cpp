@@ -286,6 +286,33 @@ TEST(Session, ReconnectingClientResumesFromHeldVersionsAndConverges) {
   EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 
+// A reconnect that reaches another server of the same world (a fresh session behind the
+// sequence this client saw) is refused before anything in flight is sent there.
+TEST(Session, AReconnectToASessionBehindWhatTheClientSawIsRefused) {
+  ServerProcess first, second;
+  ASSERT_TRUE(first.start(temp_data_dir("resume_first"))) << first.log();
+  ASSERT_TRUE(second.start(temp_data_dir("resume_second"))) << second.log();
+  client::TerrainClient c;
+  ASSERT_TRUE(c.connect("127.0.0.1", first.port(), "traveller").ok());
+  StampParams p;
+  p.kind = StampKind::kGaussian;
+  p.center_x = 300 * c.welcome().world.meters_per_sample;
+  p.center_y = 300 * c.welcome().world.meters_per_sample;
+  p.radius = 10;
+  p.intensity = 2;
+  const uint32_t s = *c.deform(*validate_stamp(p, c.welcome().world));
+  ASSERT_TRUE(c.wait_until([&] { return c.ack(s).has_value(); }, 10s));
+  ASSERT_GT(c.last_seen_seq(), 0u);
+  c.connection().close();
+  const Status st = c.reconnect("127.0.0.1", second.port());
+  ASSERT_FALSE(st.ok());
+  EXPECT_EQ(st.error().field, "welcome.global_sequence") << st.error().describe();
+  // The session it left takes it back.
+  EXPECT_TRUE(c.reconnect("127.0.0.1", first.port()).ok());
+  EXPECT_EQ(first.terminate(), 0) << first.log();
+  EXPECT_EQ(second.terminate(), 0) << second.log();
+}
+
 // A client that holds only mip tiles (a viewer's far levels) follows per-sample stamps from
 // their events alone, applying them at its mips (events at every mip); a shockwave's mips,
 // which only mip 0 can simulate, come as patches of the changed samples over the version it

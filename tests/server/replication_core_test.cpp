@@ -376,6 +376,33 @@ TEST(ReplicationCore, RequestsOverTheClientsRateAreDroppedWithOneErrorPerRun) {
   EXPECT_EQ(h.of(a).all<wire::ErrorMsg>().size(), 2u);
 }
 
+// Once a client has had a request refused for its rate, the transport stops reading it until
+// its bucket holds a token again: a flood then waits in the flooder's socket instead of being
+// decoded and dropped here. Other clients are never paused.
+TEST(ReplicationCore, AClientOverItsRequestRateIsReadAgainWhenItsBucketRefills) {
+  ServerConfig config;
+  config.requests_per_second = 10;
+  config.request_burst = 5;
+  CoreHarness h(config);
+  const ClientId a = h.join("a"), b = h.join("b");
+  EXPECT_EQ(h.core().reads_paused_until(a, h.now()), std::nullopt);
+  for (uint64_t i = 0; i < 5; ++i) h.send(a, wire::Ping{i});
+  // The burst spent, but nothing refused yet: still read (the next request earns the Error).
+  EXPECT_EQ(h.core().reads_paused_until(a, h.now()), std::nullopt);
+  h.send(a, wire::Ping{5});
+  ASSERT_EQ(h.of(a).all<wire::ErrorMsg>().size(), 1u);
+  const auto until = h.core().reads_paused_until(a, h.now());
+  ASSERT_TRUE(until.has_value());
+  EXPECT_GT(*until, h.now());
+  EXPECT_LE(*until, h.now() + 100ms);  // one token at 10 a second
+  EXPECT_EQ(h.core().reads_paused_until(b, h.now()), std::nullopt);
+  EXPECT_EQ(h.core().reads_paused_until(a, *until), std::nullopt);
+  h.tick(100ms);
+  h.send(a, wire::Ping{6});
+  EXPECT_EQ(h.of(a).all<wire::Pong>().size(), 6u);
+  EXPECT_EQ(h.core().reads_paused_until(a, h.now()), std::nullopt);  // admitted: no longer refused
+}
+
 TEST(ReplicationCore, StampsAreAdmittedByCostPerStampAndPerClient) {
   CoreHarness probe;  // the stamps' costs, to size the limits
   const WorldParams& p = probe.core().terrain().world().params();
