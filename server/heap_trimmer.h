@@ -4,7 +4,7 @@
 // Tiles (128 KiB coarse, 64 KiB detail), encoded regions and the tick's scratch come and go all
 // the time. Served by mmap each (a small M_MMAP_THRESHOLD), every free is a munmap, and on a
 // multi-threaded process each munmap flushes the other cores' TLBs: 20 re-subscribing
-// spectators spent 40% of the tick thread there (bench/results/fairness.md). Served from the
+// spectators spent 40% of the tick thread there (perf, under the fairness suite). Served from the
 // heap, freed tiles are reused at once, and malloc_trim returns what stays free.
 #pragma once
 
