@@ -6,10 +6,10 @@
 #include <filesystem>
 #include <fstream>
 
-#include "bench/child_process.h"
 #include "client/view/roam_path.h"
 #include "protocol/log/log_format.h"
 #include "server/storage.h"
+#include "tests/support/child_process.h"
 #include "tests/support/random_stamps.h"
 
 namespace loam::bench {
@@ -28,7 +28,7 @@ struct Ran {
 };
 Ran run(std::vector<std::string> args, const std::string& log) {
   const auto t0 = std::chrono::steady_clock::now();
-  const ChildExit e = wait_child(spawn_child(std::move(args), log, true));
+  const test::ChildExit e = test::wait_child(test::spawn_child(std::move(args), log, log));
   return Ran{e.ok(), seconds_since(t0), e.peak_rss_mib};
 }
 

@@ -22,7 +22,6 @@
 #include <utility>
 #include <vector>
 
-#include "bench/child_process.h"
 #include "bench/harness.h"
 #include "bench/server_stats.h"
 #include "bench/suites/world_scale_store.h"
@@ -32,6 +31,7 @@
 #include "dem/refined_default.h"
 #include "server/server_config.h"
 #include "tests/integration/server_process.h"
+#include "tests/support/child_process.h"
 
 namespace loam::bench {
 namespace {
@@ -235,7 +235,7 @@ ServeResult serve_world(const std::vector<std::string>& terrain, int bots, int v
                                      "--stamps",         stamps,
                                      "--rate",           std::to_string(rate),
                                      "--seed",           std::to_string(i + 1)};
-    if (const pid_t pid = spawn_child(args, "/dev/null", false); pid > 0) pids.push_back(pid);
+    if (const pid_t pid = test::spawn_child(args, "/dev/null", ""); pid > 0) pids.push_back(pid);
   }
   r.bots = int(pids.size());
   // Headless viewers at n = 255 orbiting the centre and stamping where they look; each prints
@@ -270,17 +270,17 @@ ServeResult serve_world(const std::vector<std::string>& terrain, int bots, int v
       args[10] = "127";                         // --n: the default viewer
       args.insert(args.end(), {"--fly", "300"});
     }
-    if (const pid_t pid = spawn_child(args, log, false); pid > 0) viewer_pids.push_back({pid, log});
+    if (const pid_t pid = test::spawn_child(args, log, ""); pid > 0) viewer_pids.push_back({pid, log});
   }
   r.viewers = int(viewer_pids.size()) - (fly ? 1 : 0);
   for (pid_t pid : pids) {
-    const ChildExit e = wait_child(pid);
+    const test::ChildExit e = test::wait_child(pid);
     r.bot_rss_max_mib = std::max(r.bot_rss_max_mib, e.peak_rss_mib);
     r.bots_ok += e.ok();
   }
   for (size_t v = 0; v < viewer_pids.size(); ++v) {
     const auto& [pid, log] = viewer_pids[v];
-    const ChildExit e = wait_child(pid);
+    const test::ChildExit e = test::wait_child(pid);
     if (!e.waited) continue;
     if (fly && v + 1 == viewer_pids.size()) {
       r.flight_ran = true;

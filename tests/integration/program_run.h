@@ -4,7 +4,6 @@
 
 #include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -17,6 +16,7 @@
 #include <vector>
 
 #include "integration_util.h"
+#include "tests/support/child_process.h"
 
 namespace loam::test {
 
@@ -30,18 +30,9 @@ inline Ran run(std::vector<std::string> args) {
   // A folder per run: tests run several programs at once (bots on threads).
   static std::atomic<int> runs{0};
   const std::string out = temp_data_dir("run" + std::to_string(runs++)) + "/output";
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  pid_t pid = -1;
-  const int rc = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
+  const pid_t pid = spawn_child(std::move(args), out, out);
   Ran r;
-  if (rc != 0) return r;
+  if (pid < 0) return r;
   // A check that failed to refuse leaves a server running: stop it after a deadline.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   int status = 0;
