@@ -60,6 +60,7 @@ int run_bot(const BotOptions& o) {
   client::TerrainClient c;
   // Untouched tiles of a base this program can generate (the refined default) are made here.
   c.set_base_provider(generate_known_base);
+  c.set_tls(o.tls);
   if (const Status st = c.connect(host, port, name, wire::Role::kBot, o.token); !st.ok()) {
     std::fprintf(stderr, "loam-client bot: %s\n", st.error().describe().c_str());
     return kBotCannotJoin;

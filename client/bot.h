@@ -11,6 +11,7 @@
 #include <string>
 
 #include "protocol/wire/messages.h"
+#include "transport/tls_context.h"
 
 namespace loam::client {
 
@@ -19,6 +20,7 @@ struct BotOptions {
   uint16_t port = 7878;
   std::string name = "bot";
   std::optional<wire::AccessToken> token;  // needed where the server has tokens
+  transport::TlsClientOptions tls;
   uint32_t stamps = 100;
   double rate = 10.0;  // stamps per second
   uint32_t seed = 1;

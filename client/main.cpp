@@ -9,8 +9,8 @@
 
 #include "app/cli_checks.h"
 #include "client/bot.h"
+#include "client/connect_options.h"
 #include "client/probe.h"
-#include "client/token_options.h"
 #ifdef LOAM_HAVE_RENDER
 #include "client/render/headless.h"
 #endif
@@ -56,6 +56,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::FiniteRange(0, 10000));
   client::add_token_options(bot, token_src);
+  client::add_tls_options(bot, bo.tls);
 
   client::ProbeOptions po;
   double probe_timeout_s = 5.0;
@@ -67,6 +68,7 @@ int main(int argc, char** argv) {
       ->check(cli::FiniteRange(0.1, 600.0));
   probe->add_flag("--json", po.json, "One JSON object instead of a line of text");
   client::add_token_options(probe, token_src);
+  client::add_tls_options(probe, po.tls);
 
 #ifdef LOAM_HAVE_RENDER
   render::RenderCommandOptions ro;
@@ -103,6 +105,7 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::FiniteRange(0, 180, Bound::kOpen, Bound::kOpen));
   client::add_token_options(render_cmd, token_src);
+  client::add_tls_options(render_cmd, ro.tls);
 #endif
 
 #ifdef LOAM_HAVE_VIEWER
@@ -135,6 +138,7 @@ int main(int argc, char** argv) {
       ->check(cli::FiniteRange(0, 1e7, Bound::kOpen));
   view_cmd->add_flag("!--no-vsync", vo.vsync, "Render as fast as possible");
   client::add_token_options(view_cmd, token_src);
+  client::add_tls_options(view_cmd, vo.tls);
 #endif
 
   CLI11_PARSE(app, argc, argv);

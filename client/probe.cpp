@@ -23,6 +23,7 @@ int run_probe(const ProbeOptions& o) {
   hello.client_name = "probe";
   hello.requested_role = wire::Role::kSpectator;
   hello.access_token = o.token;
+  c.set_tls(o.tls);
   auto welcome = c.connect(o.host, o.port, hello, o.timeout);
   if (!welcome) return fail(o, welcome.error().describe());
   constexpr uint32_t kRequestId = 1;

@@ -10,13 +10,15 @@
 #include <string>
 
 #include "protocol/wire/messages.h"
+#include "transport/tls_context.h"
 
 namespace loam::client {
 
 struct ProbeOptions {
   std::string host = "127.0.0.1";
   uint16_t port = 7878;
-  std::optional<wire::AccessToken> token;   // needed where the server has tokens
+  std::optional<wire::AccessToken> token;  // needed where the server has tokens
+  transport::TlsClientOptions tls;
   std::chrono::milliseconds timeout{5000};  // connect + handshake + Stats
   bool json = false;
 };

@@ -6,8 +6,8 @@
 #include <cstdio>
 
 #include "app/cli_checks.h"
+#include "client/connect_options.h"
 #include "client/probe.h"
-#include "client/token_options.h"
 
 int main(int argc, char** argv) {
   using namespace loam;
@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
       ->check(cli::FiniteRange(0.1, 600.0));
   app.add_flag("--json", po.json, "One JSON object instead of a line of text");
   client::add_token_options(&app, tokens);
+  client::add_tls_options(&app, po.tls);
   CLI11_PARSE(app, argc, argv);
   if (!client::resolve_token("loam-probe", tokens, false, po.token)) return 2;
   po.timeout = std::chrono::milliseconds(int64_t(timeout_s * 1000));

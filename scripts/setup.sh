@@ -12,6 +12,7 @@ BUILD_PACKAGES=(
   libasio-dev libglfw3-dev libglm-dev libzstd-dev libopenimageio-dev libgdal-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgl-dev libepoxy-dev
   libgtest-dev libgmock-dev libcli11-dev libxxhash-dev libimgui-dev liblerc-dev nlohmann-json3-dev
+  libssl-dev
 )
 # What testing, fuzzing and benchmarking need besides.
 TEST_PACKAGES=(

@@ -15,9 +15,9 @@ namespace {
 
 // The kinds a client (authenticated or not) can cause at will.
 // And tick_overrun: on a loaded machine every tick may overrun.
-constexpr std::array<std::string_view, 9> kLimitedKinds = {"connect",      "disconnect", "hello",
-                                                           "reject",       "violation",  "deform_rejected",
-                                                           "client_error", "drop",       "tick_overrun"};
+constexpr std::array<std::string_view, 10> kLimitedKinds = {
+    "connect",         "disconnect",   "hello", "reject",       "violation",
+    "deform_rejected", "client_error", "drop",  "tick_overrun", "tls_handshake_failed"};
 
 std::mutex limit_mutex;
 LogRateLimit& limit() {

@@ -206,6 +206,12 @@ int main(int argc, char** argv) {
   serve_cmd->add_option("--deform-burst", config.deform_burst, "Rate limit burst")
       ->capture_default_str()
       ->check(cli::FiniteRange(1, 1e6));
+  auto* tls_cert = serve_cmd->add_option("--tls-cert", config.tls_cert_file,
+                                         "TLS for client connections: the certificate chain (PEM)");
+  auto* tls_key =
+      serve_cmd->add_option("--tls-key", config.tls_key_file, "The certificate's private key (PEM)");
+  tls_cert->needs(tls_key);
+  tls_key->needs(tls_cert);
   serve_cmd
       ->add_option("--metrics-bind", config.metrics_bind,
                    "HOST:PORT for Prometheus metrics over HTTP (GET /metrics); empty: none")

@@ -7,6 +7,7 @@
 
 #include "protocol/hex64.h"
 #include "server/event_log.h"
+#include "transport/tls_context.h"
 
 namespace loam::server {
 
@@ -22,10 +23,10 @@ Clock::duration after(double s) {
 }  // namespace
 
 struct Server::Connection {
-  Connection(tcp::socket s, asio::io_context& io, uint32_t max_frame)
-      : socket(std::move(s)), assembler(max_frame), timer(io), linger(io), read_pause(io) {}
+  Connection(tcp::socket s, std::shared_ptr<asio::ssl::context> tls, asio::io_context& io, uint32_t max_frame)
+      : stream(std::move(s), std::move(tls)), assembler(max_frame), timer(io), linger(io), read_pause(io) {}
 
-  tcp::socket socket;
+  transport::Stream stream;
   wire::FrameAssembler assembler;
   asio::steady_timer timer;       // handshake, then idle timeout
   asio::steady_timer linger;      // bounds the time a closing connection may take to flush
@@ -34,6 +35,7 @@ struct Server::Connection {
   std::deque<FramePtr> out;
   uint64_t queued_bytes = 0;
   bool writing = false;
+  bool secured = false;  // the TLS handshake is done (at once without TLS): writes may start
   bool closing = false;  // no more reads; closes once flushed
   bool closed = false;
   ClientId id = 0;
@@ -61,6 +63,17 @@ Status Server::start() {
   asio::error_code ec;
   const auto address = asio::ip::make_address(config_.bind_address, ec);
   if (ec) return make_error(ErrorCode::kInvalidArgument, "bind_address", ec.message());
+  std::string tls_fingerprint;
+  if (!config_.tls_cert_file.empty() || !config_.tls_key_file.empty()) {
+    if (config_.tls_cert_file.empty() || config_.tls_key_file.empty())
+      return make_error(ErrorCode::kInvalidArgument, "tls", "--tls-cert and --tls-key go together");
+    auto ctx = transport::make_server_context(config_.tls_cert_file, config_.tls_key_file);
+    if (!ctx) return ctx.error();
+    tls_ = *ctx;
+    auto f = transport::certificate_fingerprint(config_.tls_cert_file);
+    if (!f) return f.error();
+    tls_fingerprint = transport::fingerprint_text(*f);
+  }
   const tcp::endpoint ep(address, config_.port);
   acceptor_.open(ep.protocol(), ec);
   if (!ec) acceptor_.set_option(tcp::acceptor::reuse_address(true), ec);
@@ -77,6 +90,8 @@ Status Server::start() {
     log_event("metrics_listening",
               {{"bind", config_.metrics_bind}, {"port", std::to_string(metrics_.port())}});
   }
+  // What a client pins with --tls-fingerprint (a self-signed certificate needs no CA).
+  if (tls_) log_event("tls", {{"certificate", config_.tls_cert_file}, {"sha256", tls_fingerprint}});
   signals_.async_wait([this](const asio::error_code& e, int sig) {
     if (!e) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
   });
@@ -93,6 +108,7 @@ Status Server::start() {
                           {"access", access.required() ? "tokens" : "open"},
                           {"editor_tokens", std::to_string(access.editors.size())},
                           {"viewer_tokens", std::to_string(access.viewers.size())},
+                          {"tls", tls_ ? "on" : "off"},
                           {"client_bytes_per_second", std::to_string(config_.client_bytes_per_second)}});
   // The port file last: whoever waits for it may count on the listening line being logged.
   if (!config_.port_file.empty()) {
@@ -104,11 +120,16 @@ Status Server::start() {
     }
     std::rename(tmp.c_str(), config_.port_file.c_str());
   }
-  if (!access.required() && config_.bind_address != "127.0.0.1" && config_.bind_address != "::1" &&
-      config_.bind_address != "localhost") {
+  const bool loopback = address.is_loopback();
+  if (!access.required() && !loopback) {
     log_event("warning", {{"what",
                            "no tokens configured on a non-loopback address: anyone who reaches "
                            "this port can edit (docs/configuration.md, --tokens-file)"}});
+  }
+  if (access.required() && !tls_ && !loopback) {
+    log_event("warning", {{"what",
+                           "tokens configured without TLS on a non-loopback address: they cross the "
+                           "network in clear (docs/configuration.md, --tls-cert)"}});
   }
   core_.warn_if_tokens_file_exposed();
   accept();
@@ -153,14 +174,26 @@ void Server::accept() {
 void Server::on_accept(tcp::socket socket) {
   asio::error_code ec;
   socket.set_option(tcp::no_delay(true), ec);
-  auto c = std::make_shared<Connection>(std::move(socket), io_, config_.max_frame_bytes);
-  const auto remote = c->socket.remote_endpoint(ec);
+  auto c = std::make_shared<Connection>(std::move(socket), tls_, io_, config_.max_frame_bytes);
+  const auto remote = c->stream.socket().remote_endpoint(ec);
   const std::string peer = ec ? "?" : remote.address().to_string() + ":" + std::to_string(remote.port());
+  // The TLS handshake counts as part of the protocol's: the same pool and the same timer.
   c->id = core_.connect(peer, Clock::now());
   connections_[c->id] = c;
   arm_timer(c, config_.handshake_timeout_s, true);
-  deliver();  // a refusal (server full) closes it here
-  if (!c->closing) read(c);
+  deliver();  // a refusal (server full) is queued here, to leave once the stream is secured
+  c->stream.async_handshake(asio::ssl::stream_base::server, [this, c, peer](const asio::error_code& e) {
+    if (c->closed) return;
+    if (e) {
+      log_event("tls_handshake_failed",
+                {{"client", std::to_string(c->id)}, {"peer", peer}, {"error", e.message()}});
+      finish_close(c, "TLS handshake failed: " + e.message());
+      return;
+    }
+    c->secured = true;
+    flush(c);
+    if (!c->closing) read(c);
+  });
 }
 
 void Server::arm_timer(const ConnectionPtr& c, double seconds, bool handshake) {
@@ -176,7 +209,7 @@ void Server::arm_timer(const ConnectionPtr& c, double seconds, bool handshake) {
 }
 
 void Server::read(const ConnectionPtr& c) {
-  c->socket.async_read_some(asio::buffer(c->read_buffer), [this, c](const asio::error_code& ec, size_t n) {
+  c->stream.async_read_some(asio::buffer(c->read_buffer), [this, c](const asio::error_code& ec, size_t n) {
     if (c->closed || c->closing) return;
     if (ec) {
       finish_close(c, ec == asio::error::eof ? "peer closed" : "read error: " + ec.message());
@@ -257,7 +290,7 @@ void Server::queue(const ConnectionPtr& c, FramePtr frame) {
 }
 
 void Server::flush(const ConnectionPtr& c) {
-  if (c->writing || c->out.empty() || c->closed) return;
+  if (c->writing || c->out.empty() || c->closed || !c->secured) return;
   c->writing = true;
   // The front frames, gathered (writev): the deque keeps them alive until written.
   constexpr size_t kMaxGatherBuffers = 64;
@@ -265,7 +298,7 @@ void Server::flush(const ConnectionPtr& c) {
   const size_t count = std::min(c->out.size(), kMaxGatherBuffers);
   buffers.reserve(count);
   for (size_t i = 0; i < count; ++i) buffers.push_back(asio::buffer(*c->out[i]));
-  asio::async_write(c->socket, buffers, [this, c, count](const asio::error_code& ec, size_t n) {
+  c->stream.async_write(buffers, [this, c, count](const asio::error_code& ec, size_t n) {
     c->writing = false;
     if (c->closed) return;
     if (ec) {
@@ -309,9 +342,7 @@ void Server::finish_close(const ConnectionPtr& c, const std::string& reason) {
   c->closed = true;
   c->closing = true;
   if (!reason.empty()) core_.disconnected(c->id, reason);
-  asio::error_code ec;
-  c->socket.shutdown(tcp::socket::shutdown_both, ec);
-  c->socket.close(ec);
+  c->stream.close();
   c->timer.cancel();
   c->linger.cancel();
   c->read_pause.cancel();

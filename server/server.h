@@ -1,5 +1,6 @@
 // The session host's transport: a thin Asio shell around the replication core
-// (server/replication/replication_core.h). It accepts TCP clients on one I/O thread, decodes
+// (server/replication/replication_core.h). It accepts TCP clients (TLS with --tls-cert, through
+// transport/stream.h) on one I/O thread, decodes
 // their frames (protocol/wire, bounded), hands messages and the time to the core, runs the
 // tick, handshake and idle timers, and writes the frames the core returns, gathered, in order.
 // Every decision (admission, sequencing, durability, planning, budgets) is the core's.
@@ -23,6 +24,7 @@
 #include "server/replication/replication_core.h"
 #include "server/server_config.h"
 #include "server/storage.h"
+#include "transport/stream.h"
 
 namespace loam::server {
 
@@ -69,6 +71,7 @@ class Server {
   asio::io_context& io_;
   ServerConfig config_;
   ReplicationCore core_;
+  std::shared_ptr<asio::ssl::context> tls_;  // --tls-cert/--tls-key; null: plain TCP
   asio::ip::tcp::acceptor acceptor_;
   MetricsHttp metrics_;  // --metrics-bind
   asio::steady_timer tick_timer_;

@@ -13,8 +13,10 @@ namespace loam::server {
 
 struct ServerConfig {
   std::string bind_address = "127.0.0.1";
-  uint16_t port = 7878;                   // 0: an ephemeral port (see port_file)
-  std::string port_file;                  // when set, the bound port is written there once listening
+  uint16_t port = 7878;   // 0: an ephemeral port (see port_file)
+  std::string port_file;  // when set, the bound port is written there once listening
+  // TLS for client connections: the certificate chain and its key (PEM). Both or neither.
+  std::string tls_cert_file, tls_key_file;
   std::string metrics_bind;               // HOST:PORT of the Prometheus /metrics endpoint; empty: none
   std::string dem_path;                   // empty: the embedded terrain `terrain` names
   std::string terrain = "crop";           // crop | refined (server/terrain_source.h)

@@ -4,7 +4,7 @@ namespace loam::client {
 
 using asio::ip::tcp;
 
-Connection::Connection() : socket_(io_), assembler_(wire::kAbsoluteMaxFrameBytes) {}
+Connection::Connection() : assembler_(wire::kAbsoluteMaxFrameBytes) {}
 
 Connection::~Connection() { close(); }
 
@@ -14,12 +14,35 @@ Result<wire::Welcome> Connection::connect(const std::string& host, uint16_t port
   tcp::resolver resolver(io_);
   const auto endpoints = resolver.resolve(host, std::to_string(port), ec);
   if (ec) return make_error(ErrorCode::kNotFound, host, "cannot resolve: " + ec.message());
-  asio::connect(socket_, endpoints, ec);
+  std::shared_ptr<asio::ssl::context> tls;
+  if (tls_.enabled || !tls_.ca_file.empty() || !tls_.fingerprint.empty()) {
+    auto ctx = transport::make_client_context(tls_, host);
+    if (!ctx) return ctx.error();
+    tls = *ctx;
+  }
+  tcp::socket socket(io_);
+  asio::connect(socket, endpoints, ec);
   if (ec)
     return make_error(ErrorCode::kIo, host + ":" + std::to_string(port), "cannot connect: " + ec.message());
-  socket_.set_option(tcp::no_delay(true), ec);
+  socket.set_option(tcp::no_delay(true), ec);
+  stream_.emplace(std::move(socket), tls);
+  stream_->set_server_name(tls_.server_name.empty() ? host : tls_.server_name);
   work_.emplace(io_.get_executor());
-  start_read();
+  // Nothing is read or written before the TLS handshake (none without TLS) has succeeded.
+  stream_->async_handshake(asio::ssl::stream_base::client, [this, host](const asio::error_code& e) {
+    if (e) {
+      push(make_error(ErrorCode::kUnauthorized, "tls",
+                      "TLS handshake with " + host + " failed: " + e.message() +
+                          (e.category() == asio::error::get_ssl_category()
+                               ? " (is the server's certificate the one --tls-ca or --tls-fingerprint names, "
+                                 "and does the server speak TLS?)"
+                               : "")));
+      return;
+    }
+    secured_ = true;
+    start_read();
+    do_write();
+  });
   thread_ = std::thread([this] { io_.run(); });
   LOAM_TRY(send(hello));
   const auto deadline = std::chrono::steady_clock::now() + timeout;
@@ -41,7 +64,7 @@ Result<wire::Welcome> Connection::connect(const std::string& host, uint16_t port
 }
 
 void Connection::start_read() {
-  socket_.async_read_some(asio::buffer(buffer_), [this](const asio::error_code& ec, size_t n) {
+  stream_->async_read_some(asio::buffer(buffer_), [this](const asio::error_code& ec, size_t n) {
     if (ec) {
       push(make_error(ErrorCode::kIo, "connection",
                       ec == asio::error::eof ? "server closed the connection" : ec.message()));
@@ -96,9 +119,9 @@ void Connection::send_raw(std::vector<uint8_t> bytes) {
 }
 
 void Connection::do_write() {
-  if (writing_ || out_.empty() || !socket_.is_open()) return;
+  if (writing_ || out_.empty() || !secured_ || !stream_->socket().is_open()) return;
   writing_ = true;
-  asio::async_write(socket_, asio::buffer(out_.front()), [this](const asio::error_code& ec, size_t n) {
+  stream_->async_write({asio::buffer(out_.front())}, [this](const asio::error_code& ec, size_t n) {
     writing_ = false;
     if (ec) {
       push(make_error(ErrorCode::kIo, "connection", "write failed: " + ec.message()));
@@ -134,9 +157,7 @@ void Connection::close() {
     closed_ = true;
   }
   asio::post(io_, [this] {
-    asio::error_code ec;
-    socket_.shutdown(tcp::socket::shutdown_both, ec);
-    socket_.close(ec);
+    if (stream_) stream_->close();
   });
   work_.reset();
   if (thread_.joinable()) thread_.join();

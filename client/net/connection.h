@@ -1,4 +1,5 @@
-// A client's TCP connection to a loam-server: handshake, framed send, and a thread-safe
+// A client's TCP connection to a loam-server (TLS when set_tls asks for it, through
+// transport/stream.h): handshake, framed send, and a thread-safe
 // inbox of decoded messages filled by a background I/O thread (Asio). Incoming bytes go
 // through protocol/wire's FrameAssembler (bounded; a decode error closes the connection and
 // is reported as the inbox's final item). Ports and timeouts are the caller's (tests use
@@ -21,6 +22,8 @@
 #include "protocol/result.h"
 #include "protocol/wire/framing.h"
 #include "protocol/wire/messages.h"
+#include "transport/stream.h"
+#include "transport/tls_context.h"
 
 namespace loam::client {
 
@@ -31,8 +34,10 @@ class Connection {
   Connection(const Connection&) = delete;
   Connection& operator=(const Connection&) = delete;
 
-  // Connects and performs the handshake; returns the server's Welcome, or its Error as an
-  // Error (kUnauthorized, kUnsupported for a version mismatch, ...).
+  // TLS for the next connect (the server's certificate checked as the options say).
+  void set_tls(transport::TlsClientOptions options) { tls_ = std::move(options); }
+  // Connects and performs the handshake (TLS's, then the protocol's); returns the server's Welcome, or its
+  // Error as an Error (kUnauthorized, kUnsupported for a version mismatch, ...).
   Result<wire::Welcome> connect(const std::string& host, uint16_t port, const wire::Hello& hello,
                                 std::chrono::milliseconds timeout = std::chrono::seconds(10));
   // Queues a message (thread-safe). Fails if it does not encode or the connection is closed.
@@ -57,12 +62,14 @@ class Connection {
   void push(Result<wire::Message> m);
 
   asio::io_context io_;
-  asio::ip::tcp::socket socket_;
+  transport::TlsClientOptions tls_;
+  std::optional<transport::Stream> stream_;
+  bool secured_ = false;  // io thread: the TLS handshake is done (at once without TLS)
   std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work_;
   std::thread thread_;
   wire::FrameAssembler assembler_;
   std::array<uint8_t, 64 * 1024> buffer_{};
-  std::deque<std::vector<uint8_t>> out_;  // io thread only
+  std::deque<std::vector<uint8_t>> out_;  // io thread only; held until the stream is secured
   bool writing_ = false;
   bool paused_ = false;
 

@@ -19,6 +19,7 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   // another server, or a session restored from an older backup: nothing in flight goes there.
   const bool resuming = store_ != nullptr;
   const WorldParams before = welcome_.world;
+  connection_->set_tls(tls_);
   auto w = connection_->connect(host, port, hello);
   if (!w) return w.error();
   welcome_ = *w;

@@ -39,6 +39,8 @@ class TerrainClient {
   // Bases this client can generate (call before connect). Without one, or when the server's
   // base is unknown to it, every tile is downloaded as before.
   void set_base_provider(BaseProvider provider) { base_provider_ = std::move(provider); }
+  // TLS for every connection from here on, reconnects included (call before connect).
+  void set_tls(transport::TlsClientOptions options) { tls_ = std::move(options); }
   // The base the client generates untouched tiles from (null: none), and how many it made.
   const TileBase* base() const { return base_.get(); }
   uint64_t tiles_generated() const { return tiles_generated_; }
@@ -122,6 +124,7 @@ class TerrainClient {
   uint64_t last_event_seq_ = 0;
   size_t tile_hash_messages_ = 0;
   BaseProvider base_provider_;
+  transport::TlsClientOptions tls_;
   std::shared_ptr<const TileBase> base_;
   uint64_t tiles_generated_ = 0;
   uint64_t region_chunks_received_ = 0;

@@ -199,6 +199,7 @@ int run_render_command(const RenderCommandOptions& o) {
     vo.role = wire::Role::kSpectator;
     vo.name = "render";
     vo.token = o.token;
+    vo.tls = o.tls;
     auto v =
         ViewerSession::connect(o.server.substr(0, colon), uint16_t(port), vo, camera_of(frames->front()));
     if (!v) return fail(v.error().describe());

@@ -44,6 +44,7 @@ struct RenderCommandOptions {
   std::string snapshot;                    // a snapshot folder, or a data folder (its newest snapshot)
   std::string server;                      // host:port: render a live session instead (its confirmed tiles)
   std::optional<wire::AccessToken> token;  // for --server where it has tokens
+  transport::TlsClientOptions tls;
   std::array<double, 3> camera{1024.0, 1700.0, 300.0};
   std::array<double, 3> look{1024.0, 800.0, 60.0};
   int32_t width = 1280, height = 720;

@@ -23,6 +23,7 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
                                                               std::optional<Camera> initial) {
   std::unique_ptr<ViewerSession> v(new ViewerSession());
   v->client_.set_base_provider(generate_known_base);
+  v->client_.set_tls(options.tls);
   LOAM_TRY(v->client_.connect(host, port, options.name, options.role, options.token));
   const WorldParams& world = v->client_.welcome().world;
   // The coarsest mip first: a few tiles that show the whole world and set the materials.

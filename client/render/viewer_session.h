@@ -25,6 +25,7 @@ struct ViewerOptions {
   wire::Role role = wire::Role::kPlayer;
   std::string name = "viewer";
   std::optional<wire::AccessToken> token;  // needed where the server has tokens
+  transport::TlsClientOptions tls;
   std::chrono::milliseconds connect_timeout{10000};
 };
 

@@ -109,6 +109,7 @@ render::ViewerOptions session_options(const ViewerAppOptions& o) {
   vo.renderer = o.renderer;
   vo.name = o.name;
   vo.token = o.token;
+  vo.tls = o.tls;
   vo.role = wire::Role::kPlayer;
   return vo;
 }

@@ -12,6 +12,7 @@
 
 #include "client/render/clipmap_renderer.h"
 #include "protocol/wire/messages.h"
+#include "transport/tls_context.h"
 
 namespace loam::view {
 
@@ -20,6 +21,7 @@ struct ViewerAppOptions {
   uint16_t port = 7878;
   std::string name = "viewer";
   std::optional<wire::AccessToken> token;  // needed where the server has tokens
+  transport::TlsClientOptions tls;
   render::RendererConfig renderer;
   int32_t width = 1280, height = 720;
   bool headless = false;                  // EGL + offscreen instead of a window

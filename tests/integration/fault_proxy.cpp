@@ -38,6 +38,7 @@ struct Direction {
   std::deque<Chunk> queue;
   int64_t last_due_ns = 0;  // dues never go backwards: order is kept
   bool from_closed = false;
+  bool upstream = false;  // client -> server
 };
 
 struct Link {
@@ -81,6 +82,11 @@ FaultProxy::~FaultProxy() {
 
 void FaultProxy::stall(std::chrono::milliseconds d) {
   stall_until_ns_.store(now_ns() + std::chrono::duration_cast<std::chrono::nanoseconds>(d).count());
+}
+
+std::vector<uint8_t> FaultProxy::client_bytes() const {
+  std::lock_guard lock(sent_mutex_);
+  return sent_;
 }
 
 void FaultProxy::run() {
@@ -133,6 +139,7 @@ void FaultProxy::run() {
       l->client = c;
       l->server = s;
       l->up.from = c, l->up.to = s;
+      l->up.upstream = true;
       l->down.from = s, l->down.to = c;
       links.push_back(std::move(l));
       ++connections_;
@@ -177,6 +184,11 @@ void FaultProxy::run() {
       const int64_t due = std::max(now_ns() + draw_delay_ns(), d->last_due_ns);
       d->last_due_ns = due;
       d->queue.push_back({due, std::vector<uint8_t>(buf.begin(), buf.begin() + n), 0});
+      if (d->upstream) {
+        std::lock_guard lock(sent_mutex_);
+        const size_t keep = std::min(size_t(n), kSentKept - std::min(kSentKept, sent_.size()));
+        sent_.insert(sent_.end(), buf.begin(), buf.begin() + ptrdiff_t(keep));
+      }
     }
   }
   for (auto& l : links) {

@@ -2,7 +2,8 @@
 // kernel has no netem): a delay with jitter on every byte (order kept), a stall (nothing
 // forwarded for a while, as a link that drops out and comes back: the bytes wait and then
 // arrive at once), and a reset of every connection (RST both ways). One thread polls every
-// link; faults are asked for from the test's thread.
+// link; faults are asked for from the test's thread. It also keeps the first bytes clients
+// sent, for tests of what crosses the wire.
 #pragma once
 
 #include <atomic>
@@ -10,6 +11,7 @@
 #include <cstdint>
 #include <mutex>
 #include <thread>
+#include <vector>
 
 namespace loam::test {
 
@@ -32,6 +34,9 @@ class FaultProxy {
   void reset_all() { reset_.store(true); }
   uint64_t bytes_forwarded() const { return forwarded_.load(); }
   uint64_t connections() const { return connections_.load(); }
+  // The first kSentKept bytes the clients sent, all connections in arrival order.
+  std::vector<uint8_t> client_bytes() const;
+  static constexpr size_t kSentKept = 1 << 20;
 
  private:
   void run();
@@ -44,6 +49,8 @@ class FaultProxy {
   std::atomic<bool> stop_{false}, reset_{false};
   std::atomic<int64_t> stall_until_ns_{0};
   std::atomic<uint64_t> forwarded_{0}, connections_{0};
+  mutable std::mutex sent_mutex_;
+  std::vector<uint8_t> sent_;
   std::thread thread_;
 };
 

@@ -1,4 +1,4 @@
-#include "client/token_options.h"
+#include "client/connect_options.h"
 
 #include <cctype>
 #include <cstdio>
@@ -15,6 +15,17 @@ void add_token_options(CLI::App* cmd, TokenSource& src) {
   cmd->add_option("--token-file", src.file, "File holding the token, or a loam-server tokens file")
       ->envname("LOAM_TOKEN_FILE")
       ->excludes(t);
+}
+
+void add_tls_options(CLI::App* cmd, transport::TlsClientOptions& tls) {
+  cmd->add_flag("--tls", tls.enabled, "Connect over TLS, verifying the server against the system's CAs");
+  cmd->add_option("--tls-ca", tls.ca_file,
+                  "Connect over TLS, verifying the server against this CA file (PEM)");
+  cmd->add_option("--tls-fingerprint", tls.fingerprint,
+                  "Connect over TLS to the server whose certificate has this SHA-256 fingerprint")
+      ->envname("LOAM_TLS_FINGERPRINT");
+  cmd->add_option("--tls-name", tls.server_name,
+                  "The name the server's certificate must hold (default: the host)");
 }
 
 Result<wire::AccessToken> token_from_file(const std::string& path, bool editing) {

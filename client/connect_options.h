@@ -1,5 +1,10 @@
-// The token options every connecting client command takes (loam-client's bot, view, render
-// --server and probe, and loam-probe): --token HEX (also LOAM_TOKEN, which keeps it off the
+// The options every connecting client command takes (loam-client's bot, view, render
+// --server and probe, and loam-probe).
+// TLS: --tls (verify against the system's CAs), --tls-ca FILE (a CA bundle) or
+// --tls-fingerprint SHA256 (also LOAM_TLS_FINGERPRINT: the server's certificate, pinned; the
+// server logs it at start), either of which implies --tls; --tls-name NAME checks the
+// certificate for another name than the host's.
+// The token: --token HEX (also LOAM_TOKEN, which keeps it off the
 // command line and out of `ps`) or --token-file FILE (also LOAM_TOKEN_FILE; a mounted
 // secret: the bare token, or the server's tokens file, of which an editing command takes the
 // first editor token and a watching one the first viewer token).
@@ -11,6 +16,7 @@
 
 #include "protocol/result.h"
 #include "protocol/wire/messages.h"
+#include "transport/tls_context.h"
 
 namespace loam::client {
 
@@ -19,6 +25,7 @@ struct TokenSource {
 };
 
 void add_token_options(CLI::App* cmd, TokenSource& src);
+void add_tls_options(CLI::App* cmd, transport::TlsClientOptions& tls);
 
 // The token in a file: the file's whole text, or a tokens file's first editor (editing) or
 // viewer (watching) token, falling back to the other role.
