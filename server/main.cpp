@@ -232,6 +232,11 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(cli::IntRange(1, int64_t(1) << 50));
   serve_cmd
+      ->add_option("--apply-wait-ms", config.apply_wait_ms,
+                   "How long a tick waits for its stamps to be applied (off the I/O thread) before going on")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0, 1000));
+  serve_cmd
       ->add_option("--requests-per-second", config.requests_per_second,
                    "Per client: Subscribe, Unsubscribe, Ping, StampImageRequest and StatsRequest")
       ->capture_default_str()

@@ -36,6 +36,9 @@ std::string prometheus_text(const MetricsSnapshot& m) {
   metric(out, "loam_handshakes", "gauge", "Connections that have not said Hello yet.", m.handshakes);
   metric(out, "loam_connects_total", "counter", "Connections accepted.", m.connects);
   metric(out, "loam_disconnects_total", "counter", "Connections closed.", m.disconnects);
+  metric(out, "loam_tls_handshake_failures_total", "counter",
+         "Connections closed because their TLS handshake failed (a client without TLS, or a bad one).",
+         m.tls_handshake_failures);
   metric(out, "loam_sequence", "gauge", "Global sequence number of the last stamp.", m.sequence);
   metric(out, "loam_deforms_accepted_total", "counter", "Deforms accepted.", m.deforms_accepted);
   out +=

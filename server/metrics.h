@@ -22,7 +22,8 @@ struct TickHistogram {
 struct MetricsSnapshot {
   uint64_t sessions = 0, handshakes = 0;  // clients in session; connections before Hello
   uint64_t connects = 0, disconnects = 0;
-  uint64_t sequence = 0;  // the last stamp's global sequence
+  uint64_t tls_handshake_failures = 0;  // connections closed before their TLS handshake completed
+  uint64_t sequence = 0;                // the last stamp's global sequence
   uint64_t deforms_accepted = 0;
   std::map<std::string, uint64_t> deforms_rejected;  // by reason (wire error code name)
   uint64_t requests_refused = 0, violations = 0;

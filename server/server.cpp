@@ -185,6 +185,7 @@ void Server::on_accept(tcp::socket socket) {
   c->stream.async_handshake(asio::ssl::stream_base::server, [this, c, peer](const asio::error_code& e) {
     if (c->closed) return;
     if (e) {
+      ++core_.mutable_stats().tls_handshake_failures;
       log_event("tls_handshake_failed",
                 {{"client", std::to_string(c->id)}, {"peer", peer}, {"error", e.message()}});
       finish_close(c, "TLS handshake failed: " + e.message());
@@ -365,10 +366,14 @@ void Server::schedule_tick() {
 
 void Server::tick() {
   const auto t0 = Clock::now();
-  core_.tick(t0, [this](ClientId id) -> uint64_t {
-    const auto it = connections_.find(id);
-    return it == connections_.end() ? 0 : it->second->queued_bytes;
-  });
+  core_.tick(
+      t0,
+      [this](ClientId id) -> uint64_t {
+        const auto it = connections_.find(id);
+        return it == connections_.end() ? 0 : it->second->queued_bytes;
+      },
+      // The acks go out now (a write starts at once), before the tick applies and streams.
+      [this] { deliver(); });
   deliver();
   core_.record_tick_ms(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
   if (core_.failed()) shutdown("log append failed");

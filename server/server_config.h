@@ -48,6 +48,9 @@ struct ServerConfig {
   uint64_t max_stamp_cost = 1ull << 24;
   uint64_t stamp_cost_per_second = 1ull << 24;
   uint64_t tick_stamp_cost = 1ull << 22;
+  // Stamps are applied on a worker thread; a tick waits this long for the apply (so events
+  // leave in the same tick as the acks when it is quick) before going on without it.
+  double apply_wait_ms = 5.0;
   // Every other request (Subscribe, Unsubscribe, Ping, StampImageRequest, StatsRequest): a
   // token bucket per client, so that re-subscribing or pinging in a loop cannot take the tick.
   double requests_per_second = 30.0;

@@ -278,6 +278,9 @@ Status TerrainClient::pump(std::chrono::milliseconds timeout) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(*due - DeformPacer::Clock::now());
     timeout = std::clamp(left + std::chrono::milliseconds(1), std::chrono::milliseconds(0), timeout);
   }
+  // Messages until the inbox is empty or the timeout has passed: a client slower than what
+  // arrives still gets control back (to send, to render, to stop).
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
   auto m = connection_->next(timeout);
   while (true) {
     if (!m) return m.error();
@@ -287,6 +290,7 @@ Status TerrainClient::pump(std::chrono::milliseconds timeout) {
       // repaired by the next hash check; it does not end the session.
       local_errors_.push_back(st.error());
     }
+    if (std::chrono::steady_clock::now() >= deadline) return send_paced();
     m = connection_->next(std::chrono::milliseconds(0));
   }
 }

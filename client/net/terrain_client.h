@@ -73,7 +73,8 @@ class TerrainClient {
   size_t deforms_queued() const { return pacer_.queued(); }
   size_t deforms_unacked() const { return pacer_.unacked(); }
 
-  // Handles messages for up to `timeout` (returns early when the inbox stays empty that long).
+  // Handles messages for up to `timeout`: returns when the inbox has stayed empty that long, or
+  // once the timeout has passed with messages still coming (at least one is handled).
   // An Error result means the connection is gone.
   Status pump(std::chrono::milliseconds timeout);
   // Pumps until pred() holds; false on timeout or a closed connection.

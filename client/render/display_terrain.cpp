@@ -206,9 +206,11 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
       }
     }
     if (!p.acked) continue;
+    // Acknowledged before a reconnect whose Welcome is at or past it: its event will not come,
+    // the tiles the server sends hold it.
     retire[i] = !p.accepted ||
                 (client.last_event_seq() >= p.global_seq && !client.store().is_buffered(p.global_seq)) ||
-                now - p.ack_time > retire_timeout_;
+                p.global_seq <= client.welcome().global_sequence || now - p.ack_time > retire_timeout_;
   }
 
   // 2. What each settled prediction should turn into: what it showed, plus the events of

@@ -72,6 +72,18 @@ ReplicationCore::ReplicationCore(ServerConfig config, OpenedStorage opened, Core
     prefetch_ = std::make_shared<PrefetchingBase>(terrain_.world().base_ptr(), config_.prefetch_tiles);
     terrain_.mutable_world().replace_base(prefetch_);
   }
+  sequenced_seq_ = published_seq_ = terrain_.last_seq();
+  // A GL context belongs to the thread that made it: a GPU backend applies on this thread.
+  const gpu::StampBackend* backend = terrain_.backend();
+  applier_ = std::make_unique<ApplyWorker>(terrain_, config_.history_bytes / 8,
+                                           backend == nullptr || std::string_view(backend->name()) == "cpu");
+  refresh_world_counters();
+}
+
+void ReplicationCore::refresh_world_counters() {
+  const World& w = terrain_.world();
+  world_counters_ = {w.edited_bytes(), w.base_cache_bytes(), w.base_tiles_generated(), w.unpersisted_bytes(),
+                     w.edited_tiles_loaded()};
 }
 
 const ClientTiles* ReplicationCore::tiles_of(ClientId id) const {
@@ -229,10 +241,8 @@ void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now)
       return;
     }
     case wire::MessageType::kBye: close(id, "client said bye: " + std::get<wire::Bye>(m).text); return;
-    case wire::MessageType::kSubscribe: on_subscribe(c, std::get<wire::Subscribe>(m)); return;
-    case wire::MessageType::kUnsubscribe:
-      for (const TileCoord& t : std::get<wire::Unsubscribe>(m).tiles) c.tiles.unsubscribe(t);
-      return;
+    case wire::MessageType::kSubscribe:
+    case wire::MessageType::kUnsubscribe: receive_subscription(c, m); return;
     case wire::MessageType::kDeform: on_deform(c, std::get<wire::Deform>(m), now); return;
     case wire::MessageType::kStampImageRequest:
       on_stamp_image(c, std::get<wire::StampImageRequest>(m));
@@ -332,7 +342,8 @@ void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
   w.client_id = c.id;
   w.granted_role = granted;
   w.world = terrain_.world().params();
-  w.global_sequence = terrain_.last_seq();
+  // What its events continue from: the last stamp applied and fanned out.
+  w.global_sequence = published_seq_;
   w.tick_rate_hz = uint16_t(config_.tick_hz);
   w.limits.max_frame_bytes = config_.max_frame_bytes;
   w.limits.max_subscribed_tiles = config_.max_subscriptions;
@@ -353,6 +364,26 @@ bool ReplicationCore::valid_tile(const TileCoord& t) const {
   const WorldParams& p = terrain_.world().params();
   if (t.layer == Layer::kCoarse) return t.mip < p.mip_count() && p.tile_range(t.mip).contains(t.tx, t.ty);
   return t.mip == 0 && tiles_overlapping(p.detail_sample_rect()).contains(t.tx, t.ty);
+}
+
+void ReplicationCore::receive_subscription(Client& c, const wire::Message& m) {
+  if (applier_->busy() || !deferred_subscriptions_.empty()) {
+    deferred_subscriptions_.emplace_back(c.id, m);
+    return;
+  }
+  if (const auto* sub = std::get_if<wire::Subscribe>(&m)) {
+    on_subscribe(c, *sub);
+    return;
+  }
+  for (const TileCoord& t : std::get<wire::Unsubscribe>(m).tiles) c.tiles.unsubscribe(t);
+}
+
+void ReplicationCore::run_deferred_subscriptions() {
+  for (const auto& [id, m] : std::exchange(deferred_subscriptions_, {})) {
+    const auto it = clients_.find(id);
+    if (it != clients_.end() && it->second.state == Client::State::kReady)
+      receive_subscription(it->second, m);
+  }
 }
 
 void ReplicationCore::on_subscribe(Client& c, const wire::Subscribe& sub) {
@@ -497,7 +528,7 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
   c.tokens -= 1.0;
   ++c.unacked;
   pending_.push_back({c.id, d.client_seq, d.stamp, *cost, c.resume_key});
-  prefetch_reach(d.stamp);
+  if (!applier_->busy()) prefetch_reach(d.stamp);  // it reads the world's tile table
   if (c.resume_key != 0) ledger_.admitted(c.resume_key, d.client_seq);
 }
 
@@ -541,13 +572,16 @@ void ReplicationCore::acknowledge(const PendingDeform& p, std::optional<uint64_t
   send(c, ack);
 }
 
-void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>& unsent) {
+void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>& unsent,
+                           const std::function<void()>& acks_ready) {
   if (stopping_ || failed_) return;
   ++tick_;
-  // This tick's stamps, in order, up to the tick's cost budget (at least one): the rest wait.
+  // This tick's stamps, in order, up to the tick's cost budget (at least one): the rest wait,
+  // and all wait while a tick's worth is already sequenced and waiting for the apply worker.
   size_t n = 0;
   uint64_t spent = 0;
-  while (n < pending_.size() && (n == 0 || spent + pending_[n].cost <= config_.tick_stamp_cost))
+  while (n < pending_.size() && to_apply_cost_ < config_.tick_stamp_cost &&
+         (n == 0 || spent + pending_[n].cost <= config_.tick_stamp_cost))
     spent += pending_[n++].cost;
   std::vector<PendingDeform> batch(std::make_move_iterator(pending_.begin()),
                                    std::make_move_iterator(pending_.begin() + ptrdiff_t(n)));
@@ -559,14 +593,23 @@ void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>
     return std::chrono::duration<double, std::milli>(Wall::now() - t).count();
   };
   const auto t_start = Wall::now();
-  const uint64_t generated0 = terrain_.world().base_tiles_generated();
-  const uint64_t loaded0 = terrain_.world().edited_tiles_loaded();
+  const WorldCounters before = world_counters_;
   sync_ms_ = 0;
   if (!storage_.writable()) try_resume_storage(now);
-  if (!batch.empty()) commit_batch(std::move(batch), now);
+  if (!batch.empty()) commit_batch(std::move(batch), now, acks_ready);
   if (failed_) return;
   const double commit_ms = ms_since(t_start);
   auto t = Wall::now();
+  const bool world_free =
+      advance_apply(std::chrono::microseconds(int64_t(std::max(0.0, config_.apply_wait_ms) * 1000.0)));
+  const double apply_wait_ms = ms_since(t);
+  if (!world_free) {
+    // The apply goes on: what needs its result waits for a later tick.
+    last_phases_ = TickPhases{sync_ms_, commit_ms, apply_wait_ms, 0, 0, 0, true};
+    return;
+  }
+  t = Wall::now();
+  run_deferred_subscriptions();
   frames_.adopt_best();
   stream_regions(now, unsent);
   if (config_.hashes_every_ticks > 0 && tick_ % config_.hashes_every_ticks == 0) {
@@ -585,16 +628,41 @@ void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>
   // Clean base tiles read this tick (subscriptions, stamps' neighbourhoods) back under budget;
   // nothing holds a span into them between ticks.
   terrain_.mutable_world().trim_base_cache();
+  refresh_world_counters();
   last_phases_ = TickPhases{sync_ms_,
                             commit_ms,
+                            apply_wait_ms,
                             stream_ms,
                             snapshot_ms,
                             ms_since(t),
-                            terrain_.world().base_tiles_generated() - generated0,
-                            terrain_.world().edited_tiles_loaded() - loaded0};
+                            false,
+                            world_counters_.base_tiles_generated - before.base_tiles_generated,
+                            world_counters_.edited_tiles_loaded - before.edited_tiles_loaded};
 }
 
-void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime now) {
+bool ReplicationCore::advance_apply(std::chrono::microseconds wait) {
+  const auto deadline = std::chrono::steady_clock::now() + wait;
+  while (true) {
+    if (applier_->busy()) {
+      const auto left =
+          std::max(std::chrono::steady_clock::duration::zero(), deadline - std::chrono::steady_clock::now());
+      auto done = applier_->take(std::chrono::duration_cast<std::chrono::microseconds>(left));
+      if (!done) return false;
+      publish(std::move(*done));
+    }
+    if (to_apply_.empty()) return true;
+    applier_->start(std::exchange(to_apply_, {}));
+    to_apply_cost_ = 0;
+  }
+}
+
+void ReplicationCore::finish_applying() {
+  while (!advance_apply(std::chrono::hours(1))) {
+  }
+}
+
+void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime now,
+                                   const std::function<void()>& acks_ready) {
   const auto refuse_all = [&] {
     for (const PendingDeform& p : batch) {
       ++stats_.deforms_rejected;
@@ -607,7 +675,7 @@ void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime no
     return;
   }
   // 1. Sequence and log the whole tick, then one sync: the durability point.
-  uint64_t seq = terrain_.last_seq();
+  uint64_t seq = sequenced_seq_;
   for (const PendingDeform& p : batch) {
     const Status st = storage_.append({++seq, tick_, p.client, p.stamp});
     if (!st.ok()) {  // a broken invariant (sequence or tick), not the disk
@@ -632,26 +700,31 @@ void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime no
     refuse_all();
     return;
   }
-  // 2. Apply, acknowledge, fan out events (one encoding for every client), plan regions.
+  // 2. Acknowledge: durable and sequenced is what an ack promises, so the acks leave now,
+  // before the tick's stamps are applied (a costly one delays only the events and regions).
   for (const PendingDeform& p : batch) {
-    const uint64_t s_seq = terrain_.last_seq() + 1;
-    // The samples the stamp may change, as they are now: the tile history keeps them so that
-    // a client behind gets a delta against what it holds. A stamp reaching more than a quarter
-    // of the history's bytes (a large shockwave) is recorded without them.
-    std::vector<TileSamples> before;
-    if (auto reach = stamp_reach(p.stamp, terrain_.world().params(), &terrain_.textures(), terrain_.limits()))
-      before = read_reach(terrain_.world(), p.stamp.layer, *reach, config_.history_bytes / 8);
-    auto applied = terrain_.apply(p.stamp, s_seq, p.client);
-    for (const Error& e : terrain_.take_backend_failures())
-      log_event("backend_error",
-                {{"seq", std::to_string(s_seq)}, {"error", e.describe()}, {"fallback", "cpu"}});
-    if (!applied)
-      log_event("apply_error", {{"seq", std::to_string(s_seq)}, {"error", applied.error().describe()}});
     ++stats_.deforms_accepted;
-    acknowledge(p, s_seq);
-    if (!applied) continue;
-    const AppliedStamp& a = *applied;
-    history_.record(a.changes, before);
+    acknowledge(p, ++sequenced_seq_);
+    to_apply_.push_back({sequenced_seq_, p.client, p.stamp});
+    to_apply_cost_ += p.cost;
+  }
+  if (acks_ready) acks_ready();
+}
+
+// 3. Applied (on the worker, in order): the history, the events (one encoding for every
+// client), the plans.
+void ReplicationCore::publish(std::vector<ApplyWorker::Output> applied) {
+  for (ApplyWorker::Output& o : applied) {
+    published_seq_ = o.seq;
+    for (const Error& e : o.backend_failures)
+      log_event("backend_error",
+                {{"seq", std::to_string(o.seq)}, {"error", e.describe()}, {"fallback", "cpu"}});
+    if (!o.applied) {
+      log_event("apply_error", {{"seq", std::to_string(o.seq)}, {"error", o.applied.error().describe()}});
+      continue;
+    }
+    const AppliedStamp& a = *o.applied;
+    history_.record(a.changes, o.before);
     wire::DeformEvent ev;
     ev.global_seq = a.seq;
     ev.origin_client_id = a.client_id;
@@ -751,17 +824,20 @@ void ReplicationCore::send_hashes(Client& c, uint32_t& base_reads_left, std::vec
 
 void ReplicationCore::try_resume_storage(CoreTime now) {
   if (now < next_resume_try_) return;
-  if (const Status st = storage_.resume(terrain_.last_seq()); !st.ok()) {
+  if (const Status st = storage_.resume(sequenced_seq_); !st.ok()) {
     resume_backoff_s_ = std::min(resume_backoff_s_ * 2.0, kResumeBackoffMaxS);
     next_resume_try_ = now + after(resume_backoff_s_);
     log_event("storage_retry",
               {{"error", st.error().describe()}, {"next_in_s", std::to_string(resume_backoff_s_)}});
     return;
   }
-  log_event("storage_resumed", {{"seq", std::to_string(terrain_.last_seq())}});
+  log_event("storage_resumed", {{"seq", std::to_string(sequenced_seq_)}});
 }
 
 void ReplicationCore::maybe_snapshot(CoreTime now, bool force) {
+  // A snapshot reads and adopts into the world, at the applied sequence: only while no apply
+  // runs and nothing sequenced waits for one (the log's next segment starts after it).
+  if (applier_->busy() || !to_apply_.empty()) return;
   // A snapshot being written on its worker: adopted once written (at shutdown, waited for).
   if (storage_.snapshot_in_flight()) {
     auto done = storage_.poll_snapshot(terrain_, force);
@@ -838,6 +914,8 @@ void ReplicationCore::record_tick_ms(double ms) {
                                {"stamps", std::to_string(last_batch_)},
                                {"sync_ms", fmt_ms(p.sync_ms)},
                                {"commit_ms", fmt_ms(p.commit_ms)},
+                               {"apply_wait_ms", fmt_ms(p.apply_wait_ms)},
+                               {"applying", p.world_busy ? "yes" : "no"},
                                {"stream_ms", fmt_ms(p.stream_ms)},
                                {"snapshot_ms", fmt_ms(p.snapshot_ms)},
                                {"trim_ms", fmt_ms(p.trim_ms)},
@@ -852,7 +930,8 @@ MetricsSnapshot ReplicationCore::metrics(uint64_t max_queue_bytes) const {
   m.handshakes = handshakes_;
   m.connects = stats_.connects;
   m.disconnects = stats_.disconnects;
-  m.sequence = terrain_.last_seq();
+  m.tls_handshake_failures = stats_.tls_handshake_failures;
+  m.sequence = published_seq_;
   m.deforms_accepted = stats_.deforms_accepted;
   m.deforms_rejected = stats_.deforms_rejected_by;
   m.requests_refused = stats_.requests_refused;
@@ -869,11 +948,11 @@ MetricsSnapshot ReplicationCore::metrics(uint64_t max_queue_bytes) const {
   m.region_best_upgrades = rc.best_upgrades;
   m.region_cache_bytes = rc.bytes_held;
   m.history_bytes = history_.bytes();
-  m.edited_tile_bytes = terrain_.world().edited_bytes();
-  m.base_cache_bytes = terrain_.world().base_cache_bytes();
-  m.base_tiles_generated = terrain_.world().base_tiles_generated();
-  m.unpersisted_tile_bytes = terrain_.world().unpersisted_bytes();
-  m.edited_tiles_loaded = terrain_.world().edited_tiles_loaded();
+  m.edited_tile_bytes = world_counters_.edited_bytes;
+  m.base_cache_bytes = world_counters_.base_cache_bytes;
+  m.base_tiles_generated = world_counters_.base_tiles_generated;
+  m.unpersisted_tile_bytes = world_counters_.unpersisted_bytes;
+  m.edited_tiles_loaded = world_counters_.edited_tiles_loaded;
   m.snapshots = stats_.snapshots;
   if (prefetch_) {
     const PrefetchingBase::Stats ps = prefetch_->stats();
@@ -903,7 +982,7 @@ void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
   last_p99_ms_ = percentile(t, 0.99);
   const RegionFrameCounters& rc = frames_.counters();
   log_event("stats", {{"clients", std::to_string(clients_.size())},
-                      {"seq", std::to_string(terrain_.last_seq())},
+                      {"seq", std::to_string(published_seq_)},
                       {"deforms_accepted", std::to_string(stats_.deforms_accepted)},
                       {"deforms_rejected", std::to_string(stats_.deforms_rejected)},
                       {"violations", std::to_string(stats_.violations)},
@@ -920,11 +999,11 @@ void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
                       {"region_best_upgrades", std::to_string(rc.best_upgrades)},
                       {"region_best_bytes_saved", std::to_string(rc.best_bytes_saved)},
                       {"history_bytes", std::to_string(history_.bytes())},
-                      {"edited_tile_bytes", std::to_string(terrain_.world().edited_bytes())},
-                      {"base_cache_bytes", std::to_string(terrain_.world().base_cache_bytes())},
-                      {"base_tiles_generated", std::to_string(terrain_.world().base_tiles_generated())},
-                      {"unpersisted_tile_bytes", std::to_string(terrain_.world().unpersisted_bytes())},
-                      {"edited_tiles_loaded", std::to_string(terrain_.world().edited_tiles_loaded())},
+                      {"edited_tile_bytes", std::to_string(world_counters_.edited_bytes)},
+                      {"base_cache_bytes", std::to_string(world_counters_.base_cache_bytes)},
+                      {"base_tiles_generated", std::to_string(world_counters_.base_tiles_generated)},
+                      {"unpersisted_tile_bytes", std::to_string(world_counters_.unpersisted_bytes)},
+                      {"edited_tiles_loaded", std::to_string(world_counters_.edited_tiles_loaded)},
                       {"prefetch_hits", std::to_string(prefetch_ ? prefetch_->stats().ready_hits : 0)},
                       {"prefetch_inline", std::to_string(prefetch_ ? prefetch_->stats().made_inline : 0)},
                       {"max_queue_bytes", std::to_string(max_queue_bytes)},
@@ -938,7 +1017,7 @@ wire::Stats ReplicationCore::stats_message(uint32_t request_id, CoreTime now) co
   wire::Stats st;
   st.request_id = request_id;
   st.clients = uint32_t(clients_.size());
-  st.global_sequence = terrain_.last_seq();
+  st.global_sequence = published_seq_;
   st.deforms_accepted = stats_.deforms_accepted;
   st.deforms_rejected = stats_.deforms_rejected;
   st.violations = stats_.violations;
@@ -991,8 +1070,10 @@ void ReplicationCore::shutdown(const std::string& reason, CoreTime now) {
   stopping_ = true;
   log_event("shutdown", {{"reason", reason}});
   if (!failed_) {
-    // Stamps still queued were never acknowledged: dropping them loses nothing promised.
+    // Stamps still queued were never acknowledged: dropping them loses nothing promised. Those
+    // acknowledged are applied (their events go out before the Bye) and the snapshot holds them.
     pending_.clear();
+    finish_applying();
     if (storage_.writable()) {
       if (const Status st = storage_.sync(); !st.ok()) log_event("fatal", {{"error", st.error().describe()}});
     }

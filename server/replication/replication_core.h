@@ -7,7 +7,11 @@
 //  - admission: the handshake, access tokens and roles, the client cap, per-client rate
 //    limits (token bucket) and the per-client cap on unacknowledged deforms;
 //  - the per-tick commit pipeline: sequence the tick's stamps, log them with one sync (the
-//    durability point), apply, acknowledge, fan out DeformEvents (one encoding for all);
+//    durability point), acknowledge (an ack means durable and sequenced; the transport sends
+//    acks at once), apply on the apply worker in sequence order (apply_worker.h), and once
+//    applied fan out DeformEvents (one encoding for all). A tick waits a few milliseconds for
+//    the apply; past that, what needs the applied world (events, regions, hashes, snapshots)
+//    waits for a later tick while acks, pings and handshakes go on;
 //  - replication planning per client and tile (server/replication/client_tiles.h): the event
 //    alone, or a region due (patch or whole tile);
 //  - bulk streaming: due regions leave under each client's byte budget, coarsest mip first and
@@ -18,8 +22,8 @@
 //    tiles sent to many are re-encoded in the best mode on a worker thread;
 //  - TileHashes, snapshots, storage back-off after a failed sync, and stats.
 //
-// Call it from one thread (the transport's I/O thread); only the best-mode re-encodes run on
-// a worker of their own.
+// Call it from one thread (the transport's I/O thread); stamps are applied, and best-mode
+// re-encodes run, on workers of their own.
 #pragma once
 
 #include <chrono>
@@ -34,6 +38,7 @@
 #include "protocol/wire/messages.h"
 #include "server/access_tokens.h"
 #include "server/metrics.h"
+#include "server/replication/apply_worker.h"
 #include "server/replication/client_tiles.h"
 #include "server/replication/deform_ledger.h"
 #include "server/replication/region_frames.h"
@@ -50,6 +55,7 @@ using CoreTime = CoreClock::time_point;
 
 struct ServerStats {
   uint64_t connects = 0, disconnects = 0;
+  uint64_t tls_handshake_failures = 0;  // counted by the transport
   uint64_t deforms_accepted = 0, deforms_rejected = 0;
   uint64_t violations = 0;        // every Error sent for a client's fault
   uint64_t requests_refused = 0;  // requests over a client's rate, dropped
@@ -91,7 +97,11 @@ class ReplicationCore {
   // One tick at `now`. `unsent(id)`: bytes queued for the client and not yet written (bulk
   // waits while it is over the client's one-second budget: a client that does not read gets
   // no more regions, only what must go).
-  void tick(CoreTime now, const std::function<uint64_t(ClientId)>& unsent);
+  // `acks_ready`, when given, is called once the tick's stamps are durable and sequenced and
+  // their acks are in the output, before any is applied: the transport sends them then, so no
+  // client's ack waits for another's heavy stamp, nor for the tick's streaming.
+  void tick(CoreTime now, const std::function<uint64_t(ClientId)>& unsent,
+            const std::function<void()>& acks_ready = {});
   // Graceful stop: make the log durable, write a snapshot, Bye to every client.
   void shutdown(const std::string& reason, CoreTime now);
   bool stopping() const { return stopping_; }
@@ -113,7 +123,13 @@ class ReplicationCore {
   void finish_background_encodes() { frames_.finish_best(); }
   bool failed() const { return failed_; }
   uint64_t tick_count() const { return tick_; }
+  // The terrain; its world only while no apply runs (after tick(), or finish_applying()).
   const TerrainState& terrain() const { return terrain_; }
+  // Waits for the apply in flight and applies everything sequenced (tests, shutdown).
+  void finish_applying();
+  // The last sequence logged and acknowledged, and the last applied with its events sent.
+  uint64_t sequenced_seq() const { return sequenced_seq_; }
+  uint64_t published_seq() const { return published_seq_; }
   const AccessTokens& access() const { return access_; }
   const ServerConfig& config() const { return config_; }
   size_t clients() const { return clients_.size(); }
@@ -170,7 +186,16 @@ class ReplicationCore {
   wire::Stats stats_message(uint32_t request_id, CoreTime now) const;
   bool valid_tile(const TileCoord& t) const;
 
-  void commit_batch(std::vector<PendingDeform> batch, CoreTime now);
+  void commit_batch(std::vector<PendingDeform> batch, CoreTime now, const std::function<void()>& acks_ready);
+  // Starts applying what is sequenced when the worker is free; waits up to `wait` for the
+  // apply in flight and publishes it (events, history, plans). True when the world is free.
+  bool advance_apply(std::chrono::microseconds wait);
+  void publish(std::vector<ApplyWorker::Output> applied);
+  // Subscribe and Unsubscribe read the world's tile versions: while an apply runs they wait
+  // here, in order, for the world to be free.
+  void receive_subscription(Client& c, const wire::Message& m);
+  void run_deferred_subscriptions();
+  void refresh_world_counters();
   void acknowledge(const PendingDeform& p, std::optional<uint64_t> seq);
   void stream_regions(CoreTime now, const std::function<uint64_t(ClientId)>& unsent);
   // Untouched tiles it must read to hash come out of base_reads_left; past it they go to later.
@@ -198,6 +223,19 @@ class ReplicationCore {
   std::map<uint64_t, ClientId> key_owner_;  // resume key -> its newest connection
   std::map<std::string, uint32_t> handshakes_by_address_;
   std::vector<PendingDeform> pending_;
+  // Sequenced, logged and acknowledged, waiting for the apply worker, in order.
+  std::vector<ApplyWorker::Input> to_apply_;
+  uint64_t to_apply_cost_ = 0;
+  std::unique_ptr<ApplyWorker> applier_;
+  uint64_t sequenced_seq_ = 0, published_seq_ = 0;
+  std::vector<std::pair<ClientId, wire::Message>> deferred_subscriptions_;
+  // The world's counters as of the last time it was free (stats and metrics read these, never
+  // the world while an apply runs).
+  struct WorldCounters {
+    uint64_t edited_bytes = 0, base_cache_bytes = 0, base_tiles_generated = 0, unpersisted_bytes = 0,
+             edited_tiles_loaded = 0;
+  };
+  WorldCounters world_counters_;
   ClientId next_id_ = 1;
   uint64_t tick_ = 0;
   bool stopping_ = false;
@@ -221,7 +259,8 @@ class ReplicationCore {
   // sync within it), streaming regions and hashes, the snapshot's start or adoption, the trim;
   // and the tiles it had to read from the base or reload from the snapshot store.
   struct TickPhases {
-    double sync_ms = 0, commit_ms = 0, stream_ms = 0, snapshot_ms = 0, trim_ms = 0;
+    double sync_ms = 0, commit_ms = 0, apply_wait_ms = 0, stream_ms = 0, snapshot_ms = 0, trim_ms = 0;
+    bool world_busy = false;  // the apply outlasted the tick's wait: no streaming this tick
     uint64_t base_tiles_read = 0, edited_tiles_loaded = 0;
   };
   TickPhases last_phases_;

@@ -395,6 +395,12 @@ TEST_F(FullDisk, FullDiskRefusesEditsKeepsServingAndRecoversWhenSpaceReturns) {
   client::TerrainClient c;
   ASSERT_TRUE(c.connect("127.0.0.1", server.port(), "full").ok());
   uint64_t seq = deform_all(c, 6, 1);  // a snapshot is taken on the way
+  // Acks leave before the tick applies and snapshots: wait for the snapshot's line.
+  const auto snapshotted = std::chrono::steady_clock::now() + 20s;
+  while (server.log().find("event=snapshot ") == std::string::npos &&
+         std::chrono::steady_clock::now() < snapshotted)
+    std::this_thread::sleep_for(20ms);
+  ASSERT_NE(server.log().find("event=snapshot "), std::string::npos) << server.log();
   ASSERT_TRUE(c.subscribe(c.all_coarse_tiles(0)).ok());
   fill();
   // Edits are refused with a clear reason; nothing refused is logged or applied.

@@ -6,12 +6,14 @@
 #include <algorithm>
 #include <chrono>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "client/bot.h"
 #include "client/net/terrain_client.h"
 #include "fault_proxy.h"
 #include "integration_util.h"
+#include "metrics_scrape.h"
 #include "program_run.h"
 #include "protocol/wire/access_token.h"
 #include "server_process.h"
@@ -42,6 +44,13 @@ transport::TlsClientOptions by_pin(const std::string& fingerprint) {
 
 bool contains(const std::vector<uint8_t>& haystack, const std::array<uint8_t, 16>& needle) {
   return std::search(haystack.begin(), haystack.end(), needle.begin(), needle.end()) != haystack.end();
+}
+
+// Joins as a spectator over TLS with `tls`; the handshake's outcome.
+Status spectate(const transport::TlsClientOptions& tls, const std::string& host, uint16_t port) {
+  client::TerrainClient c;
+  c.set_tls(tls);
+  return c.connect(host, port, "spectator", wire::Role::kSpectator);
 }
 
 class Tls : public ::testing::Test {
@@ -110,31 +119,23 @@ TEST_F(Tls, APinnedFingerprintJoinsWithoutACaAndAnyOtherIsRefused) {
   EXPECT_NE(server.log().find("event=tls certificate=" + certs_.server_cert + " sha256=" + pin),
             std::string::npos)
       << server.log();
-  client::TerrainClient pinned;
-  pinned.set_tls(by_pin(pin));
-  const Status ok = pinned.connect("127.0.0.1", server.port(), "pinned", wire::Role::kSpectator);
+  const Status ok = spectate(by_pin(pin), "127.0.0.1", server.port());
   EXPECT_TRUE(ok.ok()) << ok.error().describe();
   // Lower case without colons is the same pin.
   std::string bare;
   for (const char ch : pin)
     if (ch != ':') bare.push_back(char(std::tolower(static_cast<unsigned char>(ch))));
-  client::TerrainClient bare_pinned;
-  bare_pinned.set_tls(by_pin(bare));
-  EXPECT_TRUE(bare_pinned.connect("127.0.0.1", server.port(), "bare", wire::Role::kSpectator).ok());
+  EXPECT_TRUE(spectate(by_pin(bare), "127.0.0.1", server.port()).ok());
 
   std::string wrong = pin;
   wrong[0] = wrong[0] == 'A' ? 'B' : 'A';
-  client::TerrainClient other;
-  other.set_tls(by_pin(wrong));
-  const Status refused = other.connect("127.0.0.1", server.port(), "wrong-pin", wire::Role::kSpectator);
+  const Status refused = spectate(by_pin(wrong), "127.0.0.1", server.port());
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ErrorCode::kUnauthorized) << refused.error().describe();
   EXPECT_NE(refused.error().describe().find("TLS handshake"), std::string::npos)
       << refused.error().describe();
 
-  client::TerrainClient malformed;
-  malformed.set_tls(by_pin("12:34"));
-  const Status bad = malformed.connect("127.0.0.1", server.port(), "short-pin", wire::Role::kSpectator);
+  const Status bad = spectate(by_pin("12:34"), "127.0.0.1", server.port());
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.error().code, ErrorCode::kInvalidArgument) << bad.error().describe();
 }
@@ -142,25 +143,17 @@ TEST_F(Tls, APinnedFingerprintJoinsWithoutACaAndAnyOtherIsRefused) {
 TEST_F(Tls, AServerOutsideTheCaOrUnderAnotherNameIsRefused) {
   ServerProcess server;
   ASSERT_TRUE(server.start(dir_ + "/data", tls_flags())) << server.log();
-  client::TerrainClient other_ca;
-  other_ca.set_tls(by_ca(certs_.other_ca_cert));
-  const Status untrusted = other_ca.connect("127.0.0.1", server.port(), "other-ca", wire::Role::kSpectator);
+  const Status untrusted = spectate(by_ca(certs_.other_ca_cert), "127.0.0.1", server.port());
   ASSERT_FALSE(untrusted.ok());
   EXPECT_NE(untrusted.error().describe().find("TLS handshake"), std::string::npos)
       << untrusted.error().describe();
 
-  client::TerrainClient renamed;
-  renamed.set_tls(by_ca(certs_.ca_cert, "elsewhere.example"));
-  EXPECT_FALSE(renamed.connect("127.0.0.1", server.port(), "renamed", wire::Role::kSpectator).ok());
+  EXPECT_FALSE(spectate(by_ca(certs_.ca_cert, "elsewhere.example"), "127.0.0.1", server.port()).ok());
   // The certificate's DNS name passes as well as its address.
-  client::TerrainClient by_name;
-  by_name.set_tls(by_ca(certs_.ca_cert));
-  const Status named = by_name.connect("localhost", server.port(), "by-name", wire::Role::kSpectator);
+  const Status named = spectate(by_ca(certs_.ca_cert), "localhost", server.port());
   EXPECT_TRUE(named.ok()) << named.error().describe();
 
-  client::TerrainClient missing;
-  missing.set_tls(by_ca(dir_ + "/no-such-ca.pem"));
-  const Status no_file = missing.connect("127.0.0.1", server.port(), "missing", wire::Role::kSpectator);
+  const Status no_file = spectate(by_ca(dir_ + "/no-such-ca.pem"), "127.0.0.1", server.port());
   ASSERT_FALSE(no_file.ok());
   EXPECT_EQ(no_file.error().code, ErrorCode::kIo) << no_file.error().describe();
 }
@@ -188,12 +181,26 @@ TEST_F(Tls, APlainClientIsRefusedAndTlsClientsAreServedAfterIt) {
   EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 
+TEST_F(Tls, MetricsCountFailedTlsHandshakes) {
+  auto flags = tls_flags();
+  flags.insert(flags.end(), {"--metrics-bind", "127.0.0.1:0"});
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir_ + "/data", flags)) << server.log();
+  client::TerrainClient plain;
+  EXPECT_FALSE(plain.connect("127.0.0.1", server.port(), "plain", wire::Role::kSpectator).ok());
+  const std::string want = "loam_tls_handshake_failures_total 1";
+  std::string text;
+  for (int i = 0; i < 100 && text.find(want) == std::string::npos; ++i) {
+    text = http_get_metrics(server);
+    if (text.find(want) == std::string::npos) std::this_thread::sleep_for(50ms);
+  }
+  EXPECT_NE(text.find(want), std::string::npos) << text;
+}
+
 TEST_F(Tls, ATlsClientOfAPlainServerGetsAClearError) {
   ServerProcess server;
   ASSERT_TRUE(server.start(dir_ + "/data")) << server.log();
-  client::TerrainClient c;
-  c.set_tls(by_ca(certs_.ca_cert));
-  const Status st = c.connect("127.0.0.1", server.port(), "tls-to-plain", wire::Role::kSpectator);
+  const Status st = spectate(by_ca(certs_.ca_cert), "127.0.0.1", server.port());
   ASSERT_FALSE(st.ok());
   EXPECT_NE(st.error().describe().find("TLS handshake"), std::string::npos) << st.error().describe();
 }

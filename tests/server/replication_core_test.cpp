@@ -43,6 +43,9 @@ class CoreHarness {
     config.data_dir = dir_.string();
     config.snapshot_every_stamps = 0;
     config.snapshot_interval_s = 0;
+    // A tick waits for its stamps' apply (events in the same tick): deterministic tests. The
+    // tests of the apply running past a tick set their own.
+    if (config.apply_wait_ms == ServerConfig{}.apply_wait_ms) config.apply_wait_ms = 60000;
     auto opened = open_storage(config.data_dir, "", config.stamp_limits, {}, 0, terrain);
     EXPECT_TRUE(opened.ok()) << (opened.ok() ? "" : opened.error().describe());
     core_ = std::make_unique<ReplicationCore>(config, std::move(*opened), now_);
@@ -74,7 +77,45 @@ class CoreHarness {
     core_->tick(now_, [](ClientId) { return uint64_t(0); });
     collect();
   }
+  // One tick, with what the core hands the transport when the tick's acks are ready (before
+  // it applies anything) kept apart, with the sequence applied by then.
+  struct EarlyOutput {
+    Received acks;
+    uint64_t applied_seq = 0;
+  };
+  EarlyOutput tick_with_early_acks(CoreClock::duration dt = 33333us) {
+    EarlyOutput early;
+    now_ += dt;
+    core_->tick(
+        now_, [](ClientId) { return uint64_t(0); },
+        [&] {
+          early.applied_seq = core_->terrain().last_seq();
+          for (const auto& [id, frame] : core_->take_output().frames) {
+            wire::FrameAssembler a(wire::kAbsoluteMaxFrameBytes);
+            a.feed(*frame);
+            auto m = a.next_message();
+            ASSERT_TRUE(m.ok() && m->has_value());
+            early.acks.messages.push_back(std::move(**m));
+          }
+        });
+    collect();
+    return early;
+  }
   Received& of(ClientId id) { return received_[id]; }
+  // Waits for the apply in flight and everything sequenced, and collects what it sent.
+  void finish_applying() {
+    core_->finish_applying();
+    collect();
+  }
+  // Two players subscribed to every coarse tile, in sync at version 0, with nothing received.
+  std::pair<ClientId, ClientId> two_players_in_sync() {
+    const ClientId a = join("a"), b = join("b");
+    send(a, subscribe_all(true));
+    send(b, subscribe_all(true));
+    tick();
+    clear();
+    return {a, b};
+  }
   void clear() { received_.clear(); }
 
   // Every coarse tile of every mip, as held at the initial version 0 or not held.
@@ -132,11 +173,7 @@ class CoreHarness {
 
 TEST(ReplicationCore, ClientsInSyncAtEveryMipGetTheEventAndNoRegionForPerSampleStamps) {
   CoreHarness h;
-  const ClientId a = h.join("a"), b = h.join("b");
-  h.send(a, h.subscribe_all(true));
-  h.send(b, h.subscribe_all(true));
-  h.tick();
-  h.clear();
+  const auto [a, b] = h.two_players_in_sync();
   const StampKind kinds[] = {StampKind::kGaussian, StampKind::kCrater, StampKind::kFootprint,
                              StampKind::kFlatten};
   uint32_t seq = 0;
@@ -155,6 +192,78 @@ TEST(ReplicationCore, ClientsInSyncAtEveryMipGetTheEventAndNoRegionForPerSampleS
   for (const auto& ack : acks) EXPECT_TRUE(ack.accepted);
   // Each event is a handful of bytes per changed tile.
   EXPECT_LT(h.of(b).event_bytes / 4, 100u);
+}
+
+TEST(ReplicationCore, ATicksAcksLeaveBeforeItsStampsAreAppliedAndEventsAfter) {
+  CoreHarness h;
+  const auto [a, b] = h.two_players_in_sync();
+  // A costly shockwave from one client and a small crater from the other, in one tick.
+  h.send(a, wire::Deform{1, h.stamp(StampKind::kShockwave, 300.0, 200.0, 40.0)});
+  h.send(b, wire::Deform{1, h.stamp(StampKind::kCrater, 100.0, 100.0, 5.0)});
+  const auto early = h.tick_with_early_acks();
+  EXPECT_EQ(early.applied_seq, 0u) << "nothing applied when the acks are handed over";
+  const auto acks = early.acks.all<wire::DeformAck>();
+  ASSERT_EQ(acks.size(), 2u);
+  EXPECT_TRUE(acks[0].accepted && acks[1].accepted);
+  EXPECT_EQ(acks[0].global_seq, 1u);
+  EXPECT_EQ(acks[1].global_seq, 2u);
+  EXPECT_TRUE(early.acks.all<wire::DeformEvent>().empty());
+  // The events follow once applied, at the sequence the acks promised.
+  EXPECT_EQ(h.core().terrain().last_seq(), 2u);
+  for (const ClientId id : {a, b}) {
+    const auto events = h.of(id).all<wire::DeformEvent>();
+    ASSERT_EQ(events.size(), 2u) << "client " << id;
+    EXPECT_EQ(events[0].global_seq, 1u);
+    EXPECT_EQ(events[1].global_seq, 2u);
+    EXPECT_TRUE(h.of(id).all<wire::DeformAck>().empty());
+  }
+}
+
+TEST(ReplicationCore, AStampStillApplyingHoldsNoAckOfTheNextTickAndEventsFollowInOrder) {
+  ServerConfig config;
+  config.apply_wait_ms = 0;  // a tick never waits for the apply
+  config.max_stamp_cost = config.stamp_cost_per_second = 1ull << 40;
+  CoreHarness h(config);
+  const auto [a, b] = h.two_players_in_sync();
+  // A detail-layer shockwave over much of the detail area, 256 steps: far longer to
+  // apply than a tick.
+  const WorldParams& w = h.core().terrain().world().params();
+  const RectI d = w.detail_sample_rect();
+  StampParams heavy;
+  heavy.kind = StampKind::kShockwave;
+  heavy.layer = Layer::kDetail;
+  heavy.center_x = double(d.x0 + d.x1) / 2 * w.detail_meters_per_sample();
+  heavy.center_y = double(d.y0 + d.y1) / 2 * w.detail_meters_per_sample();
+  heavy.radius = 400 * w.detail_meters_per_sample();
+  heavy.intensity = 0.5, heavy.speed = 0.5, heavy.damping = 0.01, heavy.steps = 256;
+  auto q = validate_stamp(heavy, w, h.core().terrain().limits());
+  ASSERT_TRUE(q.ok()) << q.error().describe();
+  h.send(a, wire::Deform{1, *q});
+  h.tick();
+  ASSERT_EQ(h.of(a).all<wire::DeformAck>().size(), 1u);
+  EXPECT_EQ(h.of(a).all<wire::DeformAck>()[0].global_seq, 1u);
+  EXPECT_EQ(h.core().sequenced_seq(), 1u);
+  EXPECT_EQ(h.core().published_seq(), 0u) << "the shockwave is still being applied";
+  // The next tick: b's crater is sequenced and acknowledged while the shockwave runs, and a
+  // client joining now continues from what was published.
+  h.send(b, wire::Deform{1, h.stamp(StampKind::kCrater, 100.0, 100.0, 5.0)});
+  h.tick();
+  ASSERT_EQ(h.of(b).all<wire::DeformAck>().size(), 1u);
+  EXPECT_EQ(h.of(b).all<wire::DeformAck>()[0].global_seq, 2u);
+  const ClientId late = h.join("late");
+  const auto welcome = h.of(late).all<wire::Welcome>();
+  ASSERT_EQ(welcome.size(), 1u);
+  EXPECT_EQ(welcome[0].global_sequence, h.core().published_seq());
+  h.finish_applying();
+  EXPECT_EQ(h.core().terrain().last_seq(), 2u);
+  EXPECT_EQ(h.core().published_seq(), 2u);
+  // The players hold coarse tiles only: the detail shockwave sends them nothing, the crater
+  // its event, once the shockwave before it is applied.
+  for (const ClientId id : {a, b}) {
+    const auto events = h.of(id).all<wire::DeformEvent>();
+    ASSERT_EQ(events.size(), 1u) << "client " << id;
+    EXPECT_EQ(events[0].global_seq, 2u);
+  }
 }
 
 TEST(ReplicationCore, ShockwaveMipsTravelAsPatchesOverTheHeldVersion) {

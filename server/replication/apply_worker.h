@@ -1,0 +1,71 @@
+// Applies sequenced stamps to the terrain off the I/O thread, in sequence order. The core logs
+// and acknowledges a tick's stamps (durable and sequenced), hands them here, and goes on
+// answering pings, handshakes and acks while a costly stamp runs; what needs the applied
+// result (events, regions, hashes, snapshots) waits for the job to finish.
+//
+// While a job runs the worker owns the TerrainState's world: the owner touches it only while
+// busy() is false (it reads its parameters and textures, which never change, at any time).
+// Threaded only where the backend allows it (the CPU backend; a GL context belongs to the
+// thread that made it, so a GPU backend's jobs run inline in start()).
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "protocol/result.h"
+#include "server/replication/tile_history.h"
+#include "server/terrain_state.h"
+
+namespace loam::server {
+
+class ApplyWorker {
+ public:
+  struct Input {
+    uint64_t seq = 0;
+    uint32_t client = 0;
+    QuantizedStamp stamp;
+  };
+  struct Output {
+    uint64_t seq = 0;
+    Result<AppliedStamp> applied = make_error(ErrorCode::kInvalidArgument, "apply", "not run");
+    std::vector<TileSamples> before;  // the samples the stamp may change, as they were (history)
+    std::vector<Error> backend_failures;
+  };
+
+  // `before_samples`: the largest reach whose samples are kept for the history (read_reach).
+  ApplyWorker(TerrainState& terrain, uint64_t before_samples, bool threaded);
+  ~ApplyWorker();
+  ApplyWorker(const ApplyWorker&) = delete;
+  ApplyWorker& operator=(const ApplyWorker&) = delete;
+
+  bool threaded() const { return threaded_; }
+  // A job started and its outputs not yet taken.
+  bool busy() const { return busy_; }
+  // Starts applying `job` (consecutive sequences after the terrain's last); requires !busy().
+  void start(std::vector<Input> job);
+  // The job's outputs once it has finished, waiting up to `wait`; nullopt while it runs (or
+  // when no job was started).
+  std::optional<std::vector<Output>> take(std::chrono::microseconds wait);
+
+ private:
+  std::vector<Output> run(const std::vector<Input>& job);
+  void loop();
+
+  TerrainState& terrain_;
+  uint64_t before_samples_;
+  bool threaded_;
+  bool busy_ = false;  // owner's thread only
+  std::mutex mutex_;
+  std::condition_variable wake_, done_cv_;
+  std::optional<std::vector<Input>> job_;
+  std::optional<std::vector<Output>> done_;
+  bool stop_ = false;
+  std::thread thread_;
+};
+
+}  // namespace loam::server
