@@ -134,6 +134,11 @@ Status EglContext::make_current() const {
   return {};
 }
 
+void EglContext::release_current() const {
+  if (context_ != EGL_NO_CONTEXT && eglGetCurrentContext() == context_)
+    eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+}
+
 bool is_software_renderer(const std::string& r) {
   return r.find("llvmpipe") != std::string::npos || r.find("softpipe") != std::string::npos ||
          r.find("swrast") != std::string::npos || r.find("SwiftShader") != std::string::npos;

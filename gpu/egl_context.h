@@ -2,7 +2,8 @@
 // (EGL_KHR_no_config_context), for the server's GPU stamp backend, headless renders and GL
 // tests. Tries the EGL device platform (real GPUs: every device EGL enumerates) and Mesa's
 // surfaceless platform (llvmpipe, or a GPU through Mesa). Owns the display and context; the
-// destructor releases them. Not thread-safe: make it current on the thread that uses it.
+// destructor releases them. Not thread-safe: make it current on the thread that uses it, and
+// release it there before another thread makes it current.
 #pragma once
 
 #include <epoxy/egl.h>
@@ -32,6 +33,9 @@ class EglContext {
   ~EglContext();
 
   Status make_current() const;
+  // Leaves the calling thread with no current context if this one is current there, so
+  // another thread may make it current next (a context is current on one thread at a time).
+  void release_current() const;
   const std::string& renderer() const { return renderer_; }  // GL_RENDERER
   const std::string& version() const { return version_; }    // GL_VERSION
   const std::string& platform() const { return platform_; }  // "device" or "surfaceless"

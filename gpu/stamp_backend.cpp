@@ -28,10 +28,14 @@ class CpuBackend final : public StampBackend {
   StampLimits limits_;
 };
 
+// The GL context is current only while a call runs, so whichever thread calls next (the
+// server's apply worker, replay's main thread) may use it; calls must not overlap.
 class GpuBackend final : public StampBackend {
  public:
   GpuBackend(EglContext context, std::unique_ptr<GpuStamper> stamper)
-      : context_(std::move(context)), stamper_(std::move(stamper)) {}
+      : context_(std::move(context)), stamper_(std::move(stamper)) {
+    context_.release_current();
+  }
   ~GpuBackend() override {
     // GL objects go while their context is current; then the context itself.
     if (context_.make_current().ok()) stamper_.reset();
@@ -39,14 +43,22 @@ class GpuBackend final : public StampBackend {
   const char* name() const override { return "gpu"; }
   std::string renderer() const override { return context_.renderer(); }
   Result<RectI> apply(World& world, const QuantizedStamp& q) override {
-    LOAM_TRY(context_.make_current());
+    const Current current(context_);
+    LOAM_TRY(current.status);
     return stamper_->apply(world, q);
   }
   void world_changed(World& world, Layer layer, const RectI& rect) override {
-    if (context_.make_current().ok()) stamper_->upload(world, layer, rect);
+    const Current current(context_);
+    if (current.status.ok()) stamper_->upload(world, layer, rect);
   }
 
  private:
+  struct Current {
+    explicit Current(const EglContext& c) : context(c), status(c.make_current()) {}
+    ~Current() { context.release_current(); }
+    const EglContext& context;
+    Status status;
+  };
   EglContext context_;
   std::unique_ptr<GpuStamper> stamper_;
 };

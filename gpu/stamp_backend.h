@@ -6,7 +6,8 @@
 //
 // A backend is bound to one World's parameters (the GPU keeps a copy of its layers). Who
 // changes that World other than through apply() (regions, snapshots) must call
-// world_changed() for the rect, so the GPU copy follows.
+// world_changed() for the rect, so the GPU copy follows. Calls may come from any thread, one
+// at a time (the GPU backend's context is current only during a call).
 #pragma once
 
 #include <memory>

@@ -34,9 +34,11 @@ class TerrainState {
  public:
   TerrainState(World world, uint64_t last_seq, StampLimits limits = {});
 
-  const World& world() const { return world_; }
-  World& mutable_world() { return world_; }
-  // Heap-held so its address survives moving the TerrainState (backends keep a pointer).
+  // The World and the textures are heap-held so their addresses survive moving the
+  // TerrainState: a backend keeps pointers to both (the GPU stamper fills its pages from the
+  // World), and the server is built by moving the recovered state in after the backend.
+  const World& world() const { return *world_; }
+  World& mutable_world() { return *world_; }
   TextureRegistry& textures() { return *textures_; }
   const TextureRegistry& textures() const { return *textures_; }
   const StampLimits& limits() const { return limits_; }
@@ -55,7 +57,7 @@ class TerrainState {
   std::vector<Error> take_backend_failures() { return std::exchange(backend_failures_, {}); }
 
  private:
-  World world_;
+  std::unique_ptr<World> world_;
   std::unique_ptr<TextureRegistry> textures_ = std::make_unique<TextureRegistry>();
   StampLimits limits_;
   uint64_t last_seq_ = 0;

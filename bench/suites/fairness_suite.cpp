@@ -340,8 +340,11 @@ int run_fairness(const Context& ctx, Report& report) {
   fs::remove_all(dir);
   test::ServerProcess server;
   // The default byte budget per client (the test harness turns it off unless told).
-  if (!server.start(
-          dir, {"--terrain", "crop", "--client-budget", std::to_string(defaults.client_bytes_per_second)})) {
+  // LOAM_FAIRNESS_BACKEND=gpu runs the server's stamps on the GPU backend (default: cpu).
+  const char* backend_env = std::getenv("LOAM_FAIRNESS_BACKEND");
+  const std::string backend = backend_env ? backend_env : defaults.backend;
+  if (!server.start(dir, {"--terrain", "crop", "--client-budget",
+                          std::to_string(defaults.client_bytes_per_second), "--backend", backend})) {
     std::printf("fairness: the server did not start: %s\n", server.log().c_str());
     return 1;
   }
@@ -503,7 +506,8 @@ int run_fairness(const Context& ctx, Report& report) {
   if (peak > rss_bound && !ctx.sanitized) ++failures;
   const auto st = server_stats(port);
   report.paragraph(
-      "A `loam-server serve --terrain crop` process (the embedded 2 x 1.5 km crop, default options: " +
+      "A `loam-server serve --terrain crop --backend " + backend +
+      "` process (the embedded 2 x 1.5 km crop, default options: " +
       fmt("%.0f", defaults.deforms_per_second) + " deforms/s and " +
       std::to_string(defaults.stamp_cost_per_second) + " sample updates/s per client, " +
       std::to_string(defaults.max_stamp_cost) + " at most per stamp, " +

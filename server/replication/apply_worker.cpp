@@ -4,13 +4,12 @@
 
 namespace loam::server {
 
-ApplyWorker::ApplyWorker(TerrainState& terrain, uint64_t before_samples, bool threaded)
-    : terrain_(terrain), before_samples_(before_samples), threaded_(threaded) {
-  if (threaded_) thread_ = std::thread([this] { loop(); });
+ApplyWorker::ApplyWorker(TerrainState& terrain, uint64_t before_samples)
+    : terrain_(terrain), before_samples_(before_samples) {
+  thread_ = std::thread([this] { loop(); });
 }
 
 ApplyWorker::~ApplyWorker() {
-  if (!threaded_) return;
   {
     std::lock_guard lock(mutex_);
     stop_ = true;
@@ -21,10 +20,6 @@ ApplyWorker::~ApplyWorker() {
 
 void ApplyWorker::start(std::vector<Input> job) {
   busy_ = true;
-  if (!threaded_) {
-    done_ = run(job);
-    return;
-  }
   {
     std::lock_guard lock(mutex_);
     job_ = std::move(job);

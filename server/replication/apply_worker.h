@@ -5,8 +5,7 @@
 //
 // While a job runs the worker owns the TerrainState's world: the owner touches it only while
 // busy() is false (it reads its parameters and textures, which never change, at any time).
-// Threaded only where the backend allows it (the CPU backend; a GL context belongs to the
-// thread that made it, so a GPU backend's jobs run inline in start()).
+// Either backend runs here: the GPU backend makes its context current for each call.
 #pragma once
 
 #include <chrono>
@@ -38,12 +37,11 @@ class ApplyWorker {
   };
 
   // `before_samples`: the largest reach whose samples are kept for the history (read_reach).
-  ApplyWorker(TerrainState& terrain, uint64_t before_samples, bool threaded);
+  ApplyWorker(TerrainState& terrain, uint64_t before_samples);
   ~ApplyWorker();
   ApplyWorker(const ApplyWorker&) = delete;
   ApplyWorker& operator=(const ApplyWorker&) = delete;
 
-  bool threaded() const { return threaded_; }
   // A job started and its outputs not yet taken.
   bool busy() const { return busy_; }
   // Starts applying `job` (consecutive sequences after the terrain's last); requires !busy().
@@ -58,7 +56,6 @@ class ApplyWorker {
 
   TerrainState& terrain_;
   uint64_t before_samples_;
-  bool threaded_;
   bool busy_ = false;  // owner's thread only
   std::mutex mutex_;
   std::condition_variable wake_, done_cv_;

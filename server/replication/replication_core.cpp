@@ -73,10 +73,7 @@ ReplicationCore::ReplicationCore(ServerConfig config, OpenedStorage opened, Core
     terrain_.mutable_world().replace_base(prefetch_);
   }
   sequenced_seq_ = published_seq_ = terrain_.last_seq();
-  // A GL context belongs to the thread that made it: a GPU backend applies on this thread.
-  const gpu::StampBackend* backend = terrain_.backend();
-  applier_ = std::make_unique<ApplyWorker>(terrain_, config_.history_bytes / 8,
-                                           backend == nullptr || std::string_view(backend->name()) == "cpu");
+  applier_ = std::make_unique<ApplyWorker>(terrain_, config_.history_bytes / 8);
   refresh_world_counters();
 }
 
