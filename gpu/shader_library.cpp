@@ -179,12 +179,19 @@ Result<GlProgram> build_vertex_program_from(std::span<const std::string_view> fi
 
 Result<GlProgram> build_graphics_program(std::string_view vertex_shader, std::string_view fragment_shader,
                                          std::span<const ShaderDefine> defines) {
-  auto vs = compile(GL_VERTEX_SHADER, vertex_shader, defines);
+  const std::string_view vs[] = {vertex_shader}, fs[] = {fragment_shader};
+  return build_graphics_program_from(vs, fs, defines);
+}
+
+Result<GlProgram> build_graphics_program_from(std::span<const std::string_view> vertex_files,
+                                              std::span<const std::string_view> fragment_files,
+                                              std::span<const ShaderDefine> defines) {
+  auto vs = compile_files(GL_VERTEX_SHADER, vertex_files, defines);
   if (!vs) return vs.error();
-  auto fs = compile(GL_FRAGMENT_SHADER, fragment_shader, defines);
+  auto fs = compile_files(GL_FRAGMENT_SHADER, fragment_files, defines);
   if (!fs) return fs.error();
   const GLuint names[] = {vs->get(), fs->get()};
-  return link(names, std::string(vertex_shader) + " + " + std::string(fragment_shader));
+  return link(names, join_names(vertex_files) + " + " + join_names(fragment_files));
 }
 
 }  // namespace loam::gpu

@@ -46,6 +46,11 @@ Result<GlProgram> build_vertex_program_from(std::span<const std::string_view> fi
 // Compiles and links a vertex + fragment program from embedded shaders.
 Result<GlProgram> build_graphics_program(std::string_view vertex_shader, std::string_view fragment_shader,
                                          std::span<const ShaderDefine> defines = {});
+// The same, each stage from several files concatenated in order (shared declarations, such
+// as uniform blocks, first), as build_compute_program_from.
+Result<GlProgram> build_graphics_program_from(std::span<const std::string_view> vertex_files,
+                                              std::span<const std::string_view> fragment_files,
+                                              std::span<const ShaderDefine> defines = {});
 
 // Rewrites a driver info log's "0:LINE(COL)" or "0(LINE)" prefixes into "FILE:LINE".
 std::string annotate_shader_log(std::string_view log, std::string_view file);

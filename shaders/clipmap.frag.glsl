@@ -13,23 +13,6 @@ layout(binding = 1) uniform sampler2D u_normals;         // this level, RG16_SNO
 layout(binding = 2) uniform sampler2D u_normals_coarse;  // the next coarser level
 layout(binding = 4) uniform sampler2D u_detail_gradient;  // RG16F, meters per meter
 
-uniform int u_tex_size;
-uniform ivec2 u_tex_base, u_tex_base_coarse;
-uniform ivec2 u_rel_origin, u_rel_origin_coarse;
-uniform int u_spacing;
-uniform int u_has_coarse;
-uniform int u_detail_on;
-uniform int u_detail_size;
-uniform int u_detail_factor;
-uniform ivec2 u_detail_rel_origin;
-uniform ivec2 u_detail_base;
-uniform vec3 u_sun_dir;       // render frame, unit, toward the sun
-uniform vec2 u_height_range;  // material range, meters above the height offset
-uniform float u_sea_level;    // meters above the height offset; below it is sea floor
-uniform vec3 u_fog_color;     // linear
-uniform float u_fog_density;  // per meter
-uniform int u_debug_morph;    // tint by geomorph blend
-
 out vec4 o_color;
 
 // (nx, ny) of a level's normal map at level-local coordinates c: hardware bilinear, toroidal

@@ -9,28 +9,6 @@
 layout(binding = 0) uniform usampler2D u_heights;
 layout(binding = 3) uniform isampler2D u_detail;
 
-uniform int u_n;
-uniform int u_tex_size;
-uniform ivec2 u_tex_base;      // texel of local vertex (0, 0)
-uniform ivec2 u_rel_origin;    // level origin minus the anchor, mip-0 samples
-uniform int u_spacing;         // mip-0 samples per level sample
-uniform vec2 u_cam_offset;     // camera minus the anchor, meters
-uniform float u_meters_per_sample;
-uniform float u_meters_per_unit;
-uniform float u_height_base;   // height_offset minus the camera's z, meters
-uniform vec2 u_viewer;         // LOD centre in level samples from the level origin
-uniform float u_band;          // geomorph band in level samples; 0: no morphing
-uniform int u_half_m;          // 2m - 2: where the band ends, before subtracting it
-uniform mat4 u_view_proj;
-uniform ivec4 u_world_rel;     // the world's mip-0 samples minus the anchor, [x0, x1) x [y0, y1)
-uniform float u_skirt_z;       // camera-relative height of the skirt's foot
-uniform int u_detail_displace; // add the detail offset under each vertex (finest level)
-uniform int u_detail_size;
-uniform int u_detail_factor;
-uniform ivec2 u_detail_rel_origin;  // detail region's first sample minus the anchor, detail samples
-uniform ivec2 u_detail_base;        // its texel
-uniform float u_detail_meters_per_unit;
-
 out vec3 v_rel;      // camera-relative position (render frame)
 out vec2 v_sample;   // mip-0 sample coordinates minus the anchor
 out float v_height;  // meters above the height offset's zero

@@ -10,6 +10,8 @@
 #include <glm/gtc/type_ptr.hpp>
 #include <string>
 
+#include "client/render/clipmap_blocks.h"
+#include "client/render/frustum.h"
 #include "gpu/shader_library.h"
 
 namespace loam::render {
@@ -61,7 +63,11 @@ void WorldHeightSource::read_detail(const RectI& rect, std::span<int8_t> out) co
 
 namespace {
 
-GLint loc(GLuint program, const char* name) { return glGetUniformLocation(program, name); }
+// The uniform buffer binding points of shaders/clipmap_blocks.glsl and detail_gradient.comp.glsl.
+constexpr GLuint kFrameBinding = 0, kLevelBinding = 1, kDetailGradientBinding = 2;
+
+void put(float* out, const glm::vec2& v) { out[0] = v.x, out[1] = v.y; }
+void put(float* out, const glm::vec3& v) { out[0] = v.x, out[1] = v.y, out[2] = v.z; }
 
 // Level samples whose mip-0 sample (i * s) lies in [x0, x1): [ceil(x0 / s), ceil(x1 / s)).
 RectI in_level_grid(const RectI& mip0, int64_t s) {
@@ -167,6 +173,10 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
     auto gradient = gpu::build_compute_program("detail_gradient.comp.glsl");
     if (!gradient) return gradient.error();
     r->gradient_program_ = std::move(*gradient);
+    LOAM_TRY(gpu::verify_uniform_block(r->gradient_program_.get(), "DetailGradient",
+                                       sizeof(DetailGradientBlock), kDetailGradientMembers));
+    LOAM_TRY(gpu::verify_no_loose_uniforms(r->gradient_program_.get()));
+    r->gradient_block_.emplace(1);
   }
   auto normal_pass = gpu::LevelNormalPass::create();
   if (!normal_pass) return normal_pass.error();
@@ -178,9 +188,19 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
   glCreateVertexArrays(1, &vao);
   r->vao_ = gpu::GlVertexArray(vao);
   glVertexArrayElementBuffer(vao, r->indices_.get());
-  auto program = gpu::build_graphics_program("clipmap.vert.glsl", "clipmap.frag.glsl");
+  const std::string_view vertex[] = {"clipmap_blocks.glsl", "clipmap.vert.glsl"};
+  const std::string_view fragment[] = {"clipmap_blocks.glsl", "clipmap.frag.glsl"};
+  auto program = gpu::build_graphics_program_from(vertex, fragment);
   if (!program) return program.error();
   r->program_ = std::move(*program);
+  // Every uniform the draw sets is checked here, by name and offset, once.
+  LOAM_TRY(gpu::verify_uniform_block(r->program_.get(), "ClipmapFrame", sizeof(ClipmapFrameBlock),
+                                     kClipmapFrameMembers));
+  LOAM_TRY(gpu::verify_uniform_block(r->program_.get(), "ClipmapLevel", sizeof(ClipmapLevelBlock),
+                                     kClipmapLevelMembers));
+  LOAM_TRY(gpu::verify_no_loose_uniforms(r->program_.get()));
+  r->frame_block_.emplace(1);
+  r->level_block_.emplace(r->levels_);
   return r;
 }
 
@@ -252,16 +272,17 @@ int64_t ClipmapRenderer::upload_detail(const RectI& rect) {
   const RectI g = RectI{rect.x0 - 1, rect.y0 - 1, rect.x1 + 1, rect.y1 + 1}.intersect(region);
   if (!g.empty()) {
     const WorldParams& p = source_->params();
-    const GLuint prog = gradient_program_.get();
-    glUseProgram(prog);
-    glProgramUniform1i(prog, loc(prog, "tex_size"), GLint(n));
-    glProgramUniform2i(prog, loc(prog, "region_lo"), GLint(detail_.region_x), GLint(detail_.region_y));
-    glProgramUniform2i(prog, loc(prog, "region_base"), GLint(floor_mod(detail_.region_x, n)),
-                       GLint(floor_mod(detail_.region_y, n)));
-    glProgramUniform4i(prog, loc(prog, "rect"), GLint(g.x0), GLint(g.y0), GLint(g.x1), GLint(g.y1));
+    DetailGradientBlock b{};
+    b.tex_size = GLint(n);
+    b.region_lo[0] = GLint(detail_.region_x), b.region_lo[1] = GLint(detail_.region_y);
+    b.region_base[0] = GLint(floor_mod(detail_.region_x, n)),
+    b.region_base[1] = GLint(floor_mod(detail_.region_y, n));
+    b.rect[0] = GLint(g.x0), b.rect[1] = GLint(g.y0), b.rect[2] = GLint(g.x1), b.rect[3] = GLint(g.y1);
     // Central differences span two samples: meters per unit over twice the spacing.
-    glProgramUniform1f(prog, loc(prog, "scale"),
-                       float(p.detail_meters_per_unit / (2.0 * p.detail_meters_per_sample())));
+    b.scale = float(p.detail_meters_per_unit / (2.0 * p.detail_meters_per_sample()));
+    gradient_block_->write(0, b);
+    gradient_block_->bind(kDetailGradientBinding);
+    glUseProgram(gradient_program_.get());
     glBindTextureUnit(0, detail_.offsets.get());
     glBindImageTexture(1, detail_.gradient.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG16F);
     glDispatchCompute(GLuint((g.width() + 7) / 8), GLuint((g.height() + 7) / 8), 1);
@@ -351,86 +372,87 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
   const glm::vec2 cam_offset(float(camera.x - double(ax) * mps), float(camera.y - double(ay) * mps));
 
   const glm::mat4 vp = view_projection(camera, width, height);
-  // Frustum planes (Gribb & Hartmann): rows of the view-projection matrix combined.
-  std::array<glm::vec4, 6> planes;
-  const glm::mat4 t = glm::transpose(vp);
-  for (int i = 0; i < 3; ++i) {
-    planes[size_t(2 * i)] = t[3] + t[i];
-    planes[size_t(2 * i + 1)] = t[3] - t[i];
+  const Frustum frustum = frustum_of(vp);
+
+  const int32_t n = config_.n, m = (n + 1) / 4;
+  const RectI world = p.sample_rect();
+  const double skirt_m = config_.min_height_m - kSkirtDepthM;
+  const bool detail = config_.detail_size > 0;
+  ClipmapFrameBlock f{};
+  std::copy_n(&vp[0][0], 16, f.view_proj);
+  f.world_rel[0] = GLint(world.x0 - ax), f.world_rel[1] = GLint(world.y0 - ay);
+  f.world_rel[2] = GLint(world.x1 - ax), f.world_rel[3] = GLint(world.y1 - ay);
+  const float az = glm::radians(config_.sun_azimuth_degrees),
+              el = glm::radians(config_.sun_elevation_degrees);
+  // Azimuth clockwise from north, in the render frame (x east, y north).
+  put(f.sun_dir, glm::vec3(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)));
+  f.sea_level = float(-p.height_offset);
+  put(f.fog_color, glm::vec3(0.50f, 0.60f, 0.75f));
+  f.fog_density = float(1.0 / (config_.view_distance * 1.5));
+  put(f.cam_offset, cam_offset);
+  put(f.height_range, glm::vec2(float(config_.min_height_m), float(config_.max_height_m)));
+  f.n = n;
+  f.tex_size = tex_size_;
+  f.half_m = 2 * m - 2;
+  f.detail_on = detail ? 1 : 0;
+  f.debug_morph = 0;
+  f.meters_per_sample = float(mps);
+  f.meters_per_unit = float(p.meters_per_unit);
+  f.height_base = float(p.height_offset - camera.z);
+  f.band = config_.morph ? float(morph_band(n)) : 0.0f;
+  f.skirt_z = float(p.height_offset + skirt_m - camera.z);
+  if (detail) {
+    const int64_t k = p.detail_factor;
+    f.detail_size = config_.detail_size;
+    f.detail_factor = GLint(k);
+    f.detail_rel_origin[0] = GLint(detail_.region_x - ax * k);
+    f.detail_rel_origin[1] = GLint(detail_.region_y - ay * k);
+    f.detail_base[0] = GLint(floor_mod(detail_.region_x, config_.detail_size));
+    f.detail_base[1] = GLint(floor_mod(detail_.region_y, config_.detail_size));
+    f.detail_meters_per_unit = float(p.detail_meters_per_unit);
+    glBindTextureUnit(3, detail_.offsets.get());
+    glBindTextureUnit(4, detail_.gradient.get());
+  }
+  frame_block_->write(0, f);
+  frame_block_->bind(kFrameBinding);
+  const int64_t tn = tex_size_;
+  for (int32_t l = 0; l < levels_; ++l) {
+    const LevelPlacement& lp = placed_[size_t(l)];
+    const int64_t s = lp.spacing();
+    ClipmapLevelBlock b{};
+    b.tex_base[0] = GLint(floor_mod(lp.origin_x >> l, tn)),
+    b.tex_base[1] = GLint(floor_mod(lp.origin_y >> l, tn));
+    b.rel_origin[0] = GLint(lp.origin_x - ax), b.rel_origin[1] = GLint(lp.origin_y - ay);
+    b.spacing = GLint(s);
+    put(b.viewer, glm::vec2(float((c[0] - double(lp.origin_x)) / double(s)),
+                            float((c[1] - double(lp.origin_y)) / double(s))));
+    b.has_coarse = l + 1 < levels_ ? 1 : 0;
+    if (b.has_coarse) {
+      const LevelPlacement& cp = placed_[size_t(l + 1)];
+      b.rel_origin_coarse[0] = GLint(cp.origin_x - ax), b.rel_origin_coarse[1] = GLint(cp.origin_y - ay);
+      b.tex_base_coarse[0] = GLint(floor_mod(cp.origin_x >> (l + 1), tn));
+      b.tex_base_coarse[1] = GLint(floor_mod(cp.origin_y >> (l + 1), tn));
+    }
+    b.detail_displace = l == 0 && detail && config_.detail_displacement ? 1 : 0;
+    level_block_->write(l, b);
   }
 
-  const GLuint prog = program_.get();
-  glUseProgram(prog);
+  glUseProgram(program_.get());
   glBindVertexArray(vao_.get());
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LESS);
   glViewport(0, 0, width, height);
-  const int32_t n = config_.n, m = (n + 1) / 4;
-  const RectI world = p.sample_rect();
-  const double skirt_m = config_.min_height_m - kSkirtDepthM;
-  glUniform1i(loc(prog, "u_n"), n);
-  glUniform1i(loc(prog, "u_tex_size"), tex_size_);
-  glUniform2fv(loc(prog, "u_cam_offset"), 1, glm::value_ptr(cam_offset));
-  glUniform1f(loc(prog, "u_meters_per_sample"), float(mps));
-  glUniform1f(loc(prog, "u_meters_per_unit"), float(p.meters_per_unit));
-  glUniform1f(loc(prog, "u_height_base"), float(p.height_offset - camera.z));
-  glUniform1f(loc(prog, "u_band"), config_.morph ? float(morph_band(n)) : 0.0f);
-  glUniform1i(loc(prog, "u_half_m"), 2 * m - 2);
-  glUniformMatrix4fv(loc(prog, "u_view_proj"), 1, GL_FALSE, glm::value_ptr(vp));
-  glUniform4i(loc(prog, "u_world_rel"), GLint(world.x0 - ax), GLint(world.y0 - ay), GLint(world.x1 - ax),
-              GLint(world.y1 - ay));
-  glUniform1f(loc(prog, "u_skirt_z"), float(p.height_offset + skirt_m - camera.z));
-  const float az = glm::radians(config_.sun_azimuth_degrees),
-              el = glm::radians(config_.sun_elevation_degrees);
-  // Azimuth clockwise from north, in the render frame (x east, y north).
-  const glm::vec3 sun(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el));
-  glUniform3fv(loc(prog, "u_sun_dir"), 1, glm::value_ptr(sun));
-  glUniform2f(loc(prog, "u_height_range"), float(config_.min_height_m), float(config_.max_height_m));
-  glUniform1f(loc(prog, "u_sea_level"), float(-p.height_offset));
-  const glm::vec3 fog(0.50f, 0.60f, 0.75f);
-  glUniform3fv(loc(prog, "u_fog_color"), 1, glm::value_ptr(fog));
-  glUniform1f(loc(prog, "u_fog_density"), float(1.0 / (config_.view_distance * 1.5)));
-  glUniform1i(loc(prog, "u_debug_morph"), 0);
-  const bool detail = config_.detail_size > 0;
-  glUniform1i(loc(prog, "u_detail_on"), detail ? 1 : 0);
-  if (detail) {
-    const int64_t k = p.detail_factor;
-    glUniform1i(loc(prog, "u_detail_size"), config_.detail_size);
-    glUniform1i(loc(prog, "u_detail_factor"), GLint(k));
-    glUniform2i(loc(prog, "u_detail_rel_origin"), GLint(detail_.region_x - ax * k),
-                GLint(detail_.region_y - ay * k));
-    glUniform2i(loc(prog, "u_detail_base"), GLint(floor_mod(detail_.region_x, config_.detail_size)),
-                GLint(floor_mod(detail_.region_y, config_.detail_size)));
-    glUniform1f(loc(prog, "u_detail_meters_per_unit"), float(p.detail_meters_per_unit));
-    glBindTextureUnit(3, detail_.offsets.get());
-    glBindTextureUnit(4, detail_.gradient.get());
-  }
   const float z_margin =
       float(kSkirtDepthM + (config_.detail_displacement ? 128.0 * p.detail_meters_per_unit : 0.0));
-
-  const int64_t tn = tex_size_;
   for (int32_t l = 0; l < levels_; ++l) {
     const LevelPlacement& lp = placed_[size_t(l)];
     const Level& level = level_[size_t(l)];
     const int64_t s = lp.spacing();
+    const int64_t ox = lp.origin_x >> l, oy = lp.origin_y >> l;
+    level_block_->bind(kLevelBinding, l);
     glBindTextureUnit(0, level.texture.get());
     glBindTextureUnit(1, level.normals.get());
-    const int64_t ox = lp.origin_x >> l, oy = lp.origin_y >> l;
-    glUniform2i(loc(prog, "u_tex_base"), GLint(floor_mod(ox, tn)), GLint(floor_mod(oy, tn)));
-    glUniform2i(loc(prog, "u_rel_origin"), GLint(lp.origin_x - ax), GLint(lp.origin_y - ay));
-    glUniform1i(loc(prog, "u_spacing"), GLint(s));
-    glUniform2f(loc(prog, "u_viewer"), float((c[0] - double(lp.origin_x)) / double(s)),
-                float((c[1] - double(lp.origin_y)) / double(s)));
-    const bool coarser = l + 1 < levels_;
-    glUniform1i(loc(prog, "u_has_coarse"), coarser ? 1 : 0);
-    if (coarser) {
-      const LevelPlacement& cp = placed_[size_t(l + 1)];
-      glBindTextureUnit(2, level_[size_t(l + 1)].normals.get());
-      glUniform2i(loc(prog, "u_rel_origin_coarse"), GLint(cp.origin_x - ax), GLint(cp.origin_y - ay));
-      glUniform2i(loc(prog, "u_tex_base_coarse"), GLint(floor_mod(cp.origin_x >> (l + 1), tn)),
-                  GLint(floor_mod(cp.origin_y >> (l + 1), tn)));
-    }
-    glUniform1i(loc(prog, "u_detail_displace"), l == 0 && detail && config_.detail_displacement ? 1 : 0);
+    if (l + 1 < levels_) glBindTextureUnit(2, level_[size_t(l + 1)].normals.get());
     std::vector<const Piece*> pieces;
     for (const Piece& piece : mesh_->ring()) pieces.push_back(&piece);
     pieces.push_back(lp.trim_variant < 0 ? &mesh_->fill() : &mesh_->trim(lp.trim_variant));
@@ -453,15 +475,7 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
         // Skirts and detail displacement reach below (and above) the level's samples.
         const float z0 = float(p.height_offset - camera.z + double(lo) * p.meters_per_unit) - z_margin;
         const float z1 = float(p.height_offset - camera.z + double(hi) * p.meters_per_unit) + z_margin;
-        bool outside = false;
-        for (const glm::vec4& pl : planes) {
-          const glm::vec3 pv(pl.x >= 0 ? x1 : x0, pl.y >= 0 ? y1 : y0, pl.z >= 0 ? z1 : z0);
-          if (glm::dot(glm::vec3(pl), pv) + pl.w < 0) {
-            outside = true;
-            break;
-          }
-        }
-        if (outside) {
+        if (box_outside(frustum, {x0, y0, z0}, {x1, y1, z1})) {
           ++stats.pieces_culled;
           continue;
         }

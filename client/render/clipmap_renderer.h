@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "client/render/camera.h"
+#include "client/render/clipmap_blocks.h"
 #include "client/render/clipmap_mesh.h"
 #include "gpu/gl_handle.h"
 #include "gpu/normal_pass.h"
@@ -146,6 +147,10 @@ class ClipmapRenderer {
   gpu::GlBuffer indices_;
   gpu::GlVertexArray vao_;
   gpu::GlProgram program_, gradient_program_;
+  // The programs' uniform blocks (client/render/clipmap_blocks.h): one frame, one per level.
+  std::optional<gpu::UniformBuffer<ClipmapFrameBlock>> frame_block_;
+  std::optional<gpu::UniformBuffer<ClipmapLevelBlock>> level_block_;
+  std::optional<gpu::UniformBuffer<DetailGradientBlock>> gradient_block_;
   std::optional<gpu::LevelNormalPass> normal_pass_;
   Detail detail_;
   std::vector<uint16_t> scratch_;

@@ -1,0 +1,99 @@
+// Checked uniform blocks (gpu/uniform_block.h): a C++ struct that does not mirror its block,
+// by a name, an offset or a member, is an error at creation that says which; a program with a
+// uniform outside any block is named.
+#include "gpu/uniform_block.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "client/render/clipmap_blocks.h"
+#include "gl_test_context.h"
+#include "gpu/shader_library.h"
+
+namespace loam::gpu {
+namespace {
+
+GlProgram clipmap_program() {
+  const std::string_view vertex[] = {"clipmap_blocks.glsl", "clipmap.vert.glsl"};
+  const std::string_view fragment[] = {"clipmap_blocks.glsl", "clipmap.frag.glsl"};
+  auto p = build_graphics_program_from(vertex, fragment);
+  EXPECT_TRUE(p.ok()) << p.error().describe();
+  return p.ok() ? std::move(*p) : GlProgram();
+}
+
+TEST(UniformBlock, TheClipmapBlocksMirrorTheirShaders) {
+  LOAM_REQUIRE_GL();
+  const GlProgram p = clipmap_program();
+  EXPECT_TRUE(verify_uniform_block(p.get(), "ClipmapFrame", sizeof(render::ClipmapFrameBlock),
+                                   render::kClipmapFrameMembers)
+                  .ok());
+  EXPECT_TRUE(verify_uniform_block(p.get(), "ClipmapLevel", sizeof(render::ClipmapLevelBlock),
+                                   render::kClipmapLevelMembers)
+                  .ok());
+  EXPECT_TRUE(verify_no_loose_uniforms(p.get()).ok());
+}
+
+TEST(UniformBlock, AMisspeltMemberAWrongOffsetOrAMissingMemberIsNamed) {
+  LOAM_REQUIRE_GL();
+  const GlProgram p = clipmap_program();
+  std::vector<UniformBlockMember> members(render::kClipmapLevelMembers.begin(),
+                                          render::kClipmapLevelMembers.end());
+  const size_t size = sizeof(render::ClipmapLevelBlock);
+
+  auto misspelt = members;
+  misspelt[5].name = "u_spaceing";
+  Status st = verify_uniform_block(p.get(), "ClipmapLevel", size, misspelt);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().describe().find("u_spaceing"), std::string::npos) << st.error().describe();
+
+  auto shifted = members;
+  shifted[4].offset += 4;
+  st = verify_uniform_block(p.get(), "ClipmapLevel", size, shifted);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().describe().find("u_viewer"), std::string::npos) << st.error().describe();
+
+  auto short_list = members;
+  short_list.erase(short_list.begin() + 6);  // u_has_coarse
+  st = verify_uniform_block(p.get(), "ClipmapLevel", size, short_list);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().describe().find("u_has_coarse"), std::string::npos) << st.error().describe();
+
+  st = verify_uniform_block(p.get(), "ClipmapLevel", size + 16, members);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().describe().find("bytes"), std::string::npos) << st.error().describe();
+
+  st = verify_uniform_block(p.get(), "ClipmapLevle", size, members);
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().describe().find("ClipmapLevle"), std::string::npos) << st.error().describe();
+}
+
+TEST(UniformBlock, AUniformOutsideABlockIsNamed) {
+  LOAM_REQUIRE_GL();
+  // The world normal pass (gpu/normal_pass.h) sets its uniforms by name.
+  const std::string_view files[] = {"fd4_normal.glsl", "normals.comp.glsl"};
+  auto p = build_compute_program_from(files);
+  ASSERT_TRUE(p.ok()) << p.error().describe();
+  const Status st = verify_no_loose_uniforms(p->get());
+  ASSERT_FALSE(st.ok());
+  EXPECT_NE(st.error().describe().find("outside a uniform block"), std::string::npos)
+      << st.error().describe();
+}
+
+TEST(UniformBlock, EachCopyOfABufferBindsAtAnAllowedOffset) {
+  LOAM_REQUIRE_GL();
+  UniformBuffer<render::ClipmapLevelBlock> levels(5);
+  EXPECT_GE(levels.bytes(), 5 * sizeof(render::ClipmapLevelBlock));
+  EXPECT_EQ(levels.bytes() % uniform_buffer_alignment(), 0u);
+  render::ClipmapLevelBlock b{};
+  for (int32_t i = 0; i < 5; ++i) {
+    b.spacing = 1 << i;
+    levels.write(i, b);
+    levels.bind(1, i);
+  }
+  EXPECT_EQ(glGetError(), GLenum(GL_NO_ERROR));
+}
+
+}  // namespace
+}  // namespace loam::gpu
