@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "client/render/mesh_check.h"
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 
@@ -111,32 +112,9 @@ std::vector<RectI> toroidal_strips(std::optional<std::array<int64_t, 2>> old, st
 int32_t levels_for_view_distance(int32_t n, double meters_per_sample, double view_distance);
 
 // --- CPU replica of what the renderer draws, in mip-0 sample coordinates ---
-struct ReplicaTriangle {
-  std::array<int64_t, 3> x{}, y{};
-  bool degenerate = false;
-};
-
 // Every triangle of every level for these placements, as the renderer draws them (degenerate
 // boundary triangles of all but the outermost level unless `with_degenerates` is false).
 std::vector<ReplicaTriangle> replicate(const ClipmapMesh& mesh, const std::vector<LevelPlacement>& levels,
                                        bool with_degenerates = true);
-
-struct WatertightReport {
-  int64_t triangles = 0, edges = 0, boundary_edges = 0;
-  int64_t open_edges = 0;                 // used once, not on the outermost boundary: a crack
-  int64_t overshared_edges = 0;           // used more than twice: overlapping geometry
-  int64_t misoriented_edges = 0;          // used twice in the same direction: a flipped triangle
-  int64_t t_junctions = 0;                // a vertex inside an edge with no degenerate triangle bridging it
-  int64_t area2 = 0, expected_area2 = 0;  // twice the covered area (non-degenerate triangles)
-  bool ok() const {
-    return open_edges == 0 && overshared_edges == 0 && misoriented_edges == 0 && t_junctions == 0 &&
-           area2 == expected_area2;
-  }
-  std::string describe() const;
-};
-
-// Checks that the triangles tile `outer` (mip-0 samples; vertices on its border are the
-// outermost boundary) with no crack, overlap or T-junction.
-WatertightReport check_watertight(const std::vector<ReplicaTriangle>& tris, const RectI& outer);
 
 }  // namespace loam::render
