@@ -1,0 +1,157 @@
+// The geomipmap renderer (client/render/geomipmap_renderer.h) draws what its CPU replica
+// (client/lod/geomipmap.h) says: a straight-down orthographic view with one pixel per sample
+// reads back, at every sample, the replica's displayed height (levels, side levels and morphs
+// chosen from another, perspective camera), with no hole; after a stamp, the same holds with
+// the error bounds of exactly the touched patches recomputed.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "client/render/geomipmap_renderer.h"
+#include "client/render/headless.h"
+#include "gl_test_context.h"
+#include "protocol/world.h"
+
+namespace loam::render {
+namespace {
+
+World ridges() {
+  WorldParams p;
+  p.tiles_x = 1;
+  p.tiles_y = 1;
+  p.meters_per_sample = 2.0;
+  p.meters_per_unit = 0.05;
+  const RectI r = p.sample_rect();
+  std::vector<uint16_t> s(size_t(r.area()));
+  for (int64_t y = 0; y < r.height(); ++y) {
+    for (int64_t x = 0; x < r.width(); ++x) {
+      const double v = 20000 + 3000 * std::sin(double(x) * 0.07) * std::cos(double(y) * 0.05) +
+                       (x > 150 && x < 156 ? 4000 : 0) + double((x * 7 + y * 13) % 5);
+      s[size_t(y * r.width() + x)] = uint16_t(v);
+    }
+  }
+  World w = std::move(World::from_samples(p, s).value());
+  w.commit(0);
+  return w;
+}
+
+// Heights (m above the height offset) the renderer drew at every sample, from a top-down
+// orthographic view with pixel centres on the samples; NaN where nothing was drawn.
+std::vector<double> drawn_heights(GeomipmapRenderer& r, const OffscreenTarget& t, const Camera& lod_camera) {
+  const double mps = 2.0;
+  Camera cam;
+  cam.x = (t.width() / 2.0 - 0.5) * mps, cam.y = (t.height() / 2.0 - 0.5) * mps, cam.z = 3000;
+  cam.fx = 0, cam.fy = 0, cam.fz = -1;
+  cam.ux = 0, cam.uy = -1, cam.uz = 0;
+  cam.ortho_half_height = t.height() / 2.0 * mps;
+  cam.near_m = 1, cam.far_m = 4000;
+  t.begin(0, 0, 0, 0);
+  r.render(cam, t.width(), t.height(), lod_camera);
+  const auto depth = t.read_depth();
+  std::vector<double> out(depth.size());
+  for (size_t i = 0; i < depth.size(); ++i) {
+    out[i] = depth[i] >= 1.0f ? NAN : cam.z - (cam.near_m + double(depth[i]) * (cam.far_m - cam.near_m));
+  }
+  return out;
+}
+
+// Largest |drawn - replica| (m) over the samples, and the samples with nothing drawn (the
+// world's first row and column aside).
+std::pair<double, int64_t> compare_with_replica(GeomipmapRenderer& r, const OffscreenTarget& t,
+                                                const World& w, const Camera& lod_camera) {
+  const auto drawn = drawn_heights(r, t, lod_camera);
+  const RectI rect = w.params().sample_rect();
+  std::vector<uint16_t> samples(size_t(rect.area()));
+  w.read_coarse(rect, samples);
+  const lod::HeightGrid grid{samples, rect.width(), rect.height()};
+  const auto surface = lod::displayed_surface(r.grid(), grid, r.lods());
+  const int64_t cw = r.grid().covered().width();
+  double worst = 0;
+  int64_t holes = 0;
+  for (int64_t y = 0; y < rect.height(); ++y) {
+    for (int64_t x = 0; x < rect.width(); ++x) {
+      const double d = drawn[size_t(y * rect.width() + x)];
+      if (std::isnan(d)) {
+        // Row and column 0 lie exactly on the mesh's outer edge, which the fill rule may leave.
+        holes += x > 0 && y > 0;
+        continue;
+      }
+      const double want = double(surface[size_t(y * cw + x)]) * w.params().meters_per_unit;
+      worst = std::max(worst, std::abs(d - want));
+    }
+  }
+  return {worst, holes};
+}
+
+Camera perspective_at(double x, double y, double z, double tx, double ty) {
+  Camera c = look_at(x, y, z, tx, ty, 900);
+  c.fov_y_degrees = 60;
+  return c;
+}
+
+TEST(GeomipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySample) {
+  LOAM_REQUIRE_GL();
+  World w = ridges();
+  WorldHeightSource source(w);
+  auto target = OffscreenTarget::create(256, 256);
+  ASSERT_TRUE(target.ok());
+  for (int32_t n : {9, 17, 33}) {
+    GeomipmapConfig cfg;
+    cfg.patch_size = n;
+    cfg.tolerance_px = 2.0;
+    cfg.cull = false;
+    auto r = GeomipmapRenderer::create(source, cfg);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    for (const Camera& lc :
+         {perspective_at(-100, -100, 1400, 256, 256), perspective_at(256, 256, 1100, 500, 100)}) {
+      const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
+      int levels = 0, morphing = 0;
+      for (const lod::PatchLod& p : (*r)->lods()) levels |= 1 << p.level, morphing += p.morph > 0;
+      std::printf("patch %d: levels mask %x, %d patches morphing, largest difference %.4f m, %lld holes\n", n,
+                  levels, morphing, worst, static_cast<long long>(holes));
+      EXPECT_GT(__builtin_popcount(unsigned(levels)), 1) << "the view mixes levels";
+      EXPECT_GT(morphing, 0);
+      EXPECT_EQ(holes, 0);
+      EXPECT_LT(worst, 0.02);
+    }
+  }
+}
+
+TEST(GeomipmapRender, AStampReuploadsItsRectAndRecomputesTheTouchedPatchesOnly) {
+  LOAM_REQUIRE_GL();
+  World w = ridges();
+  WorldHeightSource source(w);
+  auto target = OffscreenTarget::create(256, 256);
+  ASSERT_TRUE(target.ok());
+  GeomipmapConfig cfg;
+  cfg.cull = false;
+  auto r = GeomipmapRenderer::create(source, cfg);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  // A crater [100, 131) x [60, 91): patches 6..8 by 3..5 of 17.
+  const RectI crater{100, 60, 131, 91};
+  std::vector<uint16_t> s(size_t(crater.area()));
+  for (int64_t y = crater.y0; y < crater.y1; ++y)
+    for (int64_t x = crater.x0; x < crater.x1; ++x)
+      s[size_t((y - crater.y0) * crater.width() + (x - crater.x0))] =
+          uint16_t(15000 + 300 * std::hypot(double(x) - 115, double(y) - 75));
+  w.write_coarse(crater, s);
+  w.commit(1);
+  const GeomipmapUpdate u = (*r)->invalidate(crater);
+  EXPECT_EQ(u.patches, 9);
+  const Camera lc = perspective_at(230, 150, 1000, 100, 60);
+  const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
+  EXPECT_EQ(holes, 0);
+  EXPECT_LT(worst, 0.02);
+  // The renderer's error bounds are those of the stamped world.
+  const RectI rect = w.params().sample_rect();
+  std::vector<uint16_t> samples(size_t(rect.area()));
+  w.read_coarse(rect, samples);
+  const auto fresh = lod::GeomipmapErrors::compute((*r)->grid(), {samples, rect.width(), rect.height()});
+  for (int32_t py = 0; py < (*r)->grid().patches_y; ++py)
+    for (int32_t px = 0; px < (*r)->grid().patches_x; ++px)
+      for (int32_t l = 0; l < (*r)->grid().levels; ++l)
+        EXPECT_EQ((*r)->errors().error(px, py, l), fresh.error(px, py, l));
+}
+
+}  // namespace
+}  // namespace loam::render
