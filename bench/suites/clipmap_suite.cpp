@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bench/harness.h"
+#include "bench/screen_error.h"
 #include "client/render/clipmap_renderer.h"
 #include "client/render/headless.h"
 #include "dem/default_terrain.h"
@@ -33,50 +34,10 @@ const View kViews[] = {{560, 1180, 12, 1100, 900, 10},
                        {900, 1300, 300, 1000, 700, 0},
                        {200, 200, 60, 900, 900, 0}};
 
-struct ErrorStats {
-  double mean_px = 0, p50_px = 0, p99_px = 0, max_px = 0, mean_m = 0, max_m = 0;
-  int64_t pixels = 0;
-};
-
 std::string fmt(double v, int digits = 2) {
   char b[32];
   std::snprintf(b, sizeof b, "%.*f", digits, v);
   return b;
-}
-
-void add_errors(const World& world, const render::Camera& cam, int32_t w, int32_t h,
-                const std::vector<float>& depth, std::vector<double>& px_errors,
-                std::vector<double>& m_errors) {
-  const glm::mat4 vp = render::view_projection(cam, w, h);
-  for (int32_t y = 0; y < h; ++y) {
-    for (int32_t x = 0; x < w; ++x) {
-      const auto p = render::unproject(cam, w, h, x, y, depth[size_t(y) * size_t(w) + size_t(x)]);
-      if (!p) continue;
-      const double truth = height_at(world, (*p)[0], (*p)[1]);
-      const glm::vec4 clip =
-          vp * glm::vec4(float((*p)[0] - cam.x), float(-((*p)[1] - cam.y)), float(truth - cam.z), 1.0f);
-      if (clip.w <= 0) continue;
-      const double qx = (clip.x / clip.w + 1.0) * 0.5 * w - 0.5, qy = (1.0 - clip.y / clip.w) * 0.5 * h - 0.5;
-      px_errors.push_back(std::hypot(qx - x, qy - y));
-      m_errors.push_back(std::abs((*p)[2] - truth));
-    }
-  }
-}
-
-ErrorStats summarize(std::vector<double>& px, std::vector<double>& m) {
-  ErrorStats s;
-  s.pixels = int64_t(px.size());
-  if (px.empty()) return s;
-  std::sort(px.begin(), px.end());
-  double sum = 0, sum_m = 0;
-  for (double v : px) sum += v;
-  for (double v : m) sum_m += v, s.max_m = std::max(s.max_m, v);
-  s.mean_px = sum / double(px.size());
-  s.p50_px = px[size_t(0.50 * double(px.size() - 1))];
-  s.p99_px = px[size_t(0.99 * double(px.size() - 1))];
-  s.max_px = px.back();
-  s.mean_m = sum_m / double(m.size());
-  return s;
 }
 
 int run_clipmap(const Context& ctx, Report& report) {
@@ -139,7 +100,7 @@ int run_clipmap(const Context& ctx, Report& report) {
       steady.push_back(t.median_s);
       triangles += fs.triangles;
       draws += fs.draw_calls;
-      add_errors(world, cam, w, h, target->read_depth(), px, m);
+      add_screen_errors(world, cam, w, h, target->read_depth(), px, m);
     }
     // Flying: 2 m per frame toward the first view's target (strip uploads every frame).
     const View& v = kViews[0];
@@ -161,7 +122,7 @@ int run_clipmap(const Context& ctx, Report& report) {
     std::sort(fly.begin(), fly.end());
     std::sort(steady.begin(), steady.end());
     const double steady_ms = steady[steady.size() / 2] * 1e3, fly_ms = fly[fly.size() / 2] * 1e3;
-    const ErrorStats e = summarize(px, m);
+    const ErrorStats e = summarize_errors(px, m);
     const int64_t tri_per_view = triangles / int64_t(std::size(kViews));
     table.add_row({std::to_string(c.n), c.morph ? "on" : "off", std::to_string((*r)->levels()),
                    std::to_string(tri_per_view), std::to_string(draws / int32_t(std::size(kViews))),

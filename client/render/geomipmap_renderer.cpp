@@ -116,20 +116,30 @@ GeomipmapRenderer::Variant GeomipmapRenderer::variant(const lod::PatchLod& lod) 
   return v;
 }
 
-GeomipmapFrameStats GeomipmapRenderer::render(const Camera& camera, int32_t width, int32_t height,
-                                              const std::optional<Camera>& lod_camera) {
+GeomipmapFrameStats GeomipmapRenderer::render(const Camera& camera, int32_t width, int32_t height) {
+  const double select_ms = select(camera, height);
+  GeomipmapFrameStats stats = draw(camera, width, height);
+  stats.cpu_ms += select_ms;
+  return stats;
+}
+
+double GeomipmapRenderer::select(const Camera& lod_camera, int32_t viewport_height) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const double mps = scale_.meters_per_sample;
+  lod::LodView view;
+  view.x = lod_camera.x - double(world_.x0) * mps;
+  view.y = lod_camera.y - double(world_.y0) * mps;
+  view.z = lod_camera.z;
+  view.pixels_per_radian = lod::pixels_per_radian(viewport_height, lod_camera.fov_y_degrees);
+  view.tolerance_px = config_.tolerance_px;
+  lods_ = lod::select_lods(grid_, errors_, scale_, view, config_.morph && config_.tolerance_px > 0);
+  return ms_since(t0);
+}
+
+GeomipmapFrameStats GeomipmapRenderer::draw(const Camera& camera, int32_t width, int32_t height) {
   GeomipmapFrameStats stats;
   const auto t0 = std::chrono::steady_clock::now();
   const double mps = scale_.meters_per_sample;
-  const Camera& lc = lod_camera ? *lod_camera : camera;
-  lod::LodView view;
-  view.x = lc.x - double(world_.x0) * mps;
-  view.y = lc.y - double(world_.y0) * mps;
-  view.z = lc.z;
-  view.pixels_per_radian = lod::pixels_per_radian(height, lc.fov_y_degrees);
-  view.tolerance_px = config_.tolerance_px;
-  lods_ = lod::select_lods(grid_, errors_, scale_, view, config_.morph && config_.tolerance_px > 0);
-
   const glm::mat4 vp = view_projection(camera, width, height);
   const Frustum frustum = frustum_of(vp);
   const int32_t c = grid_.cells();

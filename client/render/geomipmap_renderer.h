@@ -67,10 +67,14 @@ class GeomipmapRenderer {
   static Result<std::unique_ptr<GeomipmapRenderer>> create(const HeightSource& source,
                                                            const GeomipmapConfig& config);
 
-  // Draws into the bound framebuffer's viewport (depth test on; clears nothing). `lod_camera`
-  // chooses the levels (default: `camera`), so a test can hold them while the view moves.
-  GeomipmapFrameStats render(const Camera& camera, int32_t width, int32_t height,
-                             const std::optional<Camera>& lod_camera = std::nullopt);
+  // select() then draw(): the frame as a viewer sees it.
+  GeomipmapFrameStats render(const Camera& camera, int32_t width, int32_t height);
+  // Chooses every patch's level and morph for `lod_camera` seeing a viewport `viewport_height`
+  // pixels high; returns the CPU milliseconds it took.
+  double select(const Camera& lod_camera, int32_t viewport_height);
+  // Draws the levels last selected into the bound framebuffer's viewport (depth test on;
+  // clears nothing): a test or benchmark can hold them while the view moves.
+  GeomipmapFrameStats draw(const Camera& camera, int32_t width, int32_t height);
   // Samples of `mip0_rect` (the world's global grid) changed in the source.
   GeomipmapUpdate invalidate(const RectI& mip0_rect);
 

@@ -46,7 +46,8 @@ std::vector<double> drawn_heights(GeomipmapRenderer& r, const OffscreenTarget& t
   cam.ortho_half_height = t.height() / 2.0 * mps;
   cam.near_m = 1, cam.far_m = 4000;
   t.begin(0, 0, 0, 0);
-  r.render(cam, t.width(), t.height(), lod_camera);
+  r.select(lod_camera, t.height());
+  r.draw(cam, t.width(), t.height());
   const auto depth = t.read_depth();
   std::vector<double> out(depth.size());
   for (size_t i = 0; i < depth.size(); ++i) {

@@ -1,0 +1,236 @@
+// Ulrich's adaptive quadtree (client/lod/quadtree.h) on its CPU replica: square errors that
+// bound the leaf surface, restricted and watertight meshes from any view, the screen-error
+// budget met at every sample, geomorphing that bounds the surface change per camera step, a
+// stamp that recomputes exactly the squares holding its samples, and a mesh rebuilt only in
+// the blocks whose subdivision changed.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "client/lod/quadtree.h"
+
+namespace loam::lod {
+namespace {
+
+struct Terrain {
+  int64_t width, height;
+  std::vector<uint16_t> samples;
+  HeightGrid grid() const { return {samples, width, height}; }
+};
+
+Terrain rough(int64_t w, int64_t h, uint32_t seed) {
+  std::mt19937 rng(seed);
+  Terrain t{w, h, std::vector<uint16_t>(size_t(w * h))};
+  for (int64_t y = 0; y < h; ++y) {
+    for (int64_t x = 0; x < w; ++x) {
+      double v = 20000 + 6000 * std::sin(double(x) * 0.05) * std::cos(double(y) * 0.07) + double(rng() % 6);
+      if (x > w / 2 && x < w / 2 + 6) v += 8000;
+      if (y > h / 3) v += 3000;
+      t.samples[size_t(y * w + x)] = uint16_t(std::clamp(v, 0.0, 65535.0));
+    }
+  }
+  return t;
+}
+
+const HeightScale kScale{2.0, 0.05, -500.0};
+
+LodView view_at(double x, double y, double z, double tolerance_px) {
+  LodView v;
+  v.x = x, v.y = y, v.z = z;
+  v.pixels_per_radian = pixels_per_radian(1080, 60.0);
+  v.tolerance_px = tolerance_px;
+  return v;
+}
+
+QuadtreeGrid grid_for(const Terrain& t, int32_t block) {
+  auto g = QuadtreeGrid::make(t.width, t.height, block);
+  EXPECT_TRUE(g.ok()) << g.error().describe();
+  return *g;
+}
+
+TEST(QuadtreeLod, BlockSizesArePowersOfTwoAndBlocksCoverTheWorld) {
+  EXPECT_FALSE(QuadtreeGrid::make(100, 100, 48).ok());
+  EXPECT_FALSE(QuadtreeGrid::make(100, 100, 2).ok());
+  EXPECT_FALSE(QuadtreeGrid::make(100, 100, 512).ok());
+  auto g = QuadtreeGrid::make(203, 150, 64);
+  ASSERT_TRUE(g.ok());
+  EXPECT_EQ(g->levels, 6);
+  EXPECT_EQ(g->blocks_x, 4);
+  EXPECT_EQ(g->blocks_y, 3);
+  EXPECT_GE(g->covered().x1, 203);
+}
+
+TEST(QuadtreeLod, ALeafsErrorBoundsItsSurfaceWhateverItsSidesCarry) {
+  const Terrain t = rough(129, 129, 3);
+  const QuadtreeGrid g = grid_for(t, 32);
+  const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
+  // Subdivide everything down to `level`, so every leaf is of that level, with every side's
+  // midpoint present (neighbours subdivided) or none (nothing below).
+  for (int32_t level = 1; level <= g.levels; ++level) {
+    QuadtreeState s(g);
+    for (int32_t l = level + 1; l <= g.levels; ++l)
+      for (int32_t j = 0; j < g.squares_y(l); ++j)
+        for (int32_t i = 0; i < g.squares_x(l); ++i) s.set(l, i, j, true, 1.0f);
+    const auto surface = displayed_surface(g, t.grid(), s);
+    const int64_t cw = g.covered().width();
+    for (int32_t j = 0; j < g.squares_y(level); ++j) {
+      for (int32_t i = 0; i < g.squares_x(level); ++i) {
+        const int64_t sz = int64_t(1) << level;
+        float worst = 0;
+        for (int64_t y = j * sz; y <= j * sz + sz; ++y)
+          for (int64_t x = i * sz; x <= i * sz + sz; ++x)
+            worst = std::max(worst, std::abs(surface[size_t(y * cw + x)] - float(t.grid().at(x, y))));
+        EXPECT_LE(worst, e.delta(level, i, j) + 1e-3f) << "level " << level << " square " << i << "," << j;
+        if (level > 1) {
+          EXPECT_GE(e.subtree(level, i, j), e.subtree(level - 1, 2 * i, 2 * j));
+        }
+      }
+    }
+  }
+}
+
+TEST(QuadtreeLod, RandomSubdivisionsMadeRestrictedAreWatertight) {
+  std::mt19937 rng(5);
+  const Terrain t = rough(200, 140, 5);
+  for (int32_t block : {8, 32, 64}) {
+    const QuadtreeGrid g = grid_for(t, block);
+    const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
+    for (int round = 0; round < 5; ++round) {
+      // A random camera with a random budget gives a different tree each round.
+      std::uniform_real_distribution<double> u(-100, 500);
+      QuadtreeState s(g);
+      select_quadtree(g, e, kScale, view_at(u(rng), u(rng), 600 + u(rng), 0.5 + round), s);
+      const render::WatertightReport r = render::check_watertight(replicate(g, s), g.covered());
+      EXPECT_TRUE(r.ok()) << "block " << block << " round " << round << ": " << r.describe();
+    }
+  }
+}
+
+double worst_screen_error(const QuadtreeGrid& g, const Terrain& t, const QuadtreeState& s, const LodView& v) {
+  const auto surface = displayed_surface(g, t.grid(), s);
+  const int64_t cw = g.covered().width();
+  double worst = 0;
+  for (int64_t y = 0; y < t.height; ++y) {
+    for (int64_t x = 0; x < t.width; ++x) {
+      const uint16_t h = t.samples[size_t(y * t.width + x)];
+      const double err_m = std::abs(double(surface[size_t(y * cw + x)]) - double(h)) * kScale.meters_per_unit;
+      const double dx = double(x) * kScale.meters_per_sample - v.x,
+                   dy = double(y) * kScale.meters_per_sample - v.y;
+      const double dz = kScale.meters(h) - v.z;
+      worst = std::max(worst, err_m * v.pixels_per_radian / std::sqrt(dx * dx + dy * dy + dz * dz));
+    }
+  }
+  return worst;
+}
+
+TEST(QuadtreeLod, TheDrawnSurfaceStaysWithinTheScreenErrorBudget) {
+  const Terrain t = rough(257, 201, 9);
+  const QuadtreeGrid g = grid_for(t, 64);
+  const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
+  for (const LodView& v :
+       {view_at(100, 100, 700, 1.0), view_at(400, 300, 1500, 4.0), view_at(-200, 50, 800, 2.0)}) {
+    for (bool morph : {false, true}) {
+      QuadtreeState s(g);
+      const auto st = select_quadtree(g, e, kScale, v, s, morph);
+      const double px = worst_screen_error(g, t, s, v);
+      std::printf(
+          "tolerance %.1f px, morph %d: worst %.2f px, %lld triangles, %lld squares tested, %lld forced\n",
+          v.tolerance_px, int(morph), px, static_cast<long long>(triangle_count(g, s)),
+          static_cast<long long>(st.squares_tested), static_cast<long long>(st.forced));
+      EXPECT_LE(px, v.tolerance_px) << "morph " << morph;
+    }
+  }
+}
+
+TEST(QuadtreeLod, GeomorphingBoundsTheSurfaceChangePerCameraStepWhereSubdivisionsJump) {
+  const Terrain t = rough(257, 201, 13);
+  const QuadtreeGrid g = grid_for(t, 64);
+  const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
+  double max_step[2] = {0, 0};
+  for (int morph = 0; morph < 2; ++morph) {
+    QuadtreeState s(g);
+    std::vector<float> prev;
+    for (int step = 0; step <= 300; ++step) {
+      const LodView v = view_at(200 + step * 0.8, 150 + step * 0.6, 500 + step * 5.0, 3.0);
+      select_quadtree(g, e, kScale, v, s, morph == 1);
+      const auto now = displayed_surface(g, t.grid(), s);
+      if (!prev.empty()) {
+        for (size_t i = 0; i < now.size(); ++i)
+          max_step[morph] =
+              std::max(max_step[morph], double(std::abs(now[i] - prev[i])) * kScale.meters_per_unit);
+      }
+      prev = now;
+    }
+  }
+  std::printf("largest surface change per 5 m camera step: %.3f m morphing, %.3f m without\n", max_step[1],
+              max_step[0]);
+  EXPECT_GT(max_step[0], 0.5);
+  EXPECT_LT(max_step[1], 0.1 * max_step[0]);
+}
+
+TEST(QuadtreeLod, AStampRecomputesExactlyTheSquaresHoldingItsSamples) {
+  Terrain t = rough(203, 150, 17);
+  const QuadtreeGrid g = grid_for(t, 32);
+  QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
+  const RectI changed{90, 40, 120, 70};
+  for (int64_t y = changed.y0; y < changed.y1; ++y)
+    for (int64_t x = changed.x0; x < changed.x1; ++x)
+      t.samples[size_t(y * t.width + x)] =
+          uint16_t(15000 + 300 * std::hypot(double(x) - 105, double(y) - 55));
+  const QuadtreeErrors before = e;
+  const int64_t n = e.update(g, t.grid(), changed);
+  const QuadtreeErrors fresh = QuadtreeErrors::compute(g, t.grid());
+  int64_t touched = 0, differing = 0;
+  for (int32_t l = 1; l <= g.levels; ++l) {
+    const int64_t s = int64_t(1) << l;
+    for (int32_t j = 0; j < g.squares_y(l); ++j) {
+      for (int32_t i = 0; i < g.squares_x(l); ++i) {
+        const bool holds = !RectI{i * s, j * s, i * s + s + 1, j * s + s + 1}.intersect(changed).empty();
+        touched += holds;
+        EXPECT_EQ(e.delta(l, i, j), fresh.delta(l, i, j));
+        EXPECT_EQ(e.subtree(l, i, j), fresh.subtree(l, i, j));
+        EXPECT_EQ(e.min_height(l, i, j), fresh.min_height(l, i, j));
+        const bool differs = before.delta(l, i, j) != fresh.delta(l, i, j) ||
+                             before.min_height(l, i, j) != fresh.min_height(l, i, j);
+        differing += differs;
+        if (differs) {
+          EXPECT_TRUE(holds) << "level " << l << " square " << i << "," << j;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(n, touched);
+  EXPECT_GT(differing, 0);
+}
+
+TEST(QuadtreeLod, OnlyBlocksWhoseSubdivisionChangedAreRebuilt) {
+  const Terrain t = rough(257, 257, 19);
+  const QuadtreeGrid g = grid_for(t, 32);
+  const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
+  QuadtreeState s(g);
+  // Without morphing a square's state changes only when it is subdivided or joined.
+  select_quadtree(g, e, kScale, view_at(50, 50, 300, 2.0), s, false);
+  s.clear_changed();
+  const auto again = select_quadtree(g, e, kScale, view_at(50, 50, 300, 2.0), s, false);
+  EXPECT_EQ(again.blocks_changed, 0) << "the same view changes nothing";
+  const auto moved = select_quadtree(g, e, kScale, view_at(54, 52, 300, 2.0), s, false);
+  EXPECT_GT(moved.blocks_changed, 0);
+  EXPECT_LT(moved.blocks_changed, g.blocks_x * g.blocks_y) << "a small move rebuilds some blocks, not all";
+  // A block's mesh uses its own vertices, each once, and a changed block's mesh is what the
+  // replica draws there.
+  std::vector<QuadtreeVertex> vertices;
+  std::vector<std::array<uint32_t, 3>> triangles;
+  int64_t total = 0;
+  for (int32_t by = 0; by < g.blocks_y; ++by)
+    for (int32_t bx = 0; bx < g.blocks_x; ++bx) {
+      block_mesh(g, t.grid(), s, bx, by, vertices, triangles);
+      total += int64_t(triangles.size());
+      for (const auto& tri : triangles)
+        for (uint32_t v : tri) ASSERT_LT(v, vertices.size());
+    }
+  EXPECT_EQ(total, triangle_count(g, s));
+}
+
+}  // namespace
+}  // namespace loam::lod
