@@ -45,6 +45,13 @@ std::string fmt(double v, int digits = 2) {
   return b;
 }
 
+// The median; -1 for none.
+double median(std::vector<double> v) {
+  if (v.empty()) return -1.0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
 double ms_since(clock_type::time_point t0) {
   return std::chrono::duration<double, std::milli>(clock_type::now() - t0).count();
 }
@@ -445,11 +452,6 @@ int run_lod(const Context& ctx, Report& report) {
         pool.cpu_ms.insert(pool.cpu_ms.end(), cpu_ms.begin(), cpu_ms.end());
         pool.lod_ms.insert(pool.lod_ms.end(), lod_ms.begin(), lod_ms.end());
         const ErrorStats e = summarize_errors(px, m);
-        auto median = [](std::vector<double> v) {
-          if (v.empty()) return -1.0;
-          std::sort(v.begin(), v.end());
-          return v[v.size() / 2];
-        };
         const double lod_med = median(lod_ms);
         table.add_row({terrain.name, path.name, st.scheme, st.setting,
                        std::to_string(triangles / int64_t(nf)), std::to_string(draws / int64_t(nf)),
@@ -471,11 +473,6 @@ int run_lod(const Context& ctx, Report& report) {
   for (const std::string& key : order) {
     Pooled& pool = pooled[key];
     const ErrorStats e = pool.errors.stats();
-    auto median = [](std::vector<double> v) {
-      if (v.empty()) return -1.0;
-      std::sort(v.begin(), v.end());
-      return v[v.size() / 2];
-    };
     const std::string scheme = key.substr(0, key.find(" | ")), setting = key.substr(key.find(" | ") + 3);
     const double tris = double(pool.triangles) / std::max(1, pool.frames);
     const double lod_med = median(pool.lod_ms);

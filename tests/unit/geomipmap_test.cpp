@@ -12,46 +12,17 @@
 #include <random>
 #include <set>
 
+#include "lod_test_terrain.h"
+
 namespace loam::lod {
 namespace {
 
-struct Terrain {
-  int64_t width, height;
-  std::vector<uint16_t> samples;
-  HeightGrid grid() const { return {samples, width, height}; }
-};
-
-// Hills, a ridge with a cliff, and noise: every level has error somewhere.
-Terrain rough(int64_t w, int64_t h, uint32_t seed) {
-  std::mt19937 rng(seed);
-  Terrain t{w, h, std::vector<uint16_t>(size_t(w * h))};
-  for (int64_t y = 0; y < h; ++y) {
-    for (int64_t x = 0; x < w; ++x) {
-      double v = 20000 + 6000 * std::sin(double(x) * 0.05) * std::cos(double(y) * 0.07) + double(rng() % 6);
-      if (x > w / 2 && x < w / 2 + 6) v += 8000;  // a ridge
-      if (y > h / 3) v += 3000;                   // a cliff
-      t.samples[size_t(y * w + x)] = uint16_t(std::clamp(v, 0.0, 65535.0));
-    }
-  }
-  return t;
-}
-
-Terrain flat(int64_t w, int64_t h) { return {w, h, std::vector<uint16_t>(size_t(w * h), 12345)}; }
-
-const HeightScale kScale{2.0, 0.05, -500.0};  // 2 m samples, 5 cm units
+using namespace test;
 
 GeomipmapGrid grid_for(const Terrain& t, int32_t patch_size) {
   auto g = GeomipmapGrid::make(t.width, t.height, patch_size);
   EXPECT_TRUE(g.ok()) << g.error().describe();
   return *g;
-}
-
-LodView view_at(double x, double y, double z, double tolerance_px = 2.0) {
-  LodView v;
-  v.x = x, v.y = y, v.z = z;
-  v.pixels_per_radian = pixels_per_radian(1080, 60.0);
-  v.tolerance_px = tolerance_px;
-  return v;
 }
 
 TEST(Geomipmap, PatchSizesMustBeAPowerOfTwoPlusOneAndPatchesCoverTheWorld) {
@@ -182,29 +153,6 @@ TEST(Geomipmap, SelectedMeshesAreWatertightFromLowAndHighCameras) {
   }
 }
 
-// The largest screen error (px) of the drawn surface at the world's samples: the vertical
-// error seen from the camera at the sample's distance.
-double worst_screen_error(const GeomipmapGrid& g, const Terrain& t, const std::vector<PatchLod>& lods,
-                          const LodView& v, double* vertical_m = nullptr) {
-  const std::vector<float> surface = displayed_surface(g, t.grid(), lods);
-  const int64_t cw = g.covered().width();
-  double worst = 0, worst_m = 0;
-  for (int64_t y = 0; y < t.height; ++y) {
-    for (int64_t x = 0; x < t.width; ++x) {
-      const uint16_t h = t.samples[size_t(y * t.width + x)];
-      const double err_m = std::abs(double(surface[size_t(y * cw + x)]) - double(h)) * kScale.meters_per_unit;
-      const double dx = double(x) * kScale.meters_per_sample - v.x,
-                   dy = double(y) * kScale.meters_per_sample - v.y;
-      const double dz = kScale.meters(h) - v.z;
-      const double d = std::sqrt(dx * dx + dy * dy + dz * dz);
-      worst = std::max(worst, err_m * v.pixels_per_radian / d);
-      worst_m = std::max(worst_m, err_m);
-    }
-  }
-  if (vertical_m) *vertical_m = worst_m;
-  return worst;
-}
-
 TEST(Geomipmap, TheDrawnSurfaceStaysWithinTheScreenErrorBudget) {
   const Terrain t = rough(257, 201, 9);
   for (int32_t n : {17, 33}) {
@@ -215,7 +163,8 @@ TEST(Geomipmap, TheDrawnSurfaceStaysWithinTheScreenErrorBudget) {
       for (bool morph : {false, true}) {
         const auto lods = select_lods(g, e, kScale, v, morph);
         double vertical = 0;
-        const double px = worst_screen_error(g, t, lods, v, &vertical);
+        const double px =
+            worst_screen_error(displayed_surface(g, t.grid(), lods), g.covered().width(), t, v, &vertical);
         std::printf("patch %d, tolerance %.1f px, morph %d: worst %.2f px (%.2f m), %lld triangles\n", n,
                     v.tolerance_px, int(morph), px, vertical,
                     static_cast<long long>(triangle_count(g, lods)));

@@ -9,39 +9,12 @@
 #include <random>
 
 #include "client/lod/quadtree.h"
+#include "lod_test_terrain.h"
 
 namespace loam::lod {
 namespace {
 
-struct Terrain {
-  int64_t width, height;
-  std::vector<uint16_t> samples;
-  HeightGrid grid() const { return {samples, width, height}; }
-};
-
-Terrain rough(int64_t w, int64_t h, uint32_t seed) {
-  std::mt19937 rng(seed);
-  Terrain t{w, h, std::vector<uint16_t>(size_t(w * h))};
-  for (int64_t y = 0; y < h; ++y) {
-    for (int64_t x = 0; x < w; ++x) {
-      double v = 20000 + 6000 * std::sin(double(x) * 0.05) * std::cos(double(y) * 0.07) + double(rng() % 6);
-      if (x > w / 2 && x < w / 2 + 6) v += 8000;
-      if (y > h / 3) v += 3000;
-      t.samples[size_t(y * w + x)] = uint16_t(std::clamp(v, 0.0, 65535.0));
-    }
-  }
-  return t;
-}
-
-const HeightScale kScale{2.0, 0.05, -500.0};
-
-LodView view_at(double x, double y, double z, double tolerance_px) {
-  LodView v;
-  v.x = x, v.y = y, v.z = z;
-  v.pixels_per_radian = pixels_per_radian(1080, 60.0);
-  v.tolerance_px = tolerance_px;
-  return v;
-}
+using namespace test;
 
 QuadtreeGrid grid_for(const Terrain& t, int32_t block) {
   auto g = QuadtreeGrid::make(t.width, t.height, block);
@@ -107,23 +80,6 @@ TEST(QuadtreeLod, RandomSubdivisionsMadeRestrictedAreWatertight) {
   }
 }
 
-double worst_screen_error(const QuadtreeGrid& g, const Terrain& t, const QuadtreeState& s, const LodView& v) {
-  const auto surface = displayed_surface(g, t.grid(), s);
-  const int64_t cw = g.covered().width();
-  double worst = 0;
-  for (int64_t y = 0; y < t.height; ++y) {
-    for (int64_t x = 0; x < t.width; ++x) {
-      const uint16_t h = t.samples[size_t(y * t.width + x)];
-      const double err_m = std::abs(double(surface[size_t(y * cw + x)]) - double(h)) * kScale.meters_per_unit;
-      const double dx = double(x) * kScale.meters_per_sample - v.x,
-                   dy = double(y) * kScale.meters_per_sample - v.y;
-      const double dz = kScale.meters(h) - v.z;
-      worst = std::max(worst, err_m * v.pixels_per_radian / std::sqrt(dx * dx + dy * dy + dz * dz));
-    }
-  }
-  return worst;
-}
-
 TEST(QuadtreeLod, TheDrawnSurfaceStaysWithinTheScreenErrorBudget) {
   const Terrain t = rough(257, 201, 9);
   const QuadtreeGrid g = grid_for(t, 64);
@@ -133,7 +89,7 @@ TEST(QuadtreeLod, TheDrawnSurfaceStaysWithinTheScreenErrorBudget) {
     for (bool morph : {false, true}) {
       QuadtreeState s(g);
       const auto st = select_quadtree(g, e, kScale, v, s, morph);
-      const double px = worst_screen_error(g, t, s, v);
+      const double px = worst_screen_error(displayed_surface(g, t.grid(), s), g.covered().width(), t, v);
       std::printf(
           "tolerance %.1f px, morph %d: worst %.2f px, %lld triangles, %lld squares tested, %lld forced\n",
           v.tolerance_px, int(morph), px, static_cast<long long>(triangle_count(g, s)),
