@@ -7,4 +7,4 @@ set grid
 set key outside right top
 set logscale x
 set logscale y
-plot "/work/main/bench/results/lod_error.dat" index 0 with linespoints title "clipmap", "/work/main/bench/results/lod_error.dat" index 1 with linespoints title "full mesh", "/work/main/bench/results/lod_error.dat" index 2 with linespoints title "geomipmap 17", "/work/main/bench/results/lod_error.dat" index 3 with linespoints title "geomipmap 33", "/work/main/bench/results/lod_error.dat" index 4 with linespoints title "geomipmap 65"
+plot "/work/main/bench/results/lod_error.dat" index 0 with linespoints title "clipmap", "/work/main/bench/results/lod_error.dat" index 1 with linespoints title "full mesh", "/work/main/bench/results/lod_error.dat" index 2 with linespoints title "geomipmap 17", "/work/main/bench/results/lod_error.dat" index 3 with linespoints title "geomipmap 33", "/work/main/bench/results/lod_error.dat" index 4 with linespoints title "geomipmap 65", "/work/main/bench/results/lod_error.dat" index 5 with linespoints title "quadtree 32", "/work/main/bench/results/lod_error.dat" index 6 with linespoints title "quadtree 64"

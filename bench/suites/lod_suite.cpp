@@ -4,6 +4,7 @@
 //   - the full mesh (every sample; geomipmapping at a budget of 0 px), the baseline;
 //   - geomipmapping (client/lod/geomipmap.h: de Boer's error metric, Wagner's geomorphing),
 //     patches of 17, 33 and 65 vertices at several budgets, 8 px as Leitao & Carmo's Table 1;
+//   - Ulrich's adaptive quadtree (client/lod/quadtree.h) over blocks of 32 and 64 samples;
 //   - Loam's geometry clipmaps (level distance from view distance, not error).
 // Three recorded camera paths per terrain (the embedded crop and two DEMs of ../shared/data at
 // their own resolution): a 60 s low-altitude walk, a high flight and a grazing view along the
@@ -29,6 +30,7 @@
 #include "client/render/clipmap_renderer.h"
 #include "client/render/geomipmap_renderer.h"
 #include "client/render/headless.h"
+#include "client/render/quadtree_renderer.h"
 #include "dem/default_terrain.h"
 #include "dem/dem_import.h"
 #include "gpu/egl_context.h"
@@ -204,6 +206,30 @@ class GeomipmapScheme final : public Scheme {
   std::unique_ptr<render::GeomipmapRenderer> r_;
 };
 
+class QuadtreeScheme final : public Scheme {
+ public:
+  explicit QuadtreeScheme(std::unique_ptr<render::QuadtreeRenderer> r) : r_(std::move(r)) {}
+  void frame(const render::Camera& cam, int32_t w, int32_t h, int64_t& triangles, int32_t& draws,
+             double& lod_ms) override {
+    const render::QuadtreeFrameStats s = r_->render(cam, w, h);
+    triangles = s.triangles, draws = s.draw_calls, lod_ms = s.cpu_ms;
+  }
+  void draw_with_levels_of(const render::Camera& lod, int32_t lod_height, const render::Camera& cam,
+                           int32_t w, int32_t h) override {
+    r_->select(lod, lod_height);
+    r_->draw(cam, w, h);
+  }
+  void stamp(const RectI& rect, std::string& what) override {
+    what = std::to_string(r_->invalidate(rect)) + " squares' error bounds";
+    // The rebuild of the blocks it touched happens in the next selection.
+  }
+  // Its subdivided level-1 squares split every cell through the square's centre: union jack.
+  Truth truth() const override { return Truth::kUnionJack; }
+
+ private:
+  std::unique_ptr<render::QuadtreeRenderer> r_;
+};
+
 struct Setting {
   std::string scheme, setting;
   std::function<Result<std::unique_ptr<Scheme>>(const render::HeightSource&)> make;
@@ -228,6 +254,21 @@ std::vector<Setting> settings(bool quick) {
                                                       {33, 1.0}, {33, 8.0}, {65, 1.0}, {65, 8.0}};
   for (const auto& [n, tol] : geo)
     out.push_back({"geomipmap " + std::to_string(n), fmt(tol, 0) + " px", geomipmap(n, tol)});
+  auto quadtree = [](int32_t block, double tol) {
+    return [block, tol](const render::HeightSource& src) -> Result<std::unique_ptr<Scheme>> {
+      render::QuadtreeConfig cfg;
+      cfg.block_size = block;
+      cfg.tolerance_px = tol;
+      auto r = render::QuadtreeRenderer::create(src, cfg);
+      if (!r) return r.error();
+      return std::unique_ptr<Scheme>(new QuadtreeScheme(std::move(*r)));
+    };
+  };
+  const std::vector<std::pair<int32_t, double>> quad =
+      quick ? std::vector<std::pair<int32_t, double>>{{64, 1.0}}
+            : std::vector<std::pair<int32_t, double>>{{64, 1.0}, {64, 2.0}, {64, 8.0}, {32, 1.0}};
+  for (const auto& [b, tol] : quad)
+    out.push_back({"quadtree " + std::to_string(b), fmt(tol, 0) + " px", quadtree(b, tol)});
   return out;
 }
 
@@ -506,7 +547,8 @@ int run_lod(const Context& ctx, Report& report) {
       "1/30 s earlier against this frame's, both "
       "top-down at fixed world points, the height change seen from this frame's camera (px; hidden points "
       "included). Frame ms: render + glFinish, best of 3; CPU ms: the render call alone; LOD ms: level "
-      "selection, culling and per-patch uploads (geomipmapping); on llvmpipe the draw calls run the "
+      "selection, culling and per-patch uploads (geomipmapping), subdivision and the rebuilt blocks' meshes "
+      "and uploads (quadtree); on llvmpipe the draw calls run the "
       "vertex stage on the calling thread, so the render call's time is mostly the GPU's work. The near "
       "plane is a quarter of the eye's height above the ground (at least 0.5 m): the evaluator reads depth, "
       "and the full mesh's own error is the floor it measures. The stamp update re-reads a 65 x 65-sample "

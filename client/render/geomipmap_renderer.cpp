@@ -21,14 +21,6 @@ struct Instance {
 };
 static_assert(sizeof(Instance) == 64);
 
-constexpr std::array kGeomipmapFrameMembers = {
-    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, view_proj, "g_view_proj"),
-    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, grid, "g_grid"),
-    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, scale, "g_scale"),
-    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, sun, "g_sun"),
-    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, height_range, "g_height_range"),
-};
-
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }

@@ -59,6 +59,15 @@ struct GeomipmapFrameBlock {
 static_assert(offsetof(GeomipmapFrameBlock, grid) == 64);
 static_assert(sizeof(GeomipmapFrameBlock) == 128);
 
+// shaders/geomipmap_blocks.glsl's GeomipmapFrame, member by member (also the quadtree's).
+inline constexpr std::array kGeomipmapFrameMembers = {
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, view_proj, "g_view_proj"),
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, grid, "g_grid"),
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, scale, "g_scale"),
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, sun, "g_sun"),
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, height_range, "g_height_range"),
+};
+
 class GeomipmapRenderer {
  public:
   // `source` must outlive the renderer. Errors: a patch size geomipmapping does not take, a

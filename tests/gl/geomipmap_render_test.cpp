@@ -1,14 +1,17 @@
-// The geomipmap renderer (client/render/geomipmap_renderer.h) draws what its CPU replica
-// (client/lod/geomipmap.h) says: a straight-down orthographic view with one pixel per sample
-// reads back, at every sample, the replica's displayed height (levels, side levels and morphs
-// chosen from another, perspective camera), with no hole; after a stamp, the same holds with
-// the error bounds of exactly the touched patches recomputed.
+// The geomipmap and quadtree renderers (client/render/geomipmap_renderer.h,
+// quadtree_renderer.h) draw what their CPU replicas (client/lod/) say: a straight-down
+// orthographic view with one pixel per sample reads back, at every sample, the replica's
+// displayed height (levels or subdivision, and morphs, chosen from another, perspective
+// camera), with no hole; after a stamp, the same holds with the error bounds of exactly the
+// touched patches recomputed.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <type_traits>
 
 #include "client/render/geomipmap_renderer.h"
 #include "client/render/headless.h"
+#include "client/render/quadtree_renderer.h"
 #include "gl_test_context.h"
 #include "protocol/world.h"
 
@@ -37,7 +40,8 @@ World ridges() {
 
 // Heights (m above the height offset) the renderer drew at every sample, from a top-down
 // orthographic view with pixel centres on the samples; NaN where nothing was drawn.
-std::vector<double> drawn_heights(GeomipmapRenderer& r, const OffscreenTarget& t, const Camera& lod_camera) {
+template <typename Renderer>
+std::vector<double> drawn_heights(Renderer& r, const OffscreenTarget& t, const Camera& lod_camera) {
   const double mps = 2.0;
   Camera cam;
   cam.x = (t.width() / 2.0 - 0.5) * mps, cam.y = (t.height() / 2.0 - 0.5) * mps, cam.z = 3000;
@@ -58,14 +62,20 @@ std::vector<double> drawn_heights(GeomipmapRenderer& r, const OffscreenTarget& t
 
 // Largest |drawn - replica| (m) over the samples, and the samples with nothing drawn (the
 // world's first row and column aside).
-std::pair<double, int64_t> compare_with_replica(GeomipmapRenderer& r, const OffscreenTarget& t,
-                                                const World& w, const Camera& lod_camera) {
+template <typename Renderer>
+std::pair<double, int64_t> compare_with_replica(Renderer& r, const OffscreenTarget& t, const World& w,
+                                                const Camera& lod_camera) {
   const auto drawn = drawn_heights(r, t, lod_camera);
   const RectI rect = w.params().sample_rect();
   std::vector<uint16_t> samples(size_t(rect.area()));
   w.read_coarse(rect, samples);
   const lod::HeightGrid grid{samples, rect.width(), rect.height()};
-  const auto surface = lod::displayed_surface(r.grid(), grid, r.lods());
+  std::vector<float> surface;
+  if constexpr (std::is_same_v<Renderer, GeomipmapRenderer>) {
+    surface = lod::displayed_surface(r.grid(), grid, r.lods());
+  } else {
+    surface = lod::displayed_surface(r.grid(), grid, r.state());
+  }
   const int64_t cw = r.grid().covered().width();
   double worst = 0;
   int64_t holes = 0;
@@ -152,6 +162,49 @@ TEST(GeomipmapRender, AStampReuploadsItsRectAndRecomputesTheTouchedPatchesOnly) 
     for (int32_t px = 0; px < (*r)->grid().patches_x; ++px)
       for (int32_t l = 0; l < (*r)->grid().levels; ++l)
         EXPECT_EQ((*r)->errors().error(px, py, l), fresh.error(px, py, l));
+}
+
+TEST(QuadtreeRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfterAStamp) {
+  LOAM_REQUIRE_GL();
+  World w = ridges();
+  WorldHeightSource source(w);
+  auto target = OffscreenTarget::create(256, 256);
+  ASSERT_TRUE(target.ok());
+  for (int32_t block : {16, 64}) {
+    QuadtreeConfig cfg;
+    cfg.block_size = block;
+    cfg.tolerance_px = 2.0;
+    cfg.cull = false;
+    auto r = QuadtreeRenderer::create(source, cfg);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    for (const Camera& lc :
+         {perspective_at(-100, -100, 1400, 256, 256), perspective_at(256, 256, 1100, 500, 100)}) {
+      const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
+      std::printf("block %d: largest difference %.4f m, %lld holes\n", block, worst,
+                  static_cast<long long>(holes));
+      EXPECT_EQ(holes, 0);
+      EXPECT_LT(worst, 0.02);
+    }
+  }
+  // A crater: the squares holding it are recomputed and their blocks rebuilt.
+  QuadtreeConfig cfg;
+  cfg.cull = false;
+  auto r = QuadtreeRenderer::create(source, cfg);
+  ASSERT_TRUE(r.ok());
+  const Camera lc = perspective_at(230, 150, 1000, 100, 60);
+  (void)compare_with_replica(**r, *target, w, lc);
+  const RectI crater{100, 60, 131, 91};
+  std::vector<uint16_t> s(size_t(crater.area()));
+  for (int64_t y = crater.y0; y < crater.y1; ++y)
+    for (int64_t x = crater.x0; x < crater.x1; ++x)
+      s[size_t((y - crater.y0) * crater.width() + (x - crater.x0))] =
+          uint16_t(15000 + 300 * std::hypot(double(x) - 115, double(y) - 75));
+  w.write_coarse(crater, s);
+  w.commit(1);
+  EXPECT_GT((*r)->invalidate(crater), 0);
+  const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
+  EXPECT_EQ(holes, 0);
+  EXPECT_LT(worst, 0.02);
 }
 
 }  // namespace
