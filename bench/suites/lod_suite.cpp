@@ -111,7 +111,12 @@ std::vector<Path> paths_for(const World& world, int frames) {
        [&](double t) {
          const double x = x0 + 0.3 * wm + 1.4 * t * std::cos(heading),
                       y = y0 + 0.5 * hm + 1.4 * t * std::sin(heading);
-         return camera_at(x, y, height_at(world, x, y) + 1.8, heading, -5, far_m, 1.8);
+         // 1.8 m above every scheme's surface there: between 30 m samples the triangles and the
+         // bilinear surface can differ by meters, and an eye below the drawn surface is no walk.
+         const double ground = std::max({truth_height(world, x, y, Truth::kBilinear),
+                                         truth_height(world, x, y, Truth::kTriangles),
+                                         truth_height(world, x, y, Truth::kUnionJack)});
+         return camera_at(x, y, ground + 1.8, heading, -5, far_m, 1.8);
        }},
       // Across half the world in a minute, high above the highest point, 30 degrees down.
       {"flight",
