@@ -456,6 +456,22 @@ int run_lod(const Context& ctx, Report& report) {
       if (!pooled.count(key)) order.push_back(key);
       Pooled& pool = pooled[key];
       std::string what;
+      // The stamp's update is timed with the scheme's data in place: a frame looking at the
+      // stamp's rect first (a clipmap's levels exist only once drawn).
+      {
+        const double mps = p.meters_per_sample;
+        const double sx = double(cx) * mps, sy = double(cy) * mps;
+        render::Camera look =
+            render::look_at(sx - 200.0, sy - 200.0, height_at(terrain.world, sx, sy) + 300.0, sx, sy,
+                            height_at(terrain.world, sx, sy));
+        look.far_m = 2.0 * diag;
+        int64_t t = 0;
+        int32_t d = 0;
+        double l = 0;
+        target->begin(0.5f, 0.6f, 0.75f, 0.0f);
+        scheme.frame(look, w, h, t, d, l);
+        glFinish();
+      }
       const Timing stamp_t = measure(ctx,
                                      [&] {
                                        scheme.stamp(stamp_rect, what);
@@ -557,7 +573,8 @@ int run_lod(const Context& ctx, Report& report) {
       "vertex stage on the calling thread, so the render call's time is mostly the GPU's work. The near "
       "plane is a quarter of the eye's height above the ground (at least 0.5 m): the evaluator reads depth, "
       "and the full mesh's own error is the floor it measures. The stamp update re-reads a 65 x 65-sample "
-      "rect at the world's centre: clipmaps re-upload it to every level holding it with its normals, "
+      "rect at the world's centre, timed after a frame that looks at it: clipmaps re-upload it to every "
+      "level holding it with its normals, "
       "geomipmapping re-uploads it and recomputes the error bounds of the patches it touches.");
   report.table(std::move(summary));
   Plot plot{"lod_error.png",
