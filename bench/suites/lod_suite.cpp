@@ -5,7 +5,13 @@
 //   - geomipmapping (client/lod/geomipmap.h: de Boer's error metric, Wagner's geomorphing),
 //     patches of 17, 33 and 65 vertices at several budgets, 8 px as Leitao & Carmo's Table 1;
 //   - Ulrich's adaptive quadtree (client/lod/quadtree.h) over blocks of 32 and 64 samples;
-//   - Loam's geometry clipmaps (level distance from view distance, not error).
+//   - Loam's geometry clipmaps (level distance from view distance, not error);
+//   - the error-driven clipmap (client/lod/error_clipmap.h): the clipmap's level regions drawn
+//     as blocks chosen for a screen-space budget;
+//   - Leitao & Carmo's tiled blocks at 8 px: block-based or quadtree-based simplification per
+//     block, cracks closed by skirts or by index update.
+// LOAM_LOD_ONLY="word;word" keeps the settings whose name holds a word; LOAM_LOD_ERROR_CLIPMAPS=
+// "block,region,budget,exact_levels;..." replaces the error-driven clipmap's settings.
 // Three recorded camera paths per terrain (the embedded crop and two DEMs of ../shared/data at
 // their own resolution): a 60 s low-altitude walk, a high flight and a grazing view along the
 // highest ridge. Per scheme and setting: screen error (mean, p99, max px) and vertical error
@@ -28,6 +34,7 @@
 #include "bench/harness.h"
 #include "bench/screen_error.h"
 #include "client/render/clipmap_renderer.h"
+#include "client/render/error_clipmap_renderer.h"
 #include "client/render/geomipmap_renderer.h"
 #include "client/render/headless.h"
 #include "client/render/quadtree_renderer.h"
@@ -189,12 +196,17 @@ class ClipmapScheme final : public Scheme {
   std::unique_ptr<render::ClipmapRenderer> r_;
 };
 
-class GeomipmapScheme final : public Scheme {
+// A scheme whose renderer splits choosing its mesh from drawing it (geomipmapping, the
+// quadtree, the error-driven clipmap): select() for one camera, draw() for another.
+template <typename Renderer>
+class SelectingScheme final : public Scheme {
  public:
-  explicit GeomipmapScheme(std::unique_ptr<render::GeomipmapRenderer> r) : r_(std::move(r)) {}
+  using Stamp = std::function<std::string(Renderer&, const RectI&)>;
+  SelectingScheme(std::unique_ptr<Renderer> r, Stamp stamp, Truth truth)
+      : r_(std::move(r)), stamp_(std::move(stamp)), truth_(truth) {}
   void frame(const render::Camera& cam, int32_t w, int32_t h, int64_t& triangles, int32_t& draws,
              double& lod_ms) override {
-    const render::GeomipmapFrameStats s = r_->render(cam, w, h);
+    const auto s = r_->render(cam, w, h);
     triangles = s.triangles, draws = s.draw_calls, lod_ms = s.cpu_ms;
   }
   void draw_with_levels_of(const render::Camera& lod, int32_t lod_height, const render::Camera& cam,
@@ -202,38 +214,25 @@ class GeomipmapScheme final : public Scheme {
     r_->select(lod, lod_height);
     r_->draw(cam, w, h);
   }
-  void stamp(const RectI& rect, std::string& what) override {
-    what = std::to_string(r_->invalidate(rect).patches) + " patches' error bounds";
-  }
-  Truth truth() const override { return Truth::kUnionJack; }
+  void stamp(const RectI& rect, std::string& what) override { what = stamp_(*r_, rect); }
+  Truth truth() const override { return truth_; }
 
  private:
-  std::unique_ptr<render::GeomipmapRenderer> r_;
+  std::unique_ptr<Renderer> r_;
+  Stamp stamp_;
+  Truth truth_;
 };
 
-class QuadtreeScheme final : public Scheme {
- public:
-  explicit QuadtreeScheme(std::unique_ptr<render::QuadtreeRenderer> r) : r_(std::move(r)) {}
-  void frame(const render::Camera& cam, int32_t w, int32_t h, int64_t& triangles, int32_t& draws,
-             double& lod_ms) override {
-    const render::QuadtreeFrameStats s = r_->render(cam, w, h);
-    triangles = s.triangles, draws = s.draw_calls, lod_ms = s.cpu_ms;
-  }
-  void draw_with_levels_of(const render::Camera& lod, int32_t lod_height, const render::Camera& cam,
-                           int32_t w, int32_t h) override {
-    r_->select(lod, lod_height);
-    r_->draw(cam, w, h);
-  }
-  void stamp(const RectI& rect, std::string& what) override {
-    what = std::to_string(r_->invalidate(rect)) + " squares' error bounds";
-    // The rebuild of the blocks it touched happens in the next selection.
-  }
-  // Its subdivided level-1 squares split every cell through the square's centre: union jack.
-  Truth truth() const override { return Truth::kUnionJack; }
-
- private:
-  std::unique_ptr<render::QuadtreeRenderer> r_;
-};
+// A setting's factory: the renderer made with `cfg`, behind SelectingScheme.
+template <typename Renderer, typename Config>
+std::function<Result<std::unique_ptr<Scheme>>(const render::HeightSource&)> selecting(
+    Config cfg, typename SelectingScheme<Renderer>::Stamp stamp, Truth truth) {
+  return [cfg, stamp, truth](const render::HeightSource& src) -> Result<std::unique_ptr<Scheme>> {
+    auto r = Renderer::create(src, cfg);
+    if (!r) return r.error();
+    return std::unique_ptr<Scheme>(new SelectingScheme<Renderer>(std::move(*r), stamp, truth));
+  };
+}
 
 struct Setting {
   std::string scheme, setting;
@@ -242,15 +241,19 @@ struct Setting {
 
 std::vector<Setting> settings(bool quick) {
   std::vector<Setting> out;
-  auto geomipmap = [](int32_t n, double tol) {
-    return [n, tol](const render::HeightSource& src) -> Result<std::unique_ptr<Scheme>> {
-      render::GeomipmapConfig cfg;
-      cfg.patch_size = n;
-      cfg.tolerance_px = tol;
-      auto r = render::GeomipmapRenderer::create(src, cfg);
-      if (!r) return r.error();
-      return std::unique_ptr<Scheme>(new GeomipmapScheme(std::move(*r)));
-    };
+  // Every scheme below is scored against the union-jack triangulation of every sample (the
+  // quadtree's subdivided level-1 squares split every cell through the square's centre).
+  auto geomipmap = [](int32_t n, double tol, bool skirts = false) {
+    render::GeomipmapConfig cfg;
+    cfg.patch_size = n;
+    cfg.tolerance_px = tol;
+    cfg.skirts = skirts;
+    return selecting<render::GeomipmapRenderer>(
+        cfg,
+        [](render::GeomipmapRenderer& r, const RectI& rect) {
+          return std::to_string(r.invalidate(rect).patches) + " patches' error bounds";
+        },
+        Truth::kUnionJack);
   };
   out.push_back({"full mesh", "every sample", geomipmap(65, 0.0)});
   const std::vector<std::pair<int32_t, double>> geo =
@@ -259,21 +262,74 @@ std::vector<Setting> settings(bool quick) {
                                                       {33, 1.0}, {33, 8.0}, {65, 1.0}, {65, 8.0}};
   for (const auto& [n, tol] : geo)
     out.push_back({"geomipmap " + std::to_string(n), fmt(tol, 0) + " px", geomipmap(n, tol)});
-  auto quadtree = [](int32_t block, double tol) {
-    return [block, tol](const render::HeightSource& src) -> Result<std::unique_ptr<Scheme>> {
-      render::QuadtreeConfig cfg;
-      cfg.block_size = block;
-      cfg.tolerance_px = tol;
-      auto r = render::QuadtreeRenderer::create(src, cfg);
-      if (!r) return r.error();
-      return std::unique_ptr<Scheme>(new QuadtreeScheme(std::move(*r)));
-    };
+  auto quadtree = [](int32_t block, double tol, bool skirts = false) {
+    render::QuadtreeConfig cfg;
+    cfg.block_size = block;
+    cfg.tolerance_px = tol;
+    cfg.skirts = skirts;
+    // The rebuild of the blocks a stamp touched happens in the next selection.
+    return selecting<render::QuadtreeRenderer>(
+        cfg,
+        [](render::QuadtreeRenderer& r, const RectI& rect) {
+          return std::to_string(r.invalidate(rect)) + " squares' error bounds";
+        },
+        Truth::kUnionJack);
   };
   const std::vector<std::pair<int32_t, double>> quad =
       quick ? std::vector<std::pair<int32_t, double>>{{64, 1.0}}
             : std::vector<std::pair<int32_t, double>>{{64, 1.0}, {64, 2.0}, {64, 8.0}, {32, 1.0}};
   for (const auto& [b, tol] : quad)
     out.push_back({"quadtree " + std::to_string(b), fmt(tol, 0) + " px", quadtree(b, tol)});
+  // Leitao & Carmo's tiled blocks at their Table 1's 8 px: block-based (a level per block, the
+  // geomipmap rows at 8 px being its index-update form) and quadtree-based (a restricted
+  // quadtree per block; restricted across blocks is the index update), cracks closed by
+  // skirts or by index update.
+  for (int32_t n : quick ? std::vector<int32_t>{17} : std::vector<int32_t>{17, 33, 65})
+    out.push_back(
+        {"tiled blocks, block-based, skirts", std::to_string(n) + ", 8 px", geomipmap(n, 8.0, true)});
+  for (int32_t b : quick ? std::vector<int32_t>{16} : std::vector<int32_t>{16, 32, 64})
+    out.push_back(
+        {"tiled blocks, quadtree-based, skirts", std::to_string(b + 1) + ", 8 px", quadtree(b, 8.0, true)});
+  for (int32_t b : quick ? std::vector<int32_t>{} : std::vector<int32_t>{16, 32, 64})
+    out.push_back({"tiled blocks, quadtree-based, index update", std::to_string(b + 1) + ", 8 px",
+                   quadtree(b, 8.0, false)});
+  auto error_clipmap = [](int32_t block, int32_t region, double tol, int32_t exact) {
+    render::ErrorClipmapConfig cfg;
+    cfg.block_size = block;
+    cfg.region = region;
+    cfg.tolerance_px = tol;
+    cfg.exact_levels = exact;
+    return selecting<render::ErrorClipmapRenderer>(
+        cfg,
+        [](render::ErrorClipmapRenderer& r, const RectI& rect) {
+          const render::ErrorClipmapUpdate u = r.invalidate(rect);
+          return std::to_string(u.blocks) + " blocks' error bounds, " + std::to_string(u.texels) +
+                 " level samples";
+        },
+        Truth::kUnionJack);
+  };
+  // Block size, region (level samples held per side; 1024 holds these worlds whole), budget,
+  // exact levels.
+  std::vector<std::array<int32_t, 4>> ecm =
+      quick ? std::vector<std::array<int32_t, 4>>{{9, 512, 1, 3}}
+            : std::vector<std::array<int32_t, 4>>{{9, 1024, 1, 3},  {9, 1024, 2, 3}, {9, 1024, 4, 3},
+                                                  {17, 1024, 1, 3}, {9, 512, 1, 3},  {9, 256, 1, 3}};
+  if (const char* e = std::getenv("LOAM_LOD_ERROR_CLIPMAPS")) {
+    // Extra settings to explore: "block,region,tolerance,exact_levels;..."
+    ecm.clear();
+    for (std::string_view rest = e; !rest.empty();) {
+      const size_t semi = rest.find(';');
+      const std::string one(rest.substr(0, semi));
+      std::array<int32_t, 4> v{};
+      if (std::sscanf(one.c_str(), "%d,%d,%d,%d", &v[0], &v[1], &v[2], &v[3]) == 4) ecm.push_back(v);
+      rest = semi == std::string_view::npos ? std::string_view{} : rest.substr(semi + 1);
+    }
+  }
+  for (const auto& [b, region, tol, exact] : ecm)
+    out.push_back({"error clipmap " + std::to_string(b),
+                   fmt(tol, 0) + " px, region " + std::to_string(region) +
+                       (exact == 3 ? "" : ", exact to level " + std::to_string(exact)),
+                   error_clipmap(b, region, double(tol), exact)});
   return out;
 }
 
@@ -435,6 +491,22 @@ int run_lod(const Context& ctx, Report& report) {
                         return std::unique_ptr<Scheme>(new ClipmapScheme(std::move(*r)));
                       }});
     }
+    if (const char* only = std::getenv("LOAM_LOD_ONLY")) {
+      // Explore a few settings: those whose "scheme setting" contains one of the ';'-separated words.
+      std::vector<Setting> kept;
+      for (const Setting& st : here) {
+        const std::string name = st.scheme + " " + st.setting;
+        for (std::string_view rest = only; !rest.empty();) {
+          const size_t semi = rest.find(';');
+          if (name.find(std::string(rest.substr(0, semi))) != std::string::npos) {
+            kept.push_back(st);
+            break;
+          }
+          rest = semi == std::string_view::npos ? std::string_view{} : rest.substr(semi + 1);
+        }
+      }
+      here = std::move(kept);
+    }
     const int32_t tw = int32_t(std::min<int64_t>(1024, wr.width()));
     const int32_t th = int32_t(double(tw) * double(wr.height()) / double(wr.width()));
     auto top = render::OffscreenTarget::create(tw, th);
@@ -569,13 +641,16 @@ int run_lod(const Context& ctx, Report& report) {
       "top-down at fixed world points, the height change seen from this frame's camera (px; hidden points "
       "included). Frame ms: render + glFinish, best of 3; CPU ms: the render call alone; LOD ms: level "
       "selection, culling and per-patch uploads (geomipmapping), subdivision and the rebuilt blocks' meshes "
-      "and uploads (quadtree); on llvmpipe the draw calls run the "
+      "and uploads (quadtree), the level regions' moves and uploads, block selection, culling and the "
+      "instance upload (error-driven clipmap); on llvmpipe the draw calls run the "
       "vertex stage on the calling thread, so the render call's time is mostly the GPU's work. The near "
       "plane is a quarter of the eye's height above the ground (at least 0.5 m): the evaluator reads depth, "
       "and the full mesh's own error is the floor it measures. The stamp update re-reads a 65 x 65-sample "
       "rect at the world's centre, timed after a frame that looks at it: clipmaps re-upload it to every "
       "level holding it with its normals, "
-      "geomipmapping re-uploads it and recomputes the error bounds of the patches it touches.");
+      "geomipmapping re-uploads it and recomputes the error bounds of the patches it touches, the "
+      "error-driven clipmap re-reads it into every level region holding it and recomputes the blocks "
+      "holding it at every level.");
   report.table(std::move(summary));
   Plot plot{"lod_error.png",
             "Screen-space error p99 against triangles, every scheme (" + egl->renderer() + ")",
@@ -597,7 +672,8 @@ int run_lod(const Context& ctx, Report& report) {
 
 }  // namespace
 
-LOAM_BENCH_SUITE(lod, "level-of-detail schemes against screen error: full mesh, geomipmapping, clipmaps",
+LOAM_BENCH_SUITE(lod,
+                 "level-of-detail schemes against screen error: full mesh, geomipmapping, quadtree, clipmaps",
                  run_lod);
 
 }  // namespace loam::bench

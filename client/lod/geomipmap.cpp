@@ -44,11 +44,7 @@ RectI GeomipmapGrid::covered() const {
 
 namespace {
 
-// Whether the level cell with lower corner (x, y) (multiples of s) splits along (x, y)-(x + s,
-// y + s) rather than (x + s, y)-(x, y + s): the union-jack pattern, every diagonal of a 2s block
-// pointing at the block's centre. It nests: each diagonal of level l + 1 is two of level l, so a
-// coarser level's triangles are unions of finer ones at every level.
-bool main_diagonal(int32_t x, int32_t y, int32_t s) { return (((x / s) ^ (y / s)) & 1) == 0; }
+bool main_diagonal(int32_t x, int32_t y, int32_t s) { return union_jack_main_diagonal(x, y, s); }
 
 // The level-l surface (cells of side s, union-jack split) at local sample (lx, ly) of the patch
 // at (x0, y0), from the true heights at its vertices.
@@ -58,23 +54,7 @@ double level_surface(const HeightGrid& h, int64_t x0, int64_t y0, int32_t c, int
   double fx = double(lx - qx) / s, fy = double(ly - qy) / s;
   double h00 = h.at(x0 + qx, y0 + qy), h10 = h.at(x0 + qx + s, y0 + qy);
   double h01 = h.at(x0 + qx, y0 + qy + s), h11 = h.at(x0 + qx + s, y0 + qy + s);
-  if (!main_diagonal(qx, qy, s)) {
-    // Mirror x: the split (s, 0)-(0, s) becomes (0, 0)-(s, s).
-    std::swap(h00, h10);
-    std::swap(h01, h11);
-    fx = 1.0 - fx;
-  }
-  if (fx >= fy) return h00 + (h10 - h00) * fx + (h11 - h10) * fy;
-  return h00 + (h01 - h00) * fy + (h11 - h01) * fx;
-}
-
-// Distance from a point to a box.
-double box_distance(double x, double y, double z, const std::array<double, 3>& lo,
-                    const std::array<double, 3>& hi) {
-  const double dx = std::max({lo[0] - x, 0.0, x - hi[0]});
-  const double dy = std::max({lo[1] - y, 0.0, y - hi[1]});
-  const double dz = std::max({lo[2] - z, 0.0, z - hi[2]});
-  return std::sqrt(dx * dx + dy * dy + dz * dz);
+  return union_jack_surface(h00, h10, h01, h11, fx, fy, main_diagonal(qx, qy, s));
 }
 
 }  // namespace
@@ -140,6 +120,48 @@ std::vector<std::array<int32_t, 2>> GeomipmapErrors::update(const GeomipmapGrid&
   return out;
 }
 
+double union_jack_surface(double h00, double h10, double h01, double h11, double fx, double fy,
+                          bool main_diagonal) {
+  if (!main_diagonal) {
+    // Mirror x: the split (s, 0)-(0, s) becomes (0, 0)-(s, s).
+    std::swap(h00, h10);
+    std::swap(h01, h11);
+    fx = 1.0 - fx;
+  }
+  if (fx >= fy) return h00 + (h10 - h00) * fx + (h11 - h10) * fy;
+  return h00 + (h01 - h00) * fy + (h11 - h01) * fx;
+}
+
+double box_distance(double x, double y, double z, const std::array<double, 3>& lo,
+                    const std::array<double, 3>& hi) {
+  const double dx = std::max({lo[0] - x, 0.0, x - hi[0]});
+  const double dy = std::max({lo[1] - y, 0.0, y - hi[1]});
+  const double dz = std::max({lo[2] - z, 0.0, z - hi[2]});
+  return std::sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+void rasterize_heights(const std::array<int64_t, 3>& x, const std::array<int64_t, 3>& y,
+                       const std::array<double, 3>& z, const RectI& cov, std::vector<float>& out) {
+  const int64_t area2 = (x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0]);
+  if (area2 == 0) return;
+  const int64_t bx0 = std::max(cov.x0, std::min({x[0], x[1], x[2]})),
+                bx1 = std::min(cov.x1 - 1, std::max({x[0], x[1], x[2]}));
+  const int64_t by0 = std::max(cov.y0, std::min({y[0], y[1], y[2]})),
+                by1 = std::min(cov.y1 - 1, std::max({y[0], y[1], y[2]}));
+  const int64_t sign = area2 > 0 ? 1 : -1;
+  for (int64_t sy = by0; sy <= by1; ++sy) {
+    for (int64_t sx = bx0; sx <= bx1; ++sx) {
+      // Barycentric weights from integer edge functions: inside (edges included) when all >= 0.
+      const int64_t w0 = sign * ((x[2] - x[1]) * (sy - y[1]) - (y[2] - y[1]) * (sx - x[1]));
+      const int64_t w1 = sign * ((x[0] - x[2]) * (sy - y[2]) - (y[0] - y[2]) * (sx - x[2]));
+      const int64_t w2 = sign * area2 - w0 - w1;
+      if (w0 < 0 || w1 < 0 || w2 < 0) continue;
+      const double v = (double(w0) * z[0] + double(w1) * z[1] + double(w2) * z[2]) / double(sign * area2);
+      out[size_t((sy - cov.y0) * cov.width() + (sx - cov.x0))] = float(v);
+    }
+  }
+}
+
 double pixels_per_radian(int32_t viewport_height, double fov_y_degrees) {
   return double(viewport_height) / (2.0 * std::tan(fov_y_degrees * M_PI / 360.0));
 }
@@ -165,6 +187,59 @@ void assign_sides(const GeomipmapGrid& grid, std::vector<PatchLod>& lods) {
       }
     }
   }
+}
+
+void assign_own_sides(std::vector<PatchLod>& lods) {
+  for (PatchLod& p : lods) {
+    p.edge_level.fill(p.level);
+    p.edge_morph.fill(p.morph);
+  }
+}
+
+std::vector<float> skirt_depths(const GeomipmapGrid& grid, const GeomipmapErrors& errors,
+                                const std::vector<PatchLod>& lods) {
+  auto drawn_error = [&](int32_t px, int32_t py) {
+    const PatchLod& p = lods[size_t(py) * size_t(grid.patches_x) + size_t(px)];
+    const int32_t l = p.morph > 0 ? std::min(p.level + 1, grid.levels - 1) : p.level;
+    return errors.error(px, py, l);
+  };
+  std::vector<float> out(lods.size(), 0.0f);
+  constexpr std::array<std::array<int32_t, 2>, 4> kStep = {{{0, -1}, {1, 0}, {0, 1}, {-1, 0}}};
+  for (int32_t py = 0; py < grid.patches_y; ++py) {
+    for (int32_t px = 0; px < grid.patches_x; ++px) {
+      float depth = 0;
+      for (const auto& d : kStep) {
+        const int32_t nx = px + d[0], ny = py + d[1];
+        if (nx < 0 || ny < 0 || nx >= grid.patches_x || ny >= grid.patches_y) continue;
+        depth = std::max(depth, drawn_error(px, py) + drawn_error(nx, ny));
+      }
+      // Rounded up a unit: the renderer takes whole height units.
+      out[size_t(py) * size_t(grid.patches_x) + size_t(px)] = depth > 0 ? std::ceil(depth) + 1.0f : 0.0f;
+    }
+  }
+  return out;
+}
+
+std::vector<float> side_profile(const GeomipmapGrid& grid, const HeightGrid& heights, int32_t px, int32_t py,
+                                const PatchLod& lod, int32_t side) {
+  const int32_t c = grid.cells(), e = lod.edge_level[size_t(side)], se = 1 << e;
+  auto at = [&](int32_t t) -> std::array<int32_t, 2> {
+    switch (side) {
+      case kSideTop: return {t, 0};
+      case kSideRight: return {c, t};
+      case kSideBottom: return {t, c};
+      default: return {0, t};
+    }
+  };
+  std::vector<float> out(size_t(c) + 1);
+  for (int32_t t0 = 0; t0 < c; t0 += se) {
+    const auto a = at(t0), b = at(t0 + se);
+    const double ha = displayed_height(grid, heights, px, py, lod, a[0], a[1]);
+    const double hb = displayed_height(grid, heights, px, py, lod, b[0], b[1]);
+    for (int32_t t = t0; t <= t0 + se; ++t)
+      out[size_t(t)] = float(ha + (hb - ha) * double(t - t0) / double(se));
+  }
+  return out;
 }
 
 std::vector<PatchLod> select_lods(const GeomipmapGrid& grid, const GeomipmapErrors& errors,
@@ -212,6 +287,27 @@ struct PatchBuilder {
 };
 
 }  // namespace
+
+std::vector<std::array<uint16_t, 3>> skirt_triangles(const GeomipmapGrid& grid, int32_t level) {
+  const int32_t n = grid.patch_size, c = grid.cells(), s = 1 << level;
+  std::vector<std::array<uint16_t, 3>> out;
+  auto top = [&](int32_t side, int32_t t) {
+    switch (side) {
+      case kSideTop: return uint16_t(t);
+      case kSideRight: return uint16_t(t * n + c);
+      case kSideBottom: return uint16_t(c * n + t);
+      default: return uint16_t(t * n);
+    }
+  };
+  auto low = [&](int32_t side, int32_t t) { return uint16_t(n * n + side * n + t); };
+  for (int32_t side = 0; side < 4; ++side) {
+    for (int32_t t = 0; t < c; t += s) {
+      out.push_back({top(side, t), top(side, t + s), low(side, t + s)});
+      out.push_back({top(side, t), low(side, t + s), low(side, t)});
+    }
+  }
+  return out;
+}
 
 std::vector<std::array<uint16_t, 3>> patch_triangles(const GeomipmapGrid& grid, int32_t level,
                                                      const std::array<int8_t, 4>& edge_level) {
@@ -290,11 +386,8 @@ std::vector<std::array<uint16_t, 3>> patch_triangles(const GeomipmapGrid& grid, 
   return b.tris;
 }
 
-float displayed_height(const GeomipmapGrid& grid, const HeightGrid& heights, int32_t px, int32_t py,
-                       const PatchLod& lod, int32_t lx, int32_t ly) {
-  const int32_t c = grid.cells();
-  const int64_t x0 = int64_t(px) * c, y0 = int64_t(py) * c;
-  auto h = [&](int32_t x, int32_t y) { return double(heights.at(x0 + x, y0 + y)); };
+float morphed_vertex_height(int32_t c, int32_t levels, const PatchLod& lod, int32_t lx, int32_t ly,
+                            const std::function<double(int32_t, int32_t)>& h) {
   const double own = h(lx, ly);
   const bool on_x = lx == 0 || lx == c, on_y = ly == 0 || ly == c;
   if (on_x && on_y) return float(own);  // a corner: a vertex of every level
@@ -303,13 +396,13 @@ float displayed_height(const GeomipmapGrid& grid, const HeightGrid& heights, int
     const int32_t e = lod.edge_level[size_t(side)];
     const float m = lod.edge_morph[size_t(side)];
     const int32_t se = 1 << e, t = on_y ? lx : ly;
-    if (m == 0 || e + 1 >= grid.levels || t % (2 * se) == 0) return float(own);
+    if (m == 0 || e + 1 >= levels || t % (2 * se) == 0) return float(own);
     const double target =
         on_y ? 0.5 * (h(lx - se, ly) + h(lx + se, ly)) : 0.5 * (h(lx, ly - se) + h(lx, ly + se));
     return float(own + double(m) * (target - own));
   }
   const int32_t s = 1 << lod.level;
-  if (lod.morph == 0 || lod.level + 1 >= grid.levels) return float(own);
+  if (lod.morph == 0 || lod.level + 1 >= levels) return float(own);
   const int32_t ox = (lx / s) & 1, oy = (ly / s) & 1;
   if (ox == 0 && oy == 0) return float(own);
   double target;
@@ -321,6 +414,14 @@ float displayed_height(const GeomipmapGrid& grid, const HeightGrid& heights, int
     target = 0.5 * (h(lx + s, ly - s) + h(lx - s, ly + s));
   }
   return float(own + double(lod.morph) * (target - own));
+}
+
+float displayed_height(const GeomipmapGrid& grid, const HeightGrid& heights, int32_t px, int32_t py,
+                       const PatchLod& lod, int32_t lx, int32_t ly) {
+  const int32_t c = grid.cells();
+  const int64_t x0 = int64_t(px) * c, y0 = int64_t(py) * c;
+  return morphed_vertex_height(c, grid.levels, lod, lx, ly,
+                               [&](int32_t x, int32_t y) { return double(heights.at(x0 + x, y0 + y)); });
 }
 
 namespace {
@@ -374,20 +475,8 @@ std::vector<float> displayed_surface(const GeomipmapGrid& grid, const HeightGrid
             x[k] = t[k] % n, y[k] = t[k] / n;
             z[k] = displayed_height(grid, heights, px, py, lod, int32_t(x[k]), int32_t(y[k]));
           }
-          const int64_t area2 = (x[1] - x[0]) * (y[2] - y[0]) - (x[2] - x[0]) * (y[1] - y[0]);
-          const int64_t bx0 = std::min({x[0], x[1], x[2]}), bx1 = std::max({x[0], x[1], x[2]});
-          const int64_t by0 = std::min({y[0], y[1], y[2]}), by1 = std::max({y[0], y[1], y[2]});
-          for (int64_t sy = by0; sy <= by1; ++sy) {
-            for (int64_t sx = bx0; sx <= bx1; ++sx) {
-              // Barycentric weights from integer edge functions: inside (edges included) when all >= 0.
-              const int64_t w0 = (x[2] - x[1]) * (sy - y[1]) - (y[2] - y[1]) * (sx - x[1]);
-              const int64_t w1 = (x[0] - x[2]) * (sy - y[2]) - (y[0] - y[2]) * (sx - x[2]);
-              const int64_t w2 = area2 - w0 - w1;
-              if (w0 < 0 || w1 < 0 || w2 < 0) continue;
-              const double v = (double(w0) * z[0] + double(w1) * z[1] + double(w2) * z[2]) / double(area2);
-              out[size_t((int64_t(py) * c + sy) * cov.width() + int64_t(px) * c + sx)] = float(v);
-            }
-          }
+          for (size_t k = 0; k < 3; ++k) x[k] += int64_t(px) * c, y[k] += int64_t(py) * c;
+          rasterize_heights(x, y, z, cov, out);
         }
       });
   return out;

@@ -33,6 +33,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -122,6 +123,28 @@ std::vector<PatchLod> select_lods(const GeomipmapGrid& grid, const GeomipmapErro
 // Sets every patch's side levels and morphs from the patches' own (row order).
 void assign_sides(const GeomipmapGrid& grid, std::vector<PatchLod>& lods);
 
+// Leitao & Carmo's tiled blocks with skirts instead of index updates: every side at the patch's
+// own level and morph, so no patch reads its neighbours (the mesh has cracks where levels
+// differ, which the skirts hide).
+void assign_own_sides(std::vector<PatchLod>& lods);
+
+// Per patch (row order), the depth (height units) its skirts hang below its sides: at least the
+// largest gap along any side between its drawn surface and its neighbour's, which is at most
+// the sum of the two patches' errors at the levels they draw (the next coarser one while
+// morphing). 0 for a patch with no neighbour.
+std::vector<float> skirt_depths(const GeomipmapGrid& grid, const GeomipmapErrors& errors,
+                                const std::vector<PatchLod>& lods);
+
+// The skirt of a patch at `level`: for each side, quads from the side's vertices (spacing 2^level)
+// down to their lowered copies, vertex id patch_size^2 + side * patch_size + t for the copy of
+// the side's vertex at position t along it (x for top and bottom, y for left and right).
+std::vector<std::array<uint16_t, 3>> skirt_triangles(const GeomipmapGrid& grid, int32_t level);
+
+// The drawn height (height units) along a side of a patch at every sample t = 0..cells: the
+// surface's edge, linear between the side's vertices (for the skirt tests).
+std::vector<float> side_profile(const GeomipmapGrid& grid, const HeightGrid& heights, int32_t px, int32_t py,
+                                const PatchLod& lod, int32_t side);
+
 // The triangles of a patch at `level` with sides at `edge_level`, as local vertex indices
 // (y * patch_size + x), counter-clockwise in (x, y) sample coordinates (positive area with y
 // along +gy). Deterministic: the renderer caches index buffers by (level, edge levels).
@@ -133,6 +156,32 @@ std::vector<std::array<uint16_t, 3>> patch_triangles(const GeomipmapGrid& grid, 
 // surface; a border vertex uses its side's level and morph.
 float displayed_height(const GeomipmapGrid& grid, const HeightGrid& heights, int32_t px, int32_t py,
                        const PatchLod& lod, int32_t lx, int32_t ly);
+
+// The rule of displayed_height for a patch of `cells` cells per side and `levels` levels whose
+// local vertex heights come from any function h(lx, ly) (a clipmap level's samples, say).
+float morphed_vertex_height(int32_t cells, int32_t levels, const PatchLod& lod, int32_t lx, int32_t ly,
+                            const std::function<double(int32_t, int32_t)>& h);
+
+// Whether the level cell with lower corner (x, y) (non-negative multiples of s) splits along
+// (x, y)-(x + s, y + s) rather than (x + s, y)-(x, y + s): the union-jack pattern, every
+// diagonal of a 2s block pointing at the block's centre. It nests: each diagonal of level l + 1
+// is two of level l, so a coarser level's triangles are unions of finer ones at every level.
+inline bool union_jack_main_diagonal(int64_t x, int64_t y, int64_t s) {
+  return (((x / s) ^ (y / s)) & 1) == 0;
+}
+
+// The union-jack surface of a cell at fraction (fx, fy) in [0, 1] from its corner heights.
+double union_jack_surface(double h00, double h10, double h01, double h11, double fx, double fy,
+                          bool main_diagonal);
+
+// Distance from a point to a box.
+double box_distance(double x, double y, double z, const std::array<double, 3>& lo,
+                    const std::array<double, 3>& hi);
+
+// Writes a triangle's linear interpolation of `z` at every sample it covers (edges included) into
+// `out`, rows of cov.width() from cov's low corner; the replicas' displayed_surface.
+void rasterize_heights(const std::array<int64_t, 3>& x, const std::array<int64_t, 3>& y,
+                       const std::array<double, 3>& z, const RectI& cov, std::vector<float>& out);
 
 // CPU replica: every triangle drawn for `lods`, in mip-0 sample coordinates (for
 // render::check_watertight over grid.covered()).

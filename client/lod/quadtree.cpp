@@ -217,6 +217,9 @@ QuadtreeSelectStats select_quadtree(const QuadtreeGrid& grid, const QuadtreeErro
         for (const auto& d : kSides) {
           const int32_t ni = i + d[0], nj = j + d[1];
           if (ni < 0 || nj < 0 || ni >= grid.squares_x(l) || nj >= grid.squares_y(l)) continue;
+          const int32_t shift = grid.levels - l;
+          if (grid.independent_blocks && ((ni >> shift) != (i >> shift) || (nj >> shift) != (j >> shift)))
+            continue;
           force(l + 1, ni >> 1, nj >> 1);
         }
       }
@@ -238,7 +241,13 @@ namespace {
 // The height a vertex at global sample (x, y) is drawn at: its own, blended from the surface of
 // the leaf that had it not (the square whose subdivision introduced it) by that square's morph.
 float vertex_height(const QuadtreeGrid& grid, const HeightGrid& heights, const QuadtreeState& state,
-                    int64_t x, int64_t y) {
+                    int64_t x, int64_t y, int32_t bx, int32_t by) {
+  // With independent blocks a border vertex takes the morph of its own block's square alone.
+  auto morph = [&](int32_t l, int32_t i, int32_t j) {
+    const int32_t shift = grid.levels - l;
+    if (grid.independent_blocks && ((i >> shift) != bx || (j >> shift) != by)) return 0.0f;
+    return state.morph(l, i, j);
+  };
   const double own = heights.at(x, y);
   const int32_t b = grid.levels;
   const int32_t kx = ctz_or(x, 62), ky = ctz_or(y, 62);
@@ -262,11 +271,11 @@ float vertex_height(const QuadtreeGrid& grid, const HeightGrid& heights, const Q
     if (kx < ky) {  // a horizontal side: the squares above and below
       target = 0.5 * (double(heights.at(x - h, y)) + double(heights.at(x + h, y)));
       const int32_t i = int32_t(x >> l), j = int32_t(y >> l);
-      m = std::max(state.morph(l, i, j - 1), state.morph(l, i, j));
+      m = std::max(morph(l, i, j - 1), morph(l, i, j));
     } else {  // a vertical side: the squares left and right
       target = 0.5 * (double(heights.at(x, y - h)) + double(heights.at(x, y + h)));
       const int32_t i = int32_t(x >> l), j = int32_t(y >> l);
-      m = std::max(state.morph(l, i - 1, j), state.morph(l, i, j));
+      m = std::max(morph(l, i - 1, j), morph(l, i, j));
     }
   }
   return float(target + double(m) * (own - target));
@@ -305,7 +314,9 @@ void for_each_triangle(const QuadtreeGrid& grid, const QuadtreeState& state, int
     constexpr std::array<std::array<int32_t, 2>, 4> kSides = {{{0, -1}, {1, 0}, {0, 1}, {-1, 0}}};
     for (size_t side = 0; side < 4; ++side) {
       ring[n++] = corner[side];
-      if (state.subdivided(l, i + kSides[side][0], j + kSides[side][1])) {
+      const int32_t ni = i + kSides[side][0], nj = j + kSides[side][1], shift = grid.levels - l;
+      const bool same_block = (ni >> shift) == bx && (nj >> shift) == by;
+      if ((same_block || !grid.independent_blocks) && state.subdivided(l, ni, nj)) {
         const auto& a = corner[side];
         const auto& b = corner[(side + 1) % 4];
         ring[n++] = {(a[0] + b[0]) / 2, (a[1] + b[1]) / 2};
@@ -320,7 +331,7 @@ void for_each_triangle(const QuadtreeGrid& grid, const QuadtreeState& state, int
 
 void block_mesh(const QuadtreeGrid& grid, const HeightGrid& heights, const QuadtreeState& state, int32_t bx,
                 int32_t by, std::vector<QuadtreeVertex>& vertices,
-                std::vector<std::array<uint32_t, 3>>& triangles) {
+                std::vector<std::array<uint32_t, 3>>& triangles, float skirt_depth) {
   vertices.clear();
   triangles.clear();
   const int32_t side = grid.block_size + 1;
@@ -331,13 +342,107 @@ void block_mesh(const QuadtreeGrid& grid, const HeightGrid& heights, const Quadt
     int32_t& v = slot[size_t(ly) * size_t(side) + size_t(lx)];
     if (v < 0) {
       v = int32_t(vertices.size());
-      vertices.push_back({lx, ly, vertex_height(grid, heights, state, p[0], p[1])});
+      vertices.push_back({lx, ly, vertex_height(grid, heights, state, p[0], p[1], bx, by)});
     }
     return uint32_t(v);
   };
   for_each_triangle(grid, state, bx, by, [&](const auto& a, const auto& b, const auto& c) {
     triangles.push_back({vid(a), vid(b), vid(c)});
   });
+  if (skirt_depth <= 0) return;
+  // The border's vertices in order around the block, each with a lowered copy.
+  const int32_t B = grid.block_size;
+  std::vector<uint32_t> ring;
+  for (int32_t t = 0; t < 4 * B; ++t) {
+    const int32_t along = t / B, u = t % B;
+    const int32_t lx = along == 0 ? u : along == 1 ? B : along == 2 ? B - u : 0;
+    const int32_t ly = along == 0 ? 0 : along == 1 ? u : along == 2 ? B : B - u;
+    const int32_t v = slot[size_t(ly) * size_t(B + 1) + size_t(lx)];
+    if (v >= 0) ring.push_back(uint32_t(v));
+  }
+  const uint32_t first_low = uint32_t(vertices.size());
+  for (uint32_t v : ring)
+    vertices.push_back({vertices[v].x, vertices[v].y, vertices[v].height - skirt_depth});
+  for (size_t k = 0; k < ring.size(); ++k) {
+    const size_t k1 = (k + 1) % ring.size();
+    triangles.push_back({ring[k], ring[k1], first_low + uint32_t(k1)});
+    triangles.push_back({ring[k], first_low + uint32_t(k1), first_low + uint32_t(k)});
+  }
+}
+
+std::vector<float> block_side_profile(const QuadtreeGrid& grid, const HeightGrid& heights,
+                                      const QuadtreeState& state, int32_t bx, int32_t by, int32_t side) {
+  const int32_t B = grid.block_size;
+  const int64_t ox = int64_t(bx) * B, oy = int64_t(by) * B;
+  auto pos = [&](int32_t t) -> std::array<int64_t, 2> {
+    switch (side) {
+      case kSideTop: return {ox + t, oy};
+      case kSideRight: return {ox + B, oy + t};
+      case kSideBottom: return {ox + t, oy + B};
+      default: return {ox, oy + t};
+    }
+  };
+  // The border's vertices: the ends of the triangles' edges along the side.
+  std::vector<int8_t> vertex(size_t(B) + 1, 0);
+  for_each_triangle(grid, state, bx, by, [&](const auto& a, const auto& b, const auto& c) {
+    for (const auto* p : {&a, &b, &c}) {
+      for (int32_t t = 0; t <= B; ++t)
+        if (pos(t) == *p) vertex[size_t(t)] = 1;
+    }
+  });
+  std::vector<float> out(size_t(B) + 1);
+  int32_t t0 = 0;
+  for (int32_t t = 1; t <= B; ++t) {
+    if (!vertex[size_t(t)]) continue;
+    const auto a = pos(t0), b = pos(t);
+    const double ha = vertex_height(grid, heights, state, a[0], a[1], bx, by);
+    const double hb = vertex_height(grid, heights, state, b[0], b[1], bx, by);
+    for (int32_t u = t0; u <= t; ++u)
+      out[size_t(u)] = float(ha + (hb - ha) * double(u - t0) / double(t - t0));
+    t0 = t;
+  }
+  return out;
+}
+
+std::vector<float> quadtree_skirt_depths(const QuadtreeGrid& grid, const QuadtreeErrors& errors,
+                                         const QuadtreeState& state) {
+  const int32_t b = grid.levels;
+  // The largest error a block draws along its border.
+  std::vector<float> border(size_t(grid.blocks_x) * size_t(grid.blocks_y), 0.0f);
+  for (int32_t l = 1; l <= b; ++l) {
+    const int32_t per = 1 << (b - l);  // squares per block side at this level
+    for (int32_t j = 0; j < grid.squares_y(l); ++j) {
+      for (int32_t i = 0; i < grid.squares_x(l); ++i) {
+        const int32_t li = i % per, lj = j % per;
+        if (li != 0 && lj != 0 && li != per - 1 && lj != per - 1) continue;  // not on the border
+        const bool sub = state.subdivided(l, i, j);
+        // Drawn: a leaf (its parent subdivided, or a root), or a square drawn at full resolution.
+        const bool drawn = (!sub && (l == b || state.subdivided(l + 1, i >> 1, j >> 1))) || (sub && l == 1);
+        if (!drawn) continue;
+        float e = sub ? 0.0f : errors.delta(l, i, j);
+        if (sub && state.morph(l, i, j) < 1) e = std::max(e, errors.delta(l, i, j));
+        if (l < b && state.morph(l + 1, i >> 1, j >> 1) < 1)
+          e = std::max(e, errors.delta(l + 1, i >> 1, j >> 1));
+        float& blk = border[size_t(j / per) * size_t(grid.blocks_x) + size_t(i / per)];
+        blk = std::max(blk, e);
+      }
+    }
+  }
+  std::vector<float> out(border.size(), 0.0f);
+  constexpr std::array<std::array<int32_t, 2>, 4> kStep = {{{0, -1}, {1, 0}, {0, 1}, {-1, 0}}};
+  for (int32_t by = 0; by < grid.blocks_y; ++by) {
+    for (int32_t bx = 0; bx < grid.blocks_x; ++bx) {
+      float depth = 0;
+      for (const auto& d : kStep) {
+        const int32_t nx = bx + d[0], ny = by + d[1];
+        if (nx < 0 || ny < 0 || nx >= grid.blocks_x || ny >= grid.blocks_y) continue;
+        depth = std::max(depth, border[size_t(by) * size_t(grid.blocks_x) + size_t(bx)] +
+                                    border[size_t(ny) * size_t(grid.blocks_x) + size_t(nx)]);
+      }
+      out[size_t(by) * size_t(grid.blocks_x) + size_t(bx)] = depth > 0 ? std::ceil(depth) + 1.0f : 0.0f;
+    }
+  }
+  return out;
 }
 
 std::vector<render::ReplicaTriangle> replicate(const QuadtreeGrid& grid, const QuadtreeState& state) {
@@ -360,9 +465,9 @@ std::vector<float> displayed_surface(const QuadtreeGrid& grid, const HeightGrid&
   for (int32_t by = 0; by < grid.blocks_y; ++by)
     for (int32_t bx = 0; bx < grid.blocks_x; ++bx)
       for_each_triangle(grid, state, bx, by, [&](const auto& a, const auto& b, const auto& c) {
-        const double ha = vertex_height(grid, heights, state, a[0], a[1]);
-        const double hb = vertex_height(grid, heights, state, b[0], b[1]);
-        const double hc = vertex_height(grid, heights, state, c[0], c[1]);
+        const double ha = vertex_height(grid, heights, state, a[0], a[1], bx, by);
+        const double hb = vertex_height(grid, heights, state, b[0], b[1], bx, by);
+        const double hc = vertex_height(grid, heights, state, c[0], c[1], bx, by);
         for_each_point(a, b, c, [&](int64_t x, int64_t y, double wa, double wb, double wc) {
           out[size_t(y * cov.width() + x)] = float(wa * ha + wb * hb + wc * hc);
         });

@@ -40,6 +40,10 @@ struct QuadtreeGrid {
   int32_t levels = 6;       // b: squares of levels 1..b, the roots at b
   int32_t blocks_x = 0, blocks_y = 0;
   int64_t width = 0, height = 0;  // the world's samples
+  // Leitao & Carmo's tiled blocks with skirts: each block's quadtree is restricted and drawn on
+  // its own (no square reads a neighbour across a block border), so blocks may crack where
+  // they meet and skirts (quadtree_skirt_depths) hide it. False: restricted across borders.
+  bool independent_blocks = false;
 
   // Errors: block_size not a power of two in 4..256, or an empty world.
   static Result<QuadtreeGrid> make(int64_t width, int64_t height, int32_t block_size);
@@ -112,6 +116,13 @@ QuadtreeSelectStats select_quadtree(const QuadtreeGrid& grid, const QuadtreeErro
                                     const HeightScale& scale, const LodView& view, QuadtreeState& state,
                                     bool morph = true);
 
+// Per block (row order), with independent blocks, the depth (height units) its skirts hang
+// below its border: at least the largest gap along the border between its drawn surface and a
+// neighbour's, bounded by the sum of the two blocks' border errors (the largest delta of a leaf
+// touching the border, or of its parent while that parent morphs).
+std::vector<float> quadtree_skirt_depths(const QuadtreeGrid& grid, const QuadtreeErrors& errors,
+                                         const QuadtreeState& state);
+
 // A vertex as drawn: block-local position and height (height units, fractional while morphing).
 struct QuadtreeVertex {
   int32_t x = 0, y = 0;
@@ -120,9 +131,16 @@ struct QuadtreeVertex {
 
 // The triangles of block (bx, by): vertices and counter-clockwise index triples (positive area
 // with y along +gy). What the renderer uploads for a changed block.
+// `skirt_depth` > 0 adds the block's skirt: its border vertices lowered by that much, joined to
+// the border by vertical quads.
 void block_mesh(const QuadtreeGrid& grid, const HeightGrid& heights, const QuadtreeState& state, int32_t bx,
                 int32_t by, std::vector<QuadtreeVertex>& vertices,
-                std::vector<std::array<uint32_t, 3>>& triangles);
+                std::vector<std::array<uint32_t, 3>>& triangles, float skirt_depth = 0);
+
+// The drawn height (height units) along side `side` (Side of geomipmap.h) of block (bx, by) at
+// every sample of it, linear between the border's vertices (for the skirt tests).
+std::vector<float> block_side_profile(const QuadtreeGrid& grid, const HeightGrid& heights,
+                                      const QuadtreeState& state, int32_t bx, int32_t by, int32_t side);
 
 // CPU replica over every block (mip-0 sample coordinates), for render::check_watertight over
 // grid.covered(); and the drawn surface's height at every covered sample, row-major.

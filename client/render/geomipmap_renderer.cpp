@@ -6,26 +6,10 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "client/render/frustum.h"
+#include "client/render/patch_draw.h"
 #include "gpu/shader_library.h"
 
 namespace loam::render {
-
-namespace {
-
-// Per patch, the instanced attributes of shaders/geomipmap.vert.glsl.
-struct Instance {
-  int32_t patch[4];  // origin (grid samples), level, -
-  int32_t edge_level[4];
-  float edge_morph[4];
-  float misc[4];  // morph, origin relative to the camera (render frame x, y), -
-};
-static_assert(sizeof(Instance) == 64);
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
 
 Result<std::unique_ptr<GeomipmapRenderer>> GeomipmapRenderer::create(const HeightSource& source,
                                                                      const GeomipmapConfig& config) {
@@ -44,12 +28,8 @@ Result<std::unique_ptr<GeomipmapRenderer>> GeomipmapRenderer::create(const Heigh
                       "the world is wider than GL_MAX_TEXTURE_SIZE (" + std::to_string(max_size) + ")");
   }
   r->scale_ = {p.meters_per_sample, p.meters_per_unit, p.height_offset};
-  r->heights_.resize(size_t(r->world_.area()));
-  source.read(0, r->world_, r->heights_);
-  const auto [lo, hi] = std::minmax_element(r->heights_.begin(), r->heights_.end());
-  r->min_height_m_ = double(*lo) * p.meters_per_unit;
-  r->max_height_m_ = double(*hi) * p.meters_per_unit;
-  r->errors_ = lod::GeomipmapErrors::compute(r->grid_, {r->heights_, r->world_.width(), r->world_.height()});
+  r->heights_ = WorldHeights::read(source);
+  r->errors_ = lod::GeomipmapErrors::compute(r->grid_, r->heights_.grid());
 
   r->texture_ = gpu::make_texture(GL_TEXTURE_2D);
   glTextureStorage2D(r->texture_.get(), 1, GL_R16UI, GLsizei(r->world_.width()), GLsizei(r->world_.height()));
@@ -57,55 +37,17 @@ Result<std::unique_ptr<GeomipmapRenderer>> GeomipmapRenderer::create(const Heigh
   glTextureParameteri(r->texture_.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTextureSubImage2D(r->texture_.get(), 0, 0, 0, GLsizei(r->world_.width()), GLsizei(r->world_.height()),
-                      GL_RED_INTEGER, GL_UNSIGNED_SHORT, r->heights_.data());
+                      GL_RED_INTEGER, GL_UNSIGNED_SHORT, r->heights_.samples.data());
 
-  const std::string_view vertex[] = {"geomipmap_blocks.glsl", "geomipmap.vert.glsl"};
-  const std::string_view fragment[] = {"geomipmap_blocks.glsl", "geomipmap.frag.glsl"};
-  auto program = gpu::build_graphics_program_from(vertex, fragment);
+  const std::string_view vertex[] = {"geomipmap_blocks.glsl", "patch_morph.glsl", "geomipmap.vert.glsl"};
+  auto program = build_patch_program(vertex);
   if (!program) return program.error();
   r->program_ = std::move(*program);
-  LOAM_TRY(gpu::verify_uniform_block(r->program_.get(), "GeomipmapFrame", sizeof(GeomipmapFrameBlock),
-                                     kGeomipmapFrameMembers));
-  LOAM_TRY(gpu::verify_no_loose_uniforms(r->program_.get()));
   r->frame_block_.emplace(1);
-
-  GLuint vao = 0;
-  glCreateVertexArrays(1, &vao);
-  r->vao_ = gpu::GlVertexArray(vao);
-  for (GLuint a = 0; a < 4; ++a) {
-    glEnableVertexArrayAttrib(vao, a);
-    glVertexArrayAttribBinding(vao, a, 0);
-    if (a < 2) {
-      glVertexArrayAttribIFormat(vao, a, 4, GL_INT, a * 16);
-    } else {
-      glVertexArrayAttribFormat(vao, a, 4, GL_FLOAT, GL_FALSE, a * 16);
-    }
-  }
-  glVertexArrayBindingDivisor(vao, 0, 1);
+  r->vao_ = make_patch_vertex_array();
+  r->indices_.emplace(r->vao_.get());
+  r->instances_.emplace(r->vao_.get());
   return r;
-}
-
-GeomipmapRenderer::Variant GeomipmapRenderer::variant(const lod::PatchLod& lod) {
-  const std::array<int8_t, 5> key{lod.level, lod.edge_level[0], lod.edge_level[1], lod.edge_level[2],
-                                  lod.edge_level[3]};
-  if (const auto it = variants_.find(key); it != variants_.end()) return it->second;
-  const auto tris = lod::patch_triangles(grid_, lod.level, lod.edge_level);
-  Variant v{uint32_t(index_data_.size()), uint32_t(tris.size() * 3)};
-  for (const auto& t : tris) index_data_.insert(index_data_.end(), t.begin(), t.end());
-  variants_.emplace(key, v);
-  const size_t bytes = index_data_.size() * sizeof(uint16_t);
-  if (bytes > index_capacity_) {
-    // Grow by doubling: variants are few (the levels and side combinations a view meets).
-    index_capacity_ = std::max<size_t>(bytes * 2, 1 << 16);
-    indices_ = gpu::make_buffer();
-    glNamedBufferStorage(indices_.get(), GLsizeiptr(index_capacity_), nullptr, GL_DYNAMIC_STORAGE_BIT);
-    glNamedBufferSubData(indices_.get(), 0, GLsizeiptr(bytes), index_data_.data());
-    glVertexArrayElementBuffer(vao_.get(), indices_.get());
-  } else {
-    glNamedBufferSubData(indices_.get(), GLintptr(v.first * sizeof(uint16_t)),
-                         GLsizeiptr(v.count * sizeof(uint16_t)), index_data_.data() + v.first);
-  }
-  return v;
 }
 
 GeomipmapFrameStats GeomipmapRenderer::render(const Camera& camera, int32_t width, int32_t height) {
@@ -125,6 +67,10 @@ double GeomipmapRenderer::select(const Camera& lod_camera, int32_t viewport_heig
   view.pixels_per_radian = lod::pixels_per_radian(viewport_height, lod_camera.fov_y_degrees);
   view.tolerance_px = config_.tolerance_px;
   lods_ = lod::select_lods(grid_, errors_, scale_, view, config_.morph && config_.tolerance_px > 0);
+  if (config_.skirts) {
+    lod::assign_own_sides(lods_);
+    skirt_depths_ = lod::skirt_depths(grid_, errors_, lods_);
+  }
   return ms_since(t0);
 }
 
@@ -135,8 +81,8 @@ GeomipmapFrameStats GeomipmapRenderer::draw(const Camera& camera, int32_t width,
   const glm::mat4 vp = view_projection(camera, width, height);
   const Frustum frustum = frustum_of(vp);
   const int32_t c = grid_.cells();
-  std::vector<Instance> instances;
-  std::vector<Variant> draws;
+  std::vector<PatchInstance> instances;
+  std::vector<PatchIndexBuffer::Range> draws;
   instances.reserve(lods_.size());
   for (int32_t py = 0; py < grid_.patches_y; ++py) {
     for (int32_t px = 0; px < grid_.patches_x; ++px) {
@@ -155,33 +101,31 @@ GeomipmapFrameStats GeomipmapRenderer::draw(const Camera& camera, int32_t width,
           continue;
         }
       }
-      Instance in{};
+      PatchInstance in{};
       in.patch[0] = int32_t(ox), in.patch[1] = int32_t(oy), in.patch[2] = lod.level;
       for (size_t k = 0; k < 4; ++k)
         in.edge_level[k] = lod.edge_level[k], in.edge_morph[k] = lod.edge_morph[k];
       in.misc[0] = lod.morph, in.misc[1] = float(rel_x), in.misc[2] = float(rel_y);
       instances.push_back(in);
-      draws.push_back(variant(lod));
+      if (config_.skirts)
+        in.patch[3] = int32_t(skirt_depths_[size_t(py) * size_t(grid_.patches_x) + size_t(px)]);
+      // With skirts, a patch's sides are its own level's: the key's high bit marks the skirt.
+      const std::array<int8_t, 5> key{int8_t(lod.level | (config_.skirts ? 0x40 : 0)), lod.edge_level[0],
+                                      lod.edge_level[1], lod.edge_level[2], lod.edge_level[3]};
+      draws.push_back(indices_->get(key, [&] {
+        auto tris = lod::patch_triangles(grid_, lod.level, lod.edge_level);
+        if (config_.skirts) {
+          const auto skirt = lod::skirt_triangles(grid_, lod.level);
+          tris.insert(tris.end(), skirt.begin(), skirt.end());
+        }
+        return tris;
+      }));
     }
   }
-  const size_t bytes = instances.size() * sizeof(Instance);
-  if (bytes > instance_capacity_) {
-    instance_capacity_ = std::max(bytes, size_t(grid_.patch_count()) * sizeof(Instance));
-    instances_ = gpu::make_buffer();
-    glNamedBufferStorage(instances_.get(), GLsizeiptr(instance_capacity_), nullptr, GL_DYNAMIC_STORAGE_BIT);
-    glVertexArrayVertexBuffer(vao_.get(), 0, instances_.get(), 0, sizeof(Instance));
-  }
-  if (bytes > 0) glNamedBufferSubData(instances_.get(), 0, GLsizeiptr(bytes), instances.data());
-
-  GeomipmapFrameBlock f{};
-  std::copy_n(glm::value_ptr(vp), 16, f.view_proj);
-  f.grid[0] = grid_.patch_size, f.grid[1] = grid_.levels;
-  f.grid[2] = int32_t(world_.width()), f.grid[3] = int32_t(world_.height());
-  f.scale[0] = float(mps), f.scale[1] = float(scale_.meters_per_unit);
-  f.scale[2] = float(scale_.height_offset - camera.z);
-  const float az = glm::radians(135.0f), el = glm::radians(35.0f);
-  f.sun[0] = std::sin(az) * std::cos(el), f.sun[1] = std::cos(az) * std::cos(el), f.sun[2] = std::sin(el);
-  f.height_range[0] = float(min_height_m_), f.height_range[1] = float(max_height_m_);
+  instances_->upload(instances);
+  const GeomipmapFrameBlock f = patch_frame(
+      vp, {grid_.patch_size, grid_.levels, int32_t(world_.width()), int32_t(world_.height())}, mps,
+      scale_.meters_per_unit, scale_.height_offset, camera, heights_.min_height_m, heights_.max_height_m);
   frame_block_->write(0, f);
   stats.cpu_ms = ms_since(t0);
 
@@ -209,23 +153,18 @@ GeomipmapUpdate GeomipmapRenderer::invalidate(const RectI& mip0_rect) {
   const RectI r = mip0_rect.intersect(world_);
   if (r.empty()) return u;
   const auto t0 = std::chrono::steady_clock::now();
-  std::vector<uint16_t> fresh(size_t(r.area()));
-  source_->read(0, r, fresh);
-  for (int64_t y = r.y0; y < r.y1; ++y) {
-    std::copy_n(fresh.begin() + (y - r.y0) * r.width(), r.width(),
-                heights_.begin() + (y - world_.y0) * world_.width() + (r.x0 - world_.x0));
-  }
+  const std::vector<uint16_t> fresh = heights_.refresh(*source_, r);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
   glTextureSubImage2D(texture_.get(), 0, GLint(r.x0 - world_.x0), GLint(r.y0 - world_.y0), GLsizei(r.width()),
                       GLsizei(r.height()), GL_RED_INTEGER, GL_UNSIGNED_SHORT, fresh.data());
   const RectI local{r.x0 - world_.x0, r.y0 - world_.y0, r.x1 - world_.x0, r.y1 - world_.y0};
-  u.patches = int32_t(errors_.update(grid_, {heights_, world_.width(), world_.height()}, local).size());
+  u.patches = int32_t(errors_.update(grid_, heights_.grid(), local).size());
   u.cpu_ms = ms_since(t0);
   return u;
 }
 
 size_t GeomipmapRenderer::gpu_bytes() const {
-  return heights_.size() * sizeof(uint16_t) + index_capacity_ + instance_capacity_;
+  return heights_.samples.size() * sizeof(uint16_t) + indices_->bytes() + instances_->bytes();
 }
 
 }  // namespace loam::render

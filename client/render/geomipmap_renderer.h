@@ -24,6 +24,7 @@
 #include "client/lod/geomipmap.h"
 #include "client/render/camera.h"
 #include "client/render/clipmap_renderer.h"
+#include "client/render/patch_draw.h"
 #include "gpu/gl_handle.h"
 #include "gpu/uniform_block.h"
 
@@ -34,6 +35,10 @@ struct GeomipmapConfig {
   double tolerance_px = 1.0;  // screen-space error budget; 0: every patch at full resolution
   bool morph = true;
   bool cull = true;
+  // Leitao & Carmo's crack correction: false, by index update (sides adapt to a coarser
+  // neighbour, lod::assign_sides); true, by skirts (every side at its own level, a skirt
+  // hanging below each side, lod::skirt_depths).
+  bool skirts = false;
 };
 
 struct GeomipmapFrameStats {
@@ -89,34 +94,29 @@ class GeomipmapRenderer {
 
   const lod::GeomipmapGrid& grid() const { return grid_; }
   const lod::GeomipmapErrors& errors() const { return errors_; }
-  // The levels the last render chose (row order).
+  // The levels the last render chose (row order), and with skirts their depths.
   const std::vector<lod::PatchLod>& lods() const { return lods_; }
+  const std::vector<float>& skirt_depths() const { return skirt_depths_; }
   size_t gpu_bytes() const;
 
  private:
-  struct Variant {
-    uint32_t first = 0, count = 0;  // in indices
-  };
   GeomipmapRenderer() = default;
-  Variant variant(const lod::PatchLod& lod);
 
   const HeightSource* source_ = nullptr;
   GeomipmapConfig config_;
   RectI world_;  // the source's mip-0 samples (global grid)
   lod::HeightScale scale_;
   lod::GeomipmapGrid grid_;
-  std::vector<uint16_t> heights_;  // the world, row-major (the CPU copy the errors read)
+  WorldHeights heights_;  // the CPU copy the errors read
   lod::GeomipmapErrors errors_;
   std::vector<lod::PatchLod> lods_;
-  double min_height_m_ = 0, max_height_m_ = 0;
+  std::vector<float> skirt_depths_;  // per patch, with skirts
 
   gpu::GlTexture texture_;
   gpu::GlProgram program_;
   gpu::GlVertexArray vao_;
-  gpu::GlBuffer indices_, instances_;
-  size_t index_capacity_ = 0, instance_capacity_ = 0;
-  std::vector<uint16_t> index_data_;
-  std::map<std::array<int8_t, 5>, Variant> variants_;
+  std::optional<PatchIndexBuffer> indices_;
+  std::optional<PatchInstanceBuffer> instances_;
   std::optional<gpu::UniformBuffer<GeomipmapFrameBlock>> frame_block_;
 };
 

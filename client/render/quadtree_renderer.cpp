@@ -10,14 +10,6 @@
 
 namespace loam::render {
 
-namespace {
-
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
-
 Result<std::unique_ptr<QuadtreeRenderer>> QuadtreeRenderer::create(const HeightSource& source,
                                                                    const QuadtreeConfig& config) {
   const WorldParams& p = source.params();
@@ -28,26 +20,19 @@ Result<std::unique_ptr<QuadtreeRenderer>> QuadtreeRenderer::create(const HeightS
   auto grid = lod::QuadtreeGrid::make(r->world_.width(), r->world_.height(), config.block_size);
   if (!grid) return grid.error();
   r->grid_ = *grid;
+  r->grid_.independent_blocks = config.skirts;
   r->scale_ = {p.meters_per_sample, p.meters_per_unit, p.height_offset};
-  r->heights_.resize(size_t(r->world_.area()));
-  source.read(0, r->world_, r->heights_);
-  const auto [lo, hi] = std::minmax_element(r->heights_.begin(), r->heights_.end());
-  r->min_height_m_ = double(*lo) * p.meters_per_unit;
-  r->max_height_m_ = double(*hi) * p.meters_per_unit;
-  r->errors_ = lod::QuadtreeErrors::compute(r->grid_, {r->heights_, r->world_.width(), r->world_.height()});
+  r->heights_ = WorldHeights::read(source);
+  r->errors_ = lod::QuadtreeErrors::compute(r->grid_, r->heights_.grid());
   r->state_.emplace(r->grid_);
   const size_t blocks = size_t(r->grid_.blocks_x) * size_t(r->grid_.blocks_y);
   r->stale_.assign(blocks, 1);
   r->blocks_.resize(blocks);
 
   const std::string_view vertex[] = {"geomipmap_blocks.glsl", "quadtree.vert.glsl"};
-  const std::string_view fragment[] = {"geomipmap_blocks.glsl", "geomipmap.frag.glsl"};
-  auto program = gpu::build_graphics_program_from(vertex, fragment);
+  auto program = build_patch_program(vertex);
   if (!program) return program.error();
   r->program_ = std::move(*program);
-  LOAM_TRY(gpu::verify_uniform_block(r->program_.get(), "GeomipmapFrame", sizeof(GeomipmapFrameBlock),
-                                     kGeomipmapFrameMembers));
-  LOAM_TRY(gpu::verify_no_loose_uniforms(r->program_.get()));
   r->frame_block_.emplace(1);
 
   GLuint vao = 0;
@@ -68,8 +53,9 @@ Result<std::unique_ptr<QuadtreeRenderer>> QuadtreeRenderer::create(const HeightS
 }
 
 void QuadtreeRenderer::rebuild(int32_t bx, int32_t by) {
-  lod::block_mesh(grid_, {heights_, world_.width(), world_.height()}, *state_, bx, by, vertex_scratch_,
-                  triangle_scratch_);
+  const size_t k = size_t(by) * size_t(grid_.blocks_x) + size_t(bx);
+  lod::block_mesh(grid_, heights_.grid(), *state_, bx, by, vertex_scratch_, triangle_scratch_,
+                  config_.skirts ? skirt_depths_[k] : 0.0f);
   std::vector<float> v(vertex_scratch_.size() * 3);
   for (size_t i = 0; i < vertex_scratch_.size(); ++i) {
     v[3 * i] = float(vertex_scratch_[i].x), v[3 * i + 1] = float(vertex_scratch_[i].y);
@@ -104,6 +90,13 @@ QuadtreeFrameStats QuadtreeRenderer::select(const Camera& lod_camera, int32_t vi
   const lod::QuadtreeSelectStats st =
       lod::select_quadtree(grid_, errors_, scale_, view, *state_, config_.morph);
   stats.squares_tested = st.squares_tested;
+  if (config_.skirts) {
+    // A block whose skirt depth moved is rebuilt with it.
+    std::vector<float> depths = lod::quadtree_skirt_depths(grid_, errors_, *state_);
+    for (size_t i = 0; i < depths.size(); ++i)
+      if (skirt_depths_.size() != depths.size() || skirt_depths_[i] != depths[i]) stale_[i] = 1;
+    skirt_depths_ = std::move(depths);
+  }
   const auto& changed = state_->changed_blocks();
   for (int32_t by = 0; by < grid_.blocks_y; ++by) {
     for (int32_t bx = 0; bx < grid_.blocks_x; ++bx) {
@@ -150,15 +143,9 @@ QuadtreeFrameStats QuadtreeRenderer::draw(const Camera& camera, int32_t width, i
   }
   if (!origins.empty())
     glNamedBufferSubData(origins_.get(), 0, GLsizeiptr(origins.size() * sizeof(float)), origins.data());
-  GeomipmapFrameBlock f{};
-  std::copy_n(glm::value_ptr(vp), 16, f.view_proj);
-  f.grid[0] = grid_.block_size + 1, f.grid[1] = grid_.levels;
-  f.grid[2] = int32_t(world_.width()), f.grid[3] = int32_t(world_.height());
-  f.scale[0] = float(mps), f.scale[1] = float(scale_.meters_per_unit);
-  f.scale[2] = float(scale_.height_offset - camera.z);
-  const float az = glm::radians(135.0f), el = glm::radians(35.0f);
-  f.sun[0] = std::sin(az) * std::cos(el), f.sun[1] = std::cos(az) * std::cos(el), f.sun[2] = std::sin(el);
-  f.height_range[0] = float(min_height_m_), f.height_range[1] = float(max_height_m_);
+  const GeomipmapFrameBlock f = patch_frame(
+      vp, {grid_.block_size + 1, grid_.levels, int32_t(world_.width()), int32_t(world_.height())}, mps,
+      scale_.meters_per_unit, scale_.height_offset, camera, heights_.min_height_m, heights_.max_height_m);
   frame_block_->write(0, f);
   stats.cpu_ms = ms_since(t0);
 
@@ -186,14 +173,9 @@ QuadtreeFrameStats QuadtreeRenderer::draw(const Camera& camera, int32_t width, i
 int64_t QuadtreeRenderer::invalidate(const RectI& mip0_rect) {
   const RectI r = mip0_rect.intersect(world_);
   if (r.empty()) return 0;
-  std::vector<uint16_t> fresh(size_t(r.area()));
-  source_->read(0, r, fresh);
-  for (int64_t y = r.y0; y < r.y1; ++y) {
-    std::copy_n(fresh.begin() + (y - r.y0) * r.width(), r.width(),
-                heights_.begin() + (y - world_.y0) * world_.width() + (r.x0 - world_.x0));
-  }
+  heights_.refresh(*source_, r);
   const RectI local{r.x0 - world_.x0, r.y0 - world_.y0, r.x1 - world_.x0, r.y1 - world_.y0};
-  const int64_t n = errors_.update(grid_, {heights_, world_.width(), world_.height()}, local);
+  const int64_t n = errors_.update(grid_, heights_.grid(), local);
   // Blocks holding a changed sample, or a vertex whose morph target reads one, are rebuilt.
   const int64_t bs = grid_.block_size;
   for (int64_t by = std::max<int64_t>(0, floor_div(local.y0 - bs, bs));

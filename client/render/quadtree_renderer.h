@@ -18,6 +18,7 @@
 #include "client/render/camera.h"
 #include "client/render/clipmap_renderer.h"
 #include "client/render/geomipmap_renderer.h"
+#include "client/render/patch_draw.h"
 #include "gpu/gl_handle.h"
 #include "gpu/uniform_block.h"
 
@@ -28,6 +29,10 @@ struct QuadtreeConfig {
   double tolerance_px = 1.0;
   bool morph = true;
   bool cull = true;
+  // Leitao & Carmo's tiled blocks with skirts: blocks restricted and drawn on their own, a skirt
+  // below each block's border (lod::quadtree_skirt_depths). False: restricted across borders
+  // (their crack correction by index update).
+  bool skirts = false;
 };
 
 struct QuadtreeFrameStats {
@@ -69,12 +74,12 @@ class QuadtreeRenderer {
   RectI world_;
   lod::HeightScale scale_;
   lod::QuadtreeGrid grid_;
-  std::vector<uint16_t> heights_;
+  WorldHeights heights_;
   lod::QuadtreeErrors errors_;
   std::optional<lod::QuadtreeState> state_;
-  std::vector<uint8_t> stale_;  // blocks to rebuild whatever the subdivision (a stamp)
+  std::vector<uint8_t> stale_;       // blocks to rebuild whatever the subdivision (a stamp)
+  std::vector<float> skirt_depths_;  // per block, with skirts: the depths their meshes were built with
   std::vector<Block> blocks_;
-  double min_height_m_ = 0, max_height_m_ = 0;
   std::vector<lod::QuadtreeVertex> vertex_scratch_;
   std::vector<std::array<uint32_t, 3>> triangle_scratch_;
 

@@ -1,5 +1,6 @@
-// The geomipmap and quadtree renderers (client/render/geomipmap_renderer.h,
-// quadtree_renderer.h) draw what their CPU replicas (client/lod/) say: a straight-down
+// The geomipmap, quadtree and error-driven clipmap renderers (client/render/
+// geomipmap_renderer.h, quadtree_renderer.h, error_clipmap_renderer.h) draw what their CPU
+// replicas (client/lod/) say: a straight-down
 // orthographic view with one pixel per sample reads back, at every sample, the replica's
 // displayed height (levels or subdivision, and morphs, chosen from another, perspective
 // camera), with no hole; after a stamp, the same holds with the error bounds of exactly the
@@ -9,6 +10,7 @@
 #include <cmath>
 #include <type_traits>
 
+#include "client/render/error_clipmap_renderer.h"
 #include "client/render/geomipmap_renderer.h"
 #include "client/render/headless.h"
 #include "client/render/quadtree_renderer.h"
@@ -38,6 +40,19 @@ World ridges() {
   return w;
 }
 
+// Writes a cone-shaped crater over [100, 131) x [60, 91) and commits it; returns the rect.
+RectI dig_crater(World& w) {
+  const RectI crater{100, 60, 131, 91};
+  std::vector<uint16_t> s(size_t(crater.area()));
+  for (int64_t y = crater.y0; y < crater.y1; ++y)
+    for (int64_t x = crater.x0; x < crater.x1; ++x)
+      s[size_t((y - crater.y0) * crater.width() + (x - crater.x0))] =
+          uint16_t(15000 + 300 * std::hypot(double(x) - 115, double(y) - 75));
+  w.write_coarse(crater, s);
+  w.commit(1);
+  return crater;
+}
+
 // Heights (m above the height offset) the renderer drew at every sample, from a top-down
 // orthographic view with pixel centres on the samples; NaN where nothing was drawn.
 template <typename Renderer>
@@ -61,22 +76,28 @@ std::vector<double> drawn_heights(Renderer& r, const OffscreenTarget& t, const C
 }
 
 // Largest |drawn - replica| (m) over the samples, and the samples with nothing drawn (the
-// world's first row and column aside).
+// world's first row and column aside). `border_cells` > 0: samples on the borders of patches
+// that many cells wide are left out (with skirts two patches draw a border at two heights).
 template <typename Renderer>
 std::pair<double, int64_t> compare_with_replica(Renderer& r, const OffscreenTarget& t, const World& w,
-                                                const Camera& lod_camera) {
+                                                const Camera& lod_camera, int32_t border_cells = 0) {
   const auto drawn = drawn_heights(r, t, lod_camera);
   const RectI rect = w.params().sample_rect();
   std::vector<uint16_t> samples(size_t(rect.area()));
   w.read_coarse(rect, samples);
   const lod::HeightGrid grid{samples, rect.width(), rect.height()};
   std::vector<float> surface;
+  int64_t cw = 0;
   if constexpr (std::is_same_v<Renderer, GeomipmapRenderer>) {
     surface = lod::displayed_surface(r.grid(), grid, r.lods());
+    cw = r.grid().covered().width();
+  } else if constexpr (std::is_same_v<Renderer, ErrorClipmapRenderer>) {
+    surface = lod::displayed_surface(r.grid(), grid, r.selection());
+    cw = r.selection().covered.width();
   } else {
     surface = lod::displayed_surface(r.grid(), grid, r.state());
+    cw = r.grid().covered().width();
   }
-  const int64_t cw = r.grid().covered().width();
   double worst = 0;
   int64_t holes = 0;
   for (int64_t y = 0; y < rect.height(); ++y) {
@@ -87,6 +108,7 @@ std::pair<double, int64_t> compare_with_replica(Renderer& r, const OffscreenTarg
         holes += x > 0 && y > 0;
         continue;
       }
+      if (border_cells > 0 && (x % border_cells == 0 || y % border_cells == 0)) continue;
       const double want = double(surface[size_t(y * cw + x)]) * w.params().meters_per_unit;
       worst = std::max(worst, std::abs(d - want));
     }
@@ -106,16 +128,19 @@ TEST(GeomipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySample) {
   WorldHeightSource source(w);
   auto target = OffscreenTarget::create(256, 256);
   ASSERT_TRUE(target.ok());
-  for (int32_t n : {9, 17, 33}) {
+  for (int32_t n : {9, 17, 33, -17}) {
+    // -17: tiled blocks with skirts, whose vertical skirts leave the top-down view as it is.
     GeomipmapConfig cfg;
-    cfg.patch_size = n;
+    cfg.patch_size = std::abs(n);
+    cfg.skirts = n < 0;
     cfg.tolerance_px = 2.0;
     cfg.cull = false;
     auto r = GeomipmapRenderer::create(source, cfg);
     ASSERT_TRUE(r.ok()) << r.error().describe();
     for (const Camera& lc :
          {perspective_at(-100, -100, 1400, 256, 256), perspective_at(256, 256, 1100, 500, 100)}) {
-      const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
+      const auto [worst, holes] =
+          compare_with_replica(**r, *target, w, lc, cfg.skirts ? cfg.patch_size - 1 : 0);
       int levels = 0, morphing = 0;
       for (const lod::PatchLod& p : (*r)->lods()) levels |= 1 << p.level, morphing += p.morph > 0;
       std::printf("patch %d: levels mask %x, %d patches morphing, largest difference %.4f m, %lld holes\n", n,
@@ -139,14 +164,7 @@ TEST(GeomipmapRender, AStampReuploadsItsRectAndRecomputesTheTouchedPatchesOnly) 
   auto r = GeomipmapRenderer::create(source, cfg);
   ASSERT_TRUE(r.ok()) << r.error().describe();
   // A crater [100, 131) x [60, 91): patches 6..8 by 3..5 of 17.
-  const RectI crater{100, 60, 131, 91};
-  std::vector<uint16_t> s(size_t(crater.area()));
-  for (int64_t y = crater.y0; y < crater.y1; ++y)
-    for (int64_t x = crater.x0; x < crater.x1; ++x)
-      s[size_t((y - crater.y0) * crater.width() + (x - crater.x0))] =
-          uint16_t(15000 + 300 * std::hypot(double(x) - 115, double(y) - 75));
-  w.write_coarse(crater, s);
-  w.commit(1);
+  const RectI crater = dig_crater(w);
   const GeomipmapUpdate u = (*r)->invalidate(crater);
   EXPECT_EQ(u.patches, 9);
   const Camera lc = perspective_at(230, 150, 1000, 100, 60);
@@ -170,16 +188,18 @@ TEST(QuadtreeRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfterASta
   WorldHeightSource source(w);
   auto target = OffscreenTarget::create(256, 256);
   ASSERT_TRUE(target.ok());
-  for (int32_t block : {16, 64}) {
+  for (int32_t block : {16, 64, -32}) {
+    // -32: tiled blocks with skirts.
     QuadtreeConfig cfg;
-    cfg.block_size = block;
+    cfg.block_size = std::abs(block);
+    cfg.skirts = block < 0;
     cfg.tolerance_px = 2.0;
     cfg.cull = false;
     auto r = QuadtreeRenderer::create(source, cfg);
     ASSERT_TRUE(r.ok()) << r.error().describe();
     for (const Camera& lc :
          {perspective_at(-100, -100, 1400, 256, 256), perspective_at(256, 256, 1100, 500, 100)}) {
-      const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
+      const auto [worst, holes] = compare_with_replica(**r, *target, w, lc, cfg.skirts ? cfg.block_size : 0);
       std::printf("block %d: largest difference %.4f m, %lld holes\n", block, worst,
                   static_cast<long long>(holes));
       EXPECT_EQ(holes, 0);
@@ -193,18 +213,74 @@ TEST(QuadtreeRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfterASta
   ASSERT_TRUE(r.ok());
   const Camera lc = perspective_at(230, 150, 1000, 100, 60);
   (void)compare_with_replica(**r, *target, w, lc);
-  const RectI crater{100, 60, 131, 91};
-  std::vector<uint16_t> s(size_t(crater.area()));
-  for (int64_t y = crater.y0; y < crater.y1; ++y)
-    for (int64_t x = crater.x0; x < crater.x1; ++x)
-      s[size_t((y - crater.y0) * crater.width() + (x - crater.x0))] =
-          uint16_t(15000 + 300 * std::hypot(double(x) - 115, double(y) - 75));
-  w.write_coarse(crater, s);
-  w.commit(1);
+  const RectI crater = dig_crater(w);
   EXPECT_GT((*r)->invalidate(crater), 0);
   const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
   EXPECT_EQ(holes, 0);
   EXPECT_LT(worst, 0.02);
+}
+
+TEST(ErrorClipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfterAStamp) {
+  LOAM_REQUIRE_GL();
+  World w = ridges();
+  WorldHeightSource source(w);
+  auto target = OffscreenTarget::create(256, 256);
+  ASSERT_TRUE(target.ok());
+  for (int32_t block : {9, 17}) {
+    ErrorClipmapConfig cfg;
+    cfg.block_size = block;
+    cfg.region =
+        16 * (block - 1);  // level 0 holds at most a quarter of the world: regions limit the finest blocks
+    cfg.levels = 5;
+    cfg.tolerance_px = 1.0;
+    cfg.cull = false;
+    auto r = ErrorClipmapRenderer::create(source, cfg);
+    ASSERT_TRUE(r.ok()) << r.error().describe();
+    for (const Camera& lc :
+         {perspective_at(-100, -100, 900, 256, 256), perspective_at(256, 256, 300, 500, 100)}) {
+      const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
+      int levels = 0, morphing = 0;
+      for (const lod::ClipmapBlock& b : (*r)->selection().blocks)
+        levels |= 1 << b.id.level, morphing += b.lod.morph > 0;
+      std::printf(
+          "block %d: %d levels, levels mask %x, %d blocks morphing, largest difference %.4f m, %lld holes\n",
+          block, (*r)->levels(), levels, morphing, worst, static_cast<long long>(holes));
+      EXPECT_GE(__builtin_popcount(unsigned(levels)), 2) << "the view mixes levels";
+      EXPECT_GT(morphing, 0);
+      EXPECT_EQ((*r)->selection().stats.unrestricted, 0);
+      EXPECT_EQ(holes, 0);
+      EXPECT_LT(worst, 0.02);
+    }
+  }
+  // A crater: every level region holding it re-reads it, and exactly the blocks holding it get
+  // new error bounds.
+  ErrorClipmapConfig cfg;
+  cfg.block_size = 17;
+  cfg.cull = false;
+  cfg.region = 256;
+  cfg.levels = 5;
+  auto r = ErrorClipmapRenderer::create(source, cfg);
+  ASSERT_TRUE(r.ok());
+  const Camera lc = perspective_at(230, 150, 400, 100, 60);
+  (void)compare_with_replica(**r, *target, w, lc);
+  const RectI crater = dig_crater(w);
+  const ErrorClipmapUpdate u = (*r)->invalidate(crater);
+  // [100, 131) x [60, 91), blocks of 16 << l samples sharing borders: 3 x 3 at level 0, 2 x 2
+  // at 1 and 2 (its rows 0..64 and 64..128), 2 x 1 at 3, 1 at 4.
+  EXPECT_EQ(u.blocks, 9 + 4 + 4 + 2 + 1);
+  EXPECT_GT(u.texels, 31 * 31);
+  const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
+  EXPECT_EQ(holes, 0);
+  EXPECT_LT(worst, 0.02);
+  const auto fresh = lod::ClipmapErrorPyramid::compute(
+      (*r)->grid(),
+      [&](int32_t l, const RectI& rect, std::span<uint16_t> out) { (*r)->read_level(l, rect, out); },
+      cfg.exact_levels);
+  const lod::ClipmapBlockGrid& g = (*r)->grid();
+  for (int32_t l = 0; l < g.levels; ++l)
+    for (int32_t by = 0; by < g.blocks_y(l); ++by)
+      for (int32_t bx = 0; bx < g.blocks_x(l); ++bx)
+        EXPECT_EQ((*r)->errors().error(l, bx, by), fresh.error(l, bx, by));
 }
 
 }  // namespace

@@ -182,19 +182,9 @@ TEST(Geomipmap, GeomorphingBoundsTheSurfaceChangePerCameraStepWhereLevelSwitches
   const GeomipmapErrors e = GeomipmapErrors::compute(g, t.grid());
   double max_step[2] = {0, 0};
   for (int morph = 0; morph < 2; ++morph) {
-    std::vector<float> prev;
-    // A camera climbing 5 m per step from 500 m to 2 km: patches pass several level switches.
-    for (int step = 0; step <= 300; ++step) {
-      const LodView v = view_at(200 + step * 0.8, 150 + step * 0.6, 500 + step * 5.0, 3.0);
-      const auto lods = select_lods(g, e, kScale, v, morph == 1);
-      const auto now = displayed_surface(g, t.grid(), lods);
-      if (!prev.empty()) {
-        for (size_t i = 0; i < now.size(); ++i)
-          max_step[morph] =
-              std::max(max_step[morph], double(std::abs(now[i] - prev[i])) * kScale.meters_per_unit);
-      }
-      prev = now;
-    }
+    max_step[morph] = largest_surface_step(300, [&](const LodView& v) {
+      return displayed_surface(g, t.grid(), select_lods(g, e, kScale, v, morph == 1));
+    });
   }
   std::printf("largest surface change per 5 m camera step: %.3f m morphing, %.3f m without\n", max_step[1],
               max_step[0]);
@@ -242,6 +232,61 @@ TEST(Geomipmap, AStampUpdatesTheErrorBoundsOfExactlyThePatchesItTouches) {
     }
   }
   EXPECT_GT(changed_patches, 0);
+}
+
+// Leitao & Carmo's tiled blocks, block-based, crack correction by skirts: with every side at
+// its patch's own level the mesh has cracks where levels differ (no index update), and each
+// patch's skirt reaches below the largest gap along its sides, at every sample of every side,
+// for every patch size of their Table 1 at their 8 px budget (and at 2 px).
+TEST(TiledBlocks, SkirtsReachBelowEveryCrackBetweenBlocksDrawnAtTheirOwnLevels) {
+  const Terrain t = rough(300, 257, 21);
+  for (int32_t n : {17, 33, 65}) {
+    const GeomipmapGrid g = grid_for(t, n);
+    const GeomipmapErrors e = GeomipmapErrors::compute(g, t.grid());
+    for (const LodView& v :
+         {view_at(100, 100, 500, 8.0), view_at(600, 500, 1200, 8.0), view_at(300, -50, 700, 2.0)}) {
+      std::vector<PatchLod> lods = select_lods(g, e, kScale, v);
+      assign_own_sides(lods);
+      const std::vector<float> depth = skirt_depths(g, e, lods);
+      const render::WatertightReport r = render::check_watertight(replicate(g, lods), g.covered());
+      double widest = 0, slack = 1e30;
+      int64_t cracked_sides = 0;
+      auto check = [&](int32_t px, int32_t py, int32_t side, int32_t qx, int32_t qy, int32_t qside) {
+        const size_t p = size_t(py * g.patches_x + px), q = size_t(qy * g.patches_x + qx);
+        const auto a = side_profile(g, t.grid(), px, py, lods[p], side);
+        const auto b = side_profile(g, t.grid(), qx, qy, lods[q], qside);
+        double gap = 0;
+        for (size_t k = 0; k < a.size(); ++k) gap = std::max(gap, double(std::abs(a[k] - b[k])));
+        cracked_sides += gap > 0;
+        widest = std::max(widest, gap);
+        slack = std::min(slack, double(std::min(depth[p], depth[q])) - gap);
+        EXPECT_LE(gap, std::min(depth[p], depth[q])) << "patch size " << n << " at " << px << "," << py;
+      };
+      for (int32_t py = 0; py < g.patches_y; ++py) {
+        for (int32_t px = 0; px < g.patches_x; ++px) {
+          if (px + 1 < g.patches_x) check(px, py, kSideRight, px + 1, py, kSideLeft);
+          if (py + 1 < g.patches_y) check(px, py, kSideBottom, px, py + 1, kSideTop);
+        }
+      }
+      std::printf(
+          "patch %d, %.0f px: %lld cracked sides, widest %.0f units, least slack %.0f units, mesh: %s\n", n,
+          v.tolerance_px, static_cast<long long>(cracked_sides), widest, slack, r.describe().c_str());
+      // Levels or morphs differ somewhere: without the skirts there are cracks (T-junctions where
+      // levels differ, height steps where only morphs do).
+      EXPECT_GT(cracked_sides, 0);
+    }
+  }
+  // With index updates instead, the two sides of every shared edge are one line.
+  const GeomipmapGrid g = grid_for(t, 17);
+  const GeomipmapErrors e = GeomipmapErrors::compute(g, t.grid());
+  const std::vector<PatchLod> lods = select_lods(g, e, kScale, view_at(100, 100, 500, 8.0));
+  for (int32_t py = 0; py < g.patches_y; ++py)
+    for (int32_t px = 0; px + 1 < g.patches_x; ++px) {
+      const auto a = side_profile(g, t.grid(), px, py, lods[size_t(py * g.patches_x + px)], kSideRight);
+      const auto b =
+          side_profile(g, t.grid(), px + 1, py, lods[size_t(py * g.patches_x + px + 1)], kSideLeft);
+      for (size_t k = 0; k < a.size(); ++k) EXPECT_NEAR(a[k], b[k], 1e-3);
+    }
 }
 
 }  // namespace

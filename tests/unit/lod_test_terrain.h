@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <vector>
 
@@ -64,6 +65,22 @@ inline double worst_screen_error(const std::vector<float>& surface, int64_t cove
     }
   }
   if (vertical_m) *vertical_m = worst_m;
+  return worst;
+}
+
+// The largest change (m) of the drawn surface between consecutive views of a camera climbing
+// 5 m per step from 500 m while drifting, with a 3 px budget: blocks and patches pass several
+// level switches. `surface(view)` is the drawn surface for a view (height units).
+inline double largest_surface_step(int steps,
+                                   const std::function<std::vector<float>(const LodView&)>& surface) {
+  double worst = 0;
+  std::vector<float> prev;
+  for (int step = 0; step <= steps; ++step) {
+    const auto now = surface(view_at(200 + step * 0.8, 150 + step * 0.6, 500 + step * 5.0, 3.0));
+    for (size_t i = 0; i < now.size() && !prev.empty(); ++i)
+      worst = std::max(worst, double(std::abs(now[i] - prev[i])) * kScale.meters_per_unit);
+    prev = now;
+  }
   return worst;
 }
 

@@ -106,18 +106,10 @@ TEST(QuadtreeLod, GeomorphingBoundsTheSurfaceChangePerCameraStepWhereSubdivision
   double max_step[2] = {0, 0};
   for (int morph = 0; morph < 2; ++morph) {
     QuadtreeState s(g);
-    std::vector<float> prev;
-    for (int step = 0; step <= 300; ++step) {
-      const LodView v = view_at(200 + step * 0.8, 150 + step * 0.6, 500 + step * 5.0, 3.0);
+    max_step[morph] = largest_surface_step(300, [&](const LodView& v) {
       select_quadtree(g, e, kScale, v, s, morph == 1);
-      const auto now = displayed_surface(g, t.grid(), s);
-      if (!prev.empty()) {
-        for (size_t i = 0; i < now.size(); ++i)
-          max_step[morph] =
-              std::max(max_step[morph], double(std::abs(now[i] - prev[i])) * kScale.meters_per_unit);
-      }
-      prev = now;
-    }
+      return displayed_surface(g, t.grid(), s);
+    });
   }
   std::printf("largest surface change per 5 m camera step: %.3f m morphing, %.3f m without\n", max_step[1],
               max_step[0]);
@@ -186,6 +178,59 @@ TEST(QuadtreeLod, OnlyBlocksWhoseSubdivisionChangedAreRebuilt) {
         for (uint32_t v : tri) ASSERT_LT(v, vertices.size());
     }
   EXPECT_EQ(total, triangle_count(g, s));
+}
+
+// Leitao & Carmo's tiled blocks, quadtree-based, crack correction by skirts: each block's
+// quadtree restricted and drawn on its own, so the sides of neighbouring blocks differ, and each
+// block's skirt reaches below the largest gap along its border; the budget still holds inside
+// the blocks, and index updates (restriction across blocks) leave no gap at all.
+TEST(TiledBlocks, QuadtreeBlocksOnTheirOwnCrackOnlyAsDeepAsTheirSkirtsReach) {
+  const Terrain t = rough(300, 257, 23);
+  for (int32_t block : {16, 32, 64}) {
+    for (bool independent : {true, false}) {
+      QuadtreeGrid g = grid_for(t, block);
+      g.independent_blocks = independent;
+      const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
+      int64_t cracked = 0;
+      for (const LodView& v :
+           {view_at(100, 100, 300, 8.0), view_at(500, 400, 900, 8.0), view_at(300, -50, 500, 2.0)}) {
+        QuadtreeState s(g);
+        select_quadtree(g, e, kScale, v, s);
+        const std::vector<float> depth = quadtree_skirt_depths(g, e, s);
+        double widest = 0;
+        auto check = [&](int32_t bx, int32_t by, int32_t side, int32_t qx, int32_t qy, int32_t qside) {
+          const auto a = block_side_profile(g, t.grid(), s, bx, by, side);
+          const auto b = block_side_profile(g, t.grid(), s, qx, qy, qside);
+          double gap = 0;
+          for (size_t k = 0; k < a.size(); ++k) gap = std::max(gap, double(std::abs(a[k] - b[k])));
+          cracked += gap > 1e-3;
+          widest = std::max(widest, gap);
+          const float reach =
+              std::min(depth[size_t(by * g.blocks_x + bx)], depth[size_t(qy * g.blocks_x + qx)]);
+          if (independent) {
+            EXPECT_LE(gap, reach) << "block " << block << " at " << bx << "," << by;
+          } else {
+            EXPECT_LT(gap, 1e-3) << "block " << block << " at " << bx << "," << by;
+          }
+        };
+        for (int32_t by = 0; by < g.blocks_y; ++by) {
+          for (int32_t bx = 0; bx < g.blocks_x; ++bx) {
+            if (bx + 1 < g.blocks_x) check(bx, by, kSideRight, bx + 1, by, kSideLeft);
+            if (by + 1 < g.blocks_y) check(bx, by, kSideBottom, bx, by + 1, kSideTop);
+          }
+        }
+        if (independent) {
+          const double px = worst_screen_error(displayed_surface(g, t.grid(), s), g.covered().width(), t, v);
+          std::printf("block %d, %.0f px: widest gap %.0f units, worst %.2f px, %lld triangles\n", block,
+                      v.tolerance_px, widest, px, static_cast<long long>(triangle_count(g, s)));
+          EXPECT_LE(px, v.tolerance_px);
+        }
+      }
+      if (independent) {
+        EXPECT_GT(cracked, 0) << "block " << block << ": blocks on their own do crack";
+      }
+    }
+  }
 }
 
 }  // namespace

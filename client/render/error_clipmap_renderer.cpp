@@ -1,0 +1,339 @@
+#include "client/render/error_clipmap_renderer.h"
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <cmath>
+
+#include "client/render/clipmap_mesh.h"
+#include "client/render/frustum.h"
+#include "client/render/toroidal_upload.h"
+
+namespace loam::render {
+
+Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(const HeightSource& source,
+                                                                           const ErrorClipmapConfig& config) {
+  const WorldParams& p = source.params();
+  std::unique_ptr<ErrorClipmapRenderer> r(new ErrorClipmapRenderer());
+  r->source_ = &source;
+  r->config_ = config;
+  r->world_ = p.sample_rect();
+  r->scale_ = {p.meters_per_sample, p.meters_per_unit, p.height_offset};
+  const int32_t cells = config.block_size - 1;
+  // Regions nest with room for the restriction's splits: a level's region reaches 8 cells of
+  // its level past the finer region on every side.
+  if (config.region < 16 * std::max(cells, 1) || config.region > 8192) {
+    return make_error(ErrorCode::kInvalidArgument, "error_clipmap.region",
+                      "must be 16 block cells to 8192 samples");
+  }
+  int32_t levels = config.levels;
+  if (levels <= 0) {
+    // Until one coarsest block spans the world (the budget then has a block for every distance)
+    // and the coarsest region covers it from anywhere within a world's width: the coarse levels
+    // cost a region each, and hold little of the world.
+    const int64_t extent = std::max(r->world_.width(), r->world_.height());
+    levels = 1;
+    while (levels < kMaxClipmapLevels && ((int64_t(cells) << (levels - 1)) < extent ||
+                                          (int64_t(config.region) << (levels - 1)) < 4 * extent))
+      ++levels;
+  }
+  auto grid = lod::ClipmapBlockGrid::make(r->world_.width(), r->world_.height(), config.block_size, levels);
+  if (!grid) return grid.error();
+  r->grid_ = *grid;
+  // No larger than level 0's blocks need: a world that fits is held whole at every level.
+  r->region_ = int32_t(std::min<int64_t>(
+      config.region, std::max<int64_t>(16 * cells, std::max(r->level_extent(0)[0], r->level_extent(0)[1]))));
+  r->patch_ = r->grid_.patch_grid();
+  r->errors_ = lod::ClipmapErrorPyramid::compute(
+      r->grid_, [&](int32_t l, const RectI& rect, std::span<uint16_t> out) { r->read_level(l, rect, out); },
+      config.exact_levels);
+  {
+    // Material range from the coarsest mip, as the clipmap renderer takes it.
+    const int32_t top = levels - 1;
+    uint16_t lo = 65535, hi = 0;
+    for (int64_t by = 0; by < r->grid_.blocks_y(top); ++by)
+      for (int64_t bx = 0; bx < r->grid_.blocks_x(top); ++bx)
+        lo = std::min(lo, r->errors_.min_height(top, bx, by)),
+        hi = std::max(hi, r->errors_.max_height(top, bx, by));
+    r->min_height_m_ = double(lo) * p.meters_per_unit;
+    r->max_height_m_ = double(hi) * p.meters_per_unit;
+  }
+  r->level_.resize(size_t(levels));
+  r->regions_.resize(size_t(levels));
+
+  r->levels_texture_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
+  glTextureStorage3D(r->levels_texture_.get(), 1, GL_R16UI, r->region_, r->region_, levels);
+  glTextureParameteri(r->levels_texture_.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTextureParameteri(r->levels_texture_.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+
+  const std::string_view vertex[] = {"geomipmap_blocks.glsl", "patch_morph.glsl", "error_clipmap.vert.glsl"};
+  auto program = build_patch_program(vertex);
+  if (!program) return program.error();
+  r->program_ = std::move(*program);
+  r->frame_block_.emplace(1);
+  r->vao_ = make_patch_vertex_array();
+  r->indices_.emplace(r->vao_.get());
+  r->instances_.emplace(r->vao_.get());
+  return r;
+}
+
+void ErrorClipmapRenderer::read_level(int32_t l, const RectI& rect, std::span<uint16_t> out) const {
+  if (rect.empty()) return;
+  const int64_t s = int64_t(1) << l, w = rect.width();
+  const int64_t W = world_.width(), H = world_.height();
+  // Level samples at mip-0 positions up to the world's last sample come from the mip (or from
+  // mip 0 at a stride where the world's origin is not on the mip's grid).
+  const RectI inside = rect.intersect({INT64_MIN / 4, INT64_MIN / 4, (W - 1) / s + 1, (H - 1) / s + 1});
+  if (!inside.empty()) {
+    std::vector<uint16_t> part(size_t(inside.area()));
+    if (floor_mod(world_.x0, s) == 0 && floor_mod(world_.y0, s) == 0) {
+      source_->read(l,
+                    {inside.x0 + world_.x0 / s, inside.y0 + world_.y0 / s, inside.x1 + world_.x0 / s,
+                     inside.y1 + world_.y0 / s},
+                    part);
+    } else {
+      std::vector<uint16_t> one(1);
+      size_t i = 0;
+      for (int64_t y = inside.y0; y < inside.y1; ++y) {
+        for (int64_t x = inside.x0; x < inside.x1; ++x) {
+          const int64_t gx = world_.x0 + std::clamp<int64_t>(x * s, 0, W - 1);
+          const int64_t gy = world_.y0 + std::clamp<int64_t>(y * s, 0, H - 1);
+          source_->read(0, {gx, gy, gx + 1, gy + 1}, one);
+          part[i++] = one[0];
+        }
+      }
+    }
+    for (int64_t y = inside.y0; y < inside.y1; ++y)
+      std::copy_n(part.begin() + (y - inside.y0) * inside.width(), inside.width(),
+                  out.begin() + (y - rect.y0) * w + (inside.x0 - rect.x0));
+  }
+  if (inside == rect) return;
+  // Beyond the far edges: mip 0's edge samples, one read per row or column of the rect.
+  std::vector<uint16_t> one(1);
+  auto edge = [&](int64_t x, int64_t y) {
+    const int64_t gx = world_.x0 + std::clamp<int64_t>(x * s, 0, W - 1);
+    const int64_t gy = world_.y0 + std::clamp<int64_t>(y * s, 0, H - 1);
+    source_->read(0, {gx, gy, gx + 1, gy + 1}, one);
+    return one[0];
+  };
+  // Columns beyond, in rows that are not: the row's edge sample.
+  for (int64_t y = rect.y0; y < rect.y1 && y * s <= H - 1; ++y) {
+    const int64_t first = std::max(rect.x0, (W - 1) / s + 1);
+    if (first >= rect.x1) break;
+    std::fill_n(out.begin() + (y - rect.y0) * w + (first - rect.x0), rect.x1 - first, edge(first, y));
+  }
+  // Rows beyond: every such row equals the first row beyond, computed once.
+  const int64_t first_beyond = std::max(rect.y0, (H - 1) / s + 1);
+  if (first_beyond < rect.y1) {
+    std::vector<uint16_t> row(static_cast<size_t>(w));
+    for (int64_t x = rect.x0; x < rect.x1; ++x) row[size_t(x - rect.x0)] = edge(x, first_beyond);
+    for (int64_t y = first_beyond; y < rect.y1; ++y)
+      std::copy(row.begin(), row.end(), out.begin() + (y - rect.y0) * w);
+  }
+}
+
+RectI ErrorClipmapRenderer::region(int32_t l) const { return regions_[size_t(l)]; }
+
+std::array<int64_t, 2> ErrorClipmapRenderer::level_extent(int32_t l) const {
+  return {int64_t(grid_.blocks_x(l)) * grid_.cells() + 1, int64_t(grid_.blocks_y(l)) * grid_.cells() + 1};
+}
+
+int64_t ErrorClipmapRenderer::upload(int32_t l, const RectI& rect) {
+  const int64_t n = region_;
+  scratch_.resize(size_t(rect.area()));
+  read_level(l, rect, scratch_);
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(rect.width()));
+  const int64_t texels = for_each_torus_piece(rect, n, [&](const RectI& piece, int64_t tx, int64_t ty) {
+    const uint16_t* data = scratch_.data() + (piece.y0 - rect.y0) * rect.width() + (piece.x0 - rect.x0);
+    glTextureSubImage3D(levels_texture_.get(), 0, GLint(tx), GLint(ty), l, GLsizei(piece.width()),
+                        GLsizei(piece.height()), 1, GL_RED_INTEGER, GL_UNSIGNED_SHORT, data);
+  });
+  glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
+  return texels;
+}
+
+lod::LodView ErrorClipmapRenderer::lod_view(const Camera& camera, int32_t viewport_height) const {
+  const double mps = scale_.meters_per_sample;
+  lod::LodView view;
+  view.x = camera.x - double(world_.x0) * mps;
+  view.y = camera.y - double(world_.y0) * mps;
+  view.z = camera.z;
+  view.pixels_per_radian = lod::pixels_per_radian(viewport_height, camera.fov_y_degrees);
+  view.tolerance_px = config_.tolerance_px;
+  return view;
+}
+
+ErrorClipmapFrameStats ErrorClipmapRenderer::render(const Camera& camera, int32_t width, int32_t height) {
+  ErrorClipmapFrameStats s = select(camera, height, width);
+  const ErrorClipmapFrameStats d = draw(camera, width, height);
+  s.triangles = d.triangles, s.draw_calls = d.draw_calls, s.blocks = d.blocks,
+  s.blocks_culled = d.blocks_culled;
+  s.cpu_ms += d.cpu_ms;
+  return s;
+}
+
+ErrorClipmapFrameStats ErrorClipmapRenderer::select(const Camera& lod_camera, int32_t viewport_height,
+                                                    int32_t viewport_width) {
+  ErrorClipmapFrameStats stats;
+  const auto t0 = std::chrono::steady_clock::now();
+  const lod::LodView view = lod_view(lod_camera, viewport_height);
+  const double mps = scale_.meters_per_sample;
+  const int64_t n = region_;
+  for (int32_t l = 0; l < grid_.levels; ++l) {
+    const double s = double(int64_t(1) << l) * mps;
+    // Centred on the camera, but inside what the level's blocks need: nothing is held outside
+    // the world, and a level whose blocks fit is held whole.
+    const std::array<int64_t, 2> e = level_extent(l);
+    auto place = [&](double eye, int64_t extent) {
+      return std::clamp<int64_t>(int64_t(std::floor(eye / s)) - n / 2, 0, std::max<int64_t>(0, extent - n));
+    };
+    const int64_t rx = place(view.x, e[0]), ry = place(view.y, e[1]);
+    Level& level = level_[size_t(l)];
+    std::optional<std::array<int64_t, 2>> old;
+    if (level.valid) old = std::array<int64_t, 2>{level.region_x, level.region_y};
+    for (const RectI& strip : toroidal_strips(old, {rx, ry}, n)) stats.texels_uploaded += upload(l, strip);
+    level.valid = true;
+    level.region_x = rx, level.region_y = ry;
+    regions_[size_t(l)] = {rx, ry, rx + n, ry + n};
+  }
+  // Blocks outside the view are drawn by nobody: they are not split (the draw culls them).
+  const int32_t width = viewport_width > 0 ? viewport_width : 2 * viewport_height;
+  const Frustum frustum = frustum_of(view_projection(lod_camera, width, viewport_height));
+  const int64_t c = grid_.cells();
+  auto visible = [&](int32_t l, int64_t bx, int64_t by) {
+    const double e = double(c << l) * mps;
+    const double rel_x = double(world_.x0 + bx * (c << l)) * mps - lod_camera.x;
+    const double rel_y = -(double(world_.y0 + by * (c << l)) * mps - lod_camera.y);
+    const glm::vec3 lo(float(rel_x), float(rel_y - e),
+                       float(scale_.meters(errors_.min_height(l, bx, by)) - lod_camera.z));
+    const glm::vec3 hi(float(rel_x + e), float(rel_y),
+                       float(scale_.meters(errors_.max_height(l, bx, by)) - lod_camera.z));
+    return !box_outside(frustum, lo, hi);
+  };
+  selection_ = lod::select_error_clipmap(grid_, errors_, scale_, view, regions_, config_.morph,
+                                         config_.cull ? lod::BlockFilter(visible) : lod::BlockFilter());
+  stats.select = selection_.stats;
+  stats.cpu_ms = ms_since(t0);
+  return stats;
+}
+
+ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const Camera& camera, int32_t width, int32_t height) {
+  ErrorClipmapFrameStats stats;
+  const auto t0 = std::chrono::steady_clock::now();
+  const double mps = scale_.meters_per_sample;
+  const glm::mat4 vp = view_projection(camera, width, height);
+  const Frustum frustum = frustum_of(vp);
+  const int64_t c = grid_.cells();
+  // Instances grouped by side pattern (a bit per side toward a coarser neighbour): one
+  // instanced draw per pattern.
+  std::array<std::vector<PatchInstance>, 16> by_pattern;
+  for (auto& list : by_pattern) list.clear();
+  for (const lod::ClipmapBlock& b : selection_.blocks) {
+    const int32_t l = b.id.level;
+    const int64_t s = int64_t(1) << l;
+    const int64_t x0 = int64_t(b.id.bx) * c * s, y0 = int64_t(b.id.by) * c * s;  // mip-0, world-relative
+    if (x0 >= world_.width() - 1 || y0 >= world_.height() - 1) continue;         // wholly past the far edge
+    const double rel_x = double(world_.x0 + x0) * mps - camera.x;
+    const double rel_y = -(double(world_.y0 + y0) * mps - camera.y);
+    const double spacing = double(s) * mps;
+    if (config_.cull) {
+      const double e = double(c) * spacing;
+      const glm::vec3 lo(float(rel_x), float(rel_y - e),
+                         float(scale_.meters(errors_.min_height(l, b.id.bx, b.id.by)) - camera.z));
+      const glm::vec3 hi(float(rel_x + e), float(rel_y),
+                         float(scale_.meters(errors_.max_height(l, b.id.bx, b.id.by)) - camera.z));
+      if (box_outside(frustum, lo, hi)) {
+        ++stats.blocks_culled;
+        continue;
+      }
+    }
+    PatchInstance in{};
+    in.patch[0] = int32_t(int64_t(b.id.bx) * c), in.patch[1] = int32_t(int64_t(b.id.by) * c), in.patch[2] = l;
+    for (size_t k = 0; k < 4; ++k)
+      in.edge_level[k] = b.lod.edge_level[k], in.edge_morph[k] = b.lod.edge_morph[k];
+    in.misc[0] = b.lod.morph, in.misc[1] = float(rel_x), in.misc[2] = float(rel_y),
+    in.misc[3] = float(spacing);
+    const size_t pattern = size_t(b.lod.edge_level[0] | b.lod.edge_level[1] << 1 | b.lod.edge_level[2] << 2 |
+                                  b.lod.edge_level[3] << 3);
+    by_pattern[pattern].push_back(in);
+  }
+  std::vector<PatchInstance> instances;
+  instances.reserve(selection_.blocks.size());
+  struct Draw {
+    PatchIndexBuffer::Range range;
+    uint32_t first_instance = 0, count = 0;
+  };
+  std::vector<Draw> draws;
+  for (size_t p = 0; p < by_pattern.size(); ++p) {
+    const auto& list = by_pattern[p];
+    if (list.empty()) continue;
+    const std::array<int8_t, 4> pattern{int8_t(p & 1), int8_t(p >> 1 & 1), int8_t(p >> 2 & 1),
+                                        int8_t(p >> 3 & 1)};
+    const std::array<int8_t, 5> key{0, pattern[0], pattern[1], pattern[2], pattern[3]};
+    const auto range = indices_->get(key, [&] { return lod::patch_triangles(patch_, 0, pattern); });
+    draws.push_back({range, uint32_t(instances.size()), uint32_t(list.size())});
+    instances.insert(instances.end(), list.begin(), list.end());
+  }
+  instances_->upload(instances);
+  const GeomipmapFrameBlock f =
+      patch_frame(vp, {grid_.block_size, patch_.levels, int32_t(world_.width()), int32_t(world_.height())},
+                  mps, scale_.meters_per_unit, scale_.height_offset, camera, min_height_m_, max_height_m_);
+  frame_block_->write(0, f);
+  stats.cpu_ms = ms_since(t0);
+
+  frame_block_->bind(0);
+  glUseProgram(program_.get());
+  glBindVertexArray(vao_.get());
+  glBindTextureUnit(0, levels_texture_.get());
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glViewport(0, 0, width, height);
+  for (const Draw& d : draws) {
+    glDrawElementsInstancedBaseInstance(
+        GL_TRIANGLES, GLsizei(d.range.count), GL_UNSIGNED_SHORT,
+        reinterpret_cast<const void*>(uintptr_t(d.range.first) * sizeof(uint16_t)), GLsizei(d.count),
+        d.first_instance);
+    stats.triangles += int64_t(d.range.count / 3) * d.count;
+    stats.blocks += int32_t(d.count);
+  }
+  stats.draw_calls = int32_t(draws.size());
+  glBindVertexArray(0);
+  glUseProgram(0);
+  return stats;
+}
+
+ErrorClipmapUpdate ErrorClipmapRenderer::invalidate(const RectI& mip0_rect) {
+  ErrorClipmapUpdate u;
+  const RectI r = mip0_rect.intersect(world_);
+  if (r.empty()) return u;
+  const auto t0 = std::chrono::steady_clock::now();
+  const RectI local{r.x0 - world_.x0, r.y0 - world_.y0, r.x1 - world_.x0, r.y1 - world_.y0};
+  for (int32_t l = 0; l < grid_.levels; ++l) {
+    const Level& level = level_[size_t(l)];
+    if (!level.valid) continue;
+    const int64_t s = int64_t(1) << l;
+    // Level samples whose mip-0 position lies in the rect, and those past the far edges that
+    // repeat an edge sample in it.
+    RectI in_level{ceil_div(local.x0, s), ceil_div(local.y0, s), ceil_div(local.x1, s),
+                   ceil_div(local.y1, s)};
+    if (local.x1 == world_.width()) in_level.x1 = INT64_MAX / 4;
+    if (local.y1 == world_.height()) in_level.y1 = INT64_MAX / 4;
+    const RectI dirty = in_level.intersect(regions_[size_t(l)]);
+    if (!dirty.empty()) u.texels += upload(l, dirty);
+  }
+  u.blocks = int32_t(
+      errors_
+          .update(
+              grid_, [&](int32_t l, const RectI& rect, std::span<uint16_t> out) { read_level(l, rect, out); },
+              local)
+          .size());
+  u.cpu_ms = ms_since(t0);
+  return u;
+}
+
+size_t ErrorClipmapRenderer::gpu_bytes() const {
+  return size_t(region_) * size_t(region_) * size_t(grid_.levels) * sizeof(uint16_t) + indices_->bytes() +
+         instances_->bytes();
+}
+
+}  // namespace loam::render

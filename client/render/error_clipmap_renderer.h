@@ -1,0 +1,130 @@
+// The error-driven clipmap renderer: the clipmap's level regions (mip l around the camera in a
+// torus of P x P samples, one layer of an R16UI array texture per level, brought to the camera
+// by toroidal strips as the clipmap renderer does; P is the configured region or less when the
+// world's blocks need less, and a region stays inside the world) drawn as the blocks client/lod/
+// error_clipmap.h selects for a screen-space error budget, instead of rings at fixed
+// distances. GPU memory is set by P and the level count, never by the world's size; the CPU
+// keeps the blocks' error pyramid (a few bytes per 16 x 16 samples) and no heights.
+//
+// Each frame: the regions move with the camera (uploads), the blocks are chosen on the CPU,
+// culled against the frustum (render/frustum.h), sorted by side pattern and drawn instanced,
+// one draw per pattern (at most 16 with restricted sides). A stamp re-reads its rect into
+// every level region holding it and recomputes the error bounds of exactly the blocks it
+// touches (invalidate()).
+//
+// Level samples come from the source's mips, except beyond the world's far edges, where they
+// repeat mip 0's edge samples (as the error pyramid assumes) rather than the mip's own.
+//
+// World frame as the clipmap renderer's: x east (+gx), y along +gy, z up, meters, positions
+// relative to the camera. Needs the GL 4.5 context current; not thread-safe.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "client/lod/error_clipmap.h"
+#include "client/render/camera.h"
+#include "client/render/clipmap_renderer.h"
+#include "client/render/geomipmap_renderer.h"
+#include "client/render/patch_draw.h"
+#include "gpu/gl_handle.h"
+#include "gpu/uniform_block.h"
+
+namespace loam::render {
+
+struct ErrorClipmapConfig {
+  int32_t block_size = 9;     // vertices per block side, 2^k + 1 (9: the fewest triangles per budget)
+  int32_t region = 1024;      // at most this many level samples a level holds per side (>= 16 cells)
+  int32_t levels = 0;         // 0: until a coarsest block spans the world and its region covers it
+  double tolerance_px = 1.0;  // screen-space error budget
+  int32_t exact_levels = 3;   // error bounds exact up to this level (error_clipmap.h)
+  bool morph = true;
+  bool cull = true;
+};
+
+struct ErrorClipmapFrameStats {
+  int64_t triangles = 0;
+  int32_t draw_calls = 0;
+  int32_t blocks = 0, blocks_culled = 0;
+  int64_t texels_uploaded = 0;  // by this frame's region moves
+  double cpu_ms = 0;            // region moves and uploads, selection, culling, instance upload
+  lod::ErrorClipmapSelectStats select;
+};
+
+struct ErrorClipmapUpdate {
+  int32_t blocks = 0;  // error bounds recomputed
+  int64_t texels = 0;  // level samples re-read and uploaded
+  double cpu_ms = 0;
+};
+
+class ErrorClipmapRenderer {
+ public:
+  // `source` must outlive the renderer. Errors: a block size or region the scheme does not
+  // take, a shader that does not build or whose block does not match.
+  static Result<std::unique_ptr<ErrorClipmapRenderer>> create(const HeightSource& source,
+                                                              const ErrorClipmapConfig& config);
+
+  // select() then draw().
+  ErrorClipmapFrameStats render(const Camera& camera, int32_t width, int32_t height);
+  // Moves the level regions to `lod_camera` (uploading what entered them) and chooses the
+  // blocks for a viewport `viewport_height` pixels high; with culling, blocks outside its
+  // frustum (`viewport_width` wide, 0: twice the height) are not split.
+  ErrorClipmapFrameStats select(const Camera& lod_camera, int32_t viewport_height,
+                                int32_t viewport_width = 0);
+  // Draws the blocks last selected into the bound framebuffer's viewport (depth test on;
+  // clears nothing).
+  ErrorClipmapFrameStats draw(const Camera& camera, int32_t width, int32_t height);
+  // Samples of `mip0_rect` (the world's global grid) changed in the source.
+  ErrorClipmapUpdate invalidate(const RectI& mip0_rect);
+
+  const lod::ClipmapBlockGrid& grid() const { return grid_; }
+  const lod::ClipmapErrorPyramid& errors() const { return errors_; }
+  const lod::ErrorClipmapSelection& selection() const { return selection_; }
+  // Level l's region of level samples (world-relative: sample i is mip-0 sample i 2^l of the world).
+  RectI region(int32_t l) const;
+  // Level l's sample (x, y) as the textures and the pyramid read it (world-relative level grid).
+  void read_level(int32_t l, const RectI& rect, std::span<uint16_t> out) const;
+  int32_t levels() const { return grid_.levels; }
+  // Level samples held per side (the torus).
+  int32_t region_size() const { return region_; }
+  // Level textures, index and instance buffers.
+  size_t gpu_bytes() const;
+  // The error pyramid.
+  size_t cpu_bytes() const { return errors_.bytes(); }
+
+ private:
+  struct Level {
+    bool valid = false;
+    int64_t region_x = 0, region_y = 0;  // low corner of the region (level samples)
+  };
+  ErrorClipmapRenderer() = default;
+  int64_t upload(int32_t l, const RectI& rect);
+  lod::LodView lod_view(const Camera& camera, int32_t viewport_height) const;
+  // Level samples level l's blocks reach, per axis: [0, extent).
+  std::array<int64_t, 2> level_extent(int32_t l) const;
+
+  const HeightSource* source_ = nullptr;
+  ErrorClipmapConfig config_;
+  RectI world_;  // the source's mip-0 samples (global grid)
+  lod::HeightScale scale_;
+  lod::ClipmapBlockGrid grid_;
+  lod::GeomipmapGrid patch_;
+  lod::ClipmapErrorPyramid errors_;
+  lod::ErrorClipmapSelection selection_;
+  std::vector<Level> level_;
+  std::vector<RectI> regions_;
+  int32_t region_ = 0;  // the torus: level samples held per side
+  double min_height_m_ = 0, max_height_m_ = 0;
+  std::vector<uint16_t> scratch_;
+
+  gpu::GlTexture levels_texture_;  // R16UI, region x region x levels
+  gpu::GlProgram program_;
+  gpu::GlVertexArray vao_;
+  std::optional<PatchIndexBuffer> indices_;
+  std::optional<PatchInstanceBuffer> instances_;
+  std::optional<gpu::UniformBuffer<GeomipmapFrameBlock>> frame_block_;
+};
+
+}  // namespace loam::render
