@@ -5,8 +5,10 @@ library only), imported by a child process, and its exit code, error line and pe
 
   hostile_files.py --server PATH --out DIR [--table bench/results/hostile-files] [--check]
 
-Every case must exit with 1 and a `loam-server: error:` line (not a crash, not 0) and stay
-under 256 MB peak RSS; the script exits 1 when one does not. With --table it writes the
+Every case must exit with 1 and a `loam-server: error:` line (not a crash, not 0) and its
+import may allocate at most 64 MB over the floor (the peak RSS of `loam-server --version`, the
+program's own start-up: ~130 MB in a release build, ~240 MB under ASan, whose shadow memory
+and allocator would eat an absolute limit); the script exits 1 when one does not. With --table it writes the
 Markdown table TABLE.md and TABLE.csv. scripts/hostile-files.sh runs it on a release build.
 """
 import argparse
@@ -23,7 +25,8 @@ import sys
 import time
 import zlib
 
-RSS_LIMIT_KB = 256 * 1024
+# A 16000x16000 float raster would be 1 GB; a refused import may hold a strip or two.
+OVER_FLOOR_LIMIT_KB = 64 * 1024
 
 
 # --- PNG -------------------------------------------------------------------------------------
@@ -225,7 +228,7 @@ def main():
         message = error_line(err)
         # Paths in messages are the generated folder's: show the file name only.
         message = message.replace(path, name).replace(args.out + "/", "")
-        ok = rc == 1 and "loam-server: error: " in err and "Sanitizer" not in err and rss_kb < RSS_LIMIT_KB
+        ok = rc == 1 and "loam-server: error: " in err and "Sanitizer" not in err and rss_kb - floor_kb < OVER_FLOOR_LIMIT_KB
         if not ok:
             failures.append(name)
         rows.append((name, what, len(data), message, rc, rss_kb, secs, ok))
@@ -242,8 +245,9 @@ def main():
             f.write("# Hostile files against `loam-server import`\n\n")
             f.write("Made by `scripts/hostile-files.sh` (`scripts/hostile_files.py`): every file is generated, "
                     "then imported by `loam-server import FILE` in a child process; peak RSS is the child's "
-                    "`ru_maxrss` (getrusage through wait4). Every case must exit 1 with an error and stay "
-                    "under 256 MB. The ctest `dem.hostile_files_are_refused_under_256mb` runs the same cases.\n\n")
+                    "`ru_maxrss` (getrusage through wait4). Every case must exit 1 with an error and allocate "
+                    "at most 64 MB over the floor. The ctest `dem.hostile_files_are_refused_within_64mb_over_the_floor` "
+                    "runs the same cases.\n\n")
             f.write("The floor is the program itself: `loam-server --version` peaks at %.1f MB in this run, "
                     "nearly all of it the start-up of the shared libraries it links (OpenImageIO's alone "
                     "is ~130 MB here; GDAL's ~35 MB). What each case adds over the floor is what its "
@@ -258,7 +262,7 @@ def main():
     if failures:
         print("hostile_files: FAIL: %s" % ", ".join(failures), file=sys.stderr)
         return 1
-    print("hostile_files: ok (%d cases, all refused, peak RSS under 256 MB)" % len(rows))
+    print("hostile_files: ok (%d cases, all refused, each within 64 MB over the floor)" % len(rows))
     return 0
 
 

@@ -405,9 +405,9 @@ double pop_px(Scheme& s, const World& world, const render::OffscreenTarget& top,
   for (int32_t y = 0; y < top.height(); ++y) {
     for (int32_t x = 0; x < top.width(); ++x) {
       const size_t i = size_t(y) * size_t(top.width()) + size_t(x);
-      if (depth[0][i] >= 1.0f || depth[1][i] >= 1.0f) continue;
-      const double za = o.z - (o.near_m + double(depth[0][i]) * (o.far_m - o.near_m));
-      const double zb = o.z - (o.near_m + double(depth[1][i]) * (o.far_m - o.near_m));
+      if (depth[0][i] <= render::kBackgroundDepth || depth[1][i] <= render::kBackgroundDepth) continue;
+      const double za = o.z - render::view_distance(o, depth[0][i]);
+      const double zb = o.z - render::view_distance(o, depth[1][i]);
       if (za == zb) continue;
       const double wx = o.x - half_w + (double(x) + 0.5) * 2.0 * half_w / double(top.width());
       const double wy =

@@ -35,24 +35,32 @@ glm::mat4 view_projection(const Camera& camera, int32_t width, int32_t height) {
   glm::mat4 proj;
   if (camera.ortho_half_height > 0) {
     const float hh = float(camera.ortho_half_height);
-    proj = glm::ortho(-hh * aspect, hh * aspect, -hh, hh, float(camera.near_m), float(camera.far_m));
+    // Near and far swapped: the far plane maps to depth 0, the near plane to 1 (reversed).
+    proj = glm::orthoRH_ZO(-hh * aspect, hh * aspect, -hh, hh, float(camera.far_m), float(camera.near_m));
   } else {
-    proj = glm::perspective(glm::radians(float(camera.fov_y_degrees)), aspect, float(camera.near_m),
-                            float(camera.far_m));
+    proj = glm::perspectiveRH_ZO(glm::radians(float(camera.fov_y_degrees)), aspect, float(camera.far_m),
+                                 float(camera.near_m));
   }
   return proj * view;
 }
 
 std::optional<std::array<double, 3>> unproject(const Camera& camera, int32_t width, int32_t height, double px,
                                                double py, float depth) {
-  if (depth >= 1.0f || width < 1 || height < 1) return std::nullopt;  // background
+  if (!(depth > kBackgroundDepth) || width < 1 || height < 1) return std::nullopt;  // background
   const glm::mat4 inv = glm::inverse(view_projection(camera, width, height));
-  const glm::vec4 ndc(float(2.0 * (px + 0.5) / width - 1.0), float(1.0 - 2.0 * (py + 0.5) / height),
-                      2.0f * depth - 1.0f, 1.0f);
+  const glm::vec4 ndc(float(2.0 * (px + 0.5) / width - 1.0), float(1.0 - 2.0 * (py + 0.5) / height), depth,
+                      1.0f);
   const glm::vec4 rel = inv * ndc;
   if (rel.w == 0.0f) return std::nullopt;
   return std::array<double, 3>{camera.x + double(rel.x / rel.w), camera.y - double(rel.y / rel.w),
                                camera.z + double(rel.z / rel.w)};
+}
+
+double view_distance(const Camera& camera, float depth) {
+  const double n = camera.near_m, f = camera.far_m, d = std::clamp(double(depth), 0.0, 1.0);
+  if (camera.ortho_half_height > 0) return f - d * (f - n);
+  // depth = n (f - D) / (D (f - n)), solved for D.
+  return n * f / (d * (f - n) + n);
 }
 
 }  // namespace loam::render

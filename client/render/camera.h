@@ -32,12 +32,23 @@ Camera look_at(double x, double y, double z, double tx, double ty, double tz);
 // up or down (parallel to the up vector, which leaves the sideways axis undefined).
 std::optional<std::string> look_at_problem(double x, double y, double z, double tx, double ty, double tz);
 
+// Depth is reversed: clip z runs 0..w (glClipControl's GL_ZERO_TO_ONE), window depth is 1 at
+// the near plane and 0 at the far plane and for the background (cleared to 0, tested with
+// GL_GREATER; client/render/reversed_depth.h). With a float depth buffer that resolves every
+// distance to about 2^-24 of itself; the conventional mapping resolves distance d only to
+// 2^-24 * d^2 / near, 12 m at 10 km behind a 0.5 m near plane, which is the whole error of a
+// depth read at a far silhouette.
+inline constexpr float kBackgroundDepth = 0.0f;
+
 // The camera's view-projection in the render frame (camera at the origin, x east, y north =
 // world -y, z up), as render() draws with.
 glm::mat4 view_projection(const Camera& camera, int32_t width, int32_t height);
 // The world point under pixel (px, py) (row 0 at the top) whose window depth is `depth`
-// (0..1, as the depth buffer holds it); nullopt for the background (depth 1).
+// (0..1, as the depth buffer holds it); nullopt for the background (depth 0).
 std::optional<std::array<double, 3>> unproject(const Camera& camera, int32_t width, int32_t height, double px,
                                                double py, float depth);
+// The distance along the view axis (m) of window depth `depth`, for the background the far
+// plane's.
+double view_distance(const Camera& camera, float depth);
 
 }  // namespace loam::render

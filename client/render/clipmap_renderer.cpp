@@ -12,6 +12,7 @@
 
 #include "client/render/clipmap_blocks.h"
 #include "client/render/frustum.h"
+#include "client/render/reversed_depth.h"
 #include "client/render/toroidal_upload.h"
 #include "gpu/shader_library.h"
 
@@ -420,8 +421,7 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
 
   glUseProgram(program_.get());
   glBindVertexArray(vao_.get());
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
+  const ReversedDepthTest depth_test;
   glViewport(0, 0, width, height);
   const float z_margin =
       float(kSkirtDepthM + (config_.detail_displacement ? 128.0 * p.detail_meters_per_unit : 0.0));

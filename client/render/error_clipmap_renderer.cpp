@@ -7,6 +7,7 @@
 
 #include "client/render/clipmap_mesh.h"
 #include "client/render/frustum.h"
+#include "client/render/reversed_depth.h"
 #include "client/render/toroidal_upload.h"
 
 namespace loam::render {
@@ -285,8 +286,7 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const Camera& camera, int32_t 
   glUseProgram(program_.get());
   glBindVertexArray(vao_.get());
   glBindTextureUnit(0, levels_texture_.get());
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
+  const ReversedDepthTest depth_test;
   glViewport(0, 0, width, height);
   for (const Draw& d : draws) {
     glDrawElementsInstancedBaseInstance(

@@ -6,10 +6,13 @@ Frustum frustum_of(const glm::mat4& view_proj) {
   // glm is column-major: row i of the matrix is column i of its transpose.
   const glm::mat4 t = glm::transpose(view_proj);
   Frustum f;
-  for (int i = 0; i < 3; ++i) {
+  for (int i = 0; i < 2; ++i) {
     f.planes[size_t(2 * i)] = t[3] + t[i];
     f.planes[size_t(2 * i + 1)] = t[3] - t[i];
   }
+  // Clip z runs 0..w (camera.h: reversed depth, z = w at the near plane, 0 at the far).
+  f.planes[4] = t[3] - t[2];
+  f.planes[5] = t[2];
   return f;
 }
 

@@ -7,6 +7,7 @@
 
 #include "client/render/frustum.h"
 #include "client/render/patch_draw.h"
+#include "client/render/reversed_depth.h"
 #include "gpu/shader_library.h"
 
 namespace loam::render {
@@ -133,8 +134,7 @@ GeomipmapFrameStats GeomipmapRenderer::draw(const Camera& camera, int32_t width,
   glUseProgram(program_.get());
   glBindVertexArray(vao_.get());
   glBindTextureUnit(0, texture_.get());
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
+  const ReversedDepthTest depth_test;
   glViewport(0, 0, width, height);
   for (size_t i = 0; i < draws.size(); ++i) {
     glDrawElementsInstancedBaseInstance(

@@ -9,6 +9,7 @@
 #include <optional>
 #include <sstream>
 
+#include "client/render/reversed_depth.h"
 #include "dem/default_terrain.h"
 #include "dem/dem_import.h"
 #include "gpu/egl_context.h"
@@ -43,8 +44,7 @@ void OffscreenTarget::begin(float r, float g, float b, float a) const {
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_.get());
   glViewport(0, 0, width_, height_);
   glClearColor(r, g, b, a);
-  glClearDepth(1.0);
-  glDepthMask(GL_TRUE);
+  clear_depth_reversed();
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 }
 

@@ -6,6 +6,7 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include "client/render/frustum.h"
+#include "client/render/reversed_depth.h"
 #include "gpu/shader_library.h"
 
 namespace loam::render {
@@ -152,8 +153,7 @@ QuadtreeFrameStats QuadtreeRenderer::draw(const Camera& camera, int32_t width, i
   frame_block_->bind(0);
   glUseProgram(program_.get());
   glBindVertexArray(vao_.get());
-  glEnable(GL_DEPTH_TEST);
-  glDepthFunc(GL_LESS);
+  const ReversedDepthTest depth_test;
   glViewport(0, 0, width, height);
   for (size_t k = 0; k < visible.size(); ++k) {
     const Block& blk = blocks_[visible[k]];

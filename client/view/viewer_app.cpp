@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "client/render/headless.h"
+#include "client/render/reversed_depth.h"
 #include "client/render/viewer_session.h"
 #include "client/view/fly_camera.h"
 #include "client/view/stamp_tool.h"
@@ -338,7 +339,7 @@ int run_window(const ViewerAppOptions& o) {
     glBindFramebuffer(GL_FRAMEBUFFER, 0);
     glViewport(0, 0, w, h);
     glClearColor(0.50f, 0.60f, 0.75f, 1.0f);
-    glDepthMask(GL_TRUE);
+    render::clear_depth_reversed();
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
     f = s.render(cam, w, h);
     // A click deforms the terrain under the cursor (window coordinates scale to the framebuffer).
@@ -348,7 +349,7 @@ int run_window(const ViewerAppOptions& o) {
       glfwGetWindowSize(win, &ww, &wh);
       const double px = mx * double(w) / double(std::max(ww, 1)),
                    py = my * double(h) / double(std::max(wh, 1));
-      float depth = 1.0f;
+      float depth = render::kBackgroundDepth;
       glReadPixels(int(px), h - 1 - int(py), 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
       if (auto p = render::unproject(cam, w, h, px, py, depth)) stamp_at(s, tool, *p);
     }

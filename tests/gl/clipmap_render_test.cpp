@@ -89,7 +89,7 @@ std::vector<double> surface_heights(ClipmapRenderer& r, const OffscreenTarget& t
   const auto depth = t.read_depth();
   std::vector<double> out(depth.size());
   for (size_t i = 0; i < depth.size(); ++i) {
-    out[i] = cam.z - (cam.near_m + double(depth[i]) * (cam.far_m - cam.near_m));
+    out[i] = cam.z - render::view_distance(cam, depth[i]);
   }
   return out;
 }

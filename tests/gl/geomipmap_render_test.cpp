@@ -70,7 +70,7 @@ std::vector<double> drawn_heights(Renderer& r, const OffscreenTarget& t, const C
   const auto depth = t.read_depth();
   std::vector<double> out(depth.size());
   for (size_t i = 0; i < depth.size(); ++i) {
-    out[i] = depth[i] >= 1.0f ? NAN : cam.z - (cam.near_m + double(depth[i]) * (cam.far_m - cam.near_m));
+    out[i] = depth[i] <= render::kBackgroundDepth ? NAN : cam.z - render::view_distance(cam, depth[i]);
   }
   return out;
 }

@@ -51,13 +51,47 @@ TEST(Picking, UnprojectFindsThePointThatProjectsToThePixel) {
         vp * glm::vec4(float(p[0] - cam.x), float(-(p[1] - cam.y)), float(p[2] - cam.z), 1.0f);
     const glm::vec3 ndc = glm::vec3(clip) / clip.w;
     const double px = (ndc.x + 1.0) * 0.5 * w - 0.5, py = (1.0 - ndc.y) * 0.5 * h - 0.5;
-    const auto back = render::unproject(cam, w, h, px, py, 0.5f * ndc.z + 0.5f);
+    const auto back = render::unproject(cam, w, h, px, py, ndc.z);  // clip z 0..w: window depth is ndc z
     ASSERT_TRUE(back.has_value());
     EXPECT_NEAR((*back)[0], p[0], 0.05);
     EXPECT_NEAR((*back)[1], p[1], 0.05);
     EXPECT_NEAR((*back)[2], p[2], 0.05);
   }
-  EXPECT_FALSE(render::unproject(cam, w, h, 10, 10, 1.0f).has_value()) << "depth 1 is the background";
+  EXPECT_FALSE(render::unproject(cam, w, h, 10, 10, render::kBackgroundDepth).has_value())
+      << "depth 0 is the background";
+}
+
+// Reversed depth: the near plane at 1, the far plane at 0, and view_distance inverts it for
+// both lenses.
+TEST(Picking, ViewDistanceInvertsTheReversedDepthOfBothLenses) {
+  for (const bool ortho : {false, true}) {
+    render::Camera cam = render::look_at(0, 0, 0, 1, 0, 0);
+    cam.near_m = 0.5, cam.far_m = 40000, cam.ortho_half_height = ortho ? 100.0 : 0.0;
+    const glm::mat4 vp = render::view_projection(cam, 800, 600);
+    for (const double d : {0.5, 3.0, 250.0, 9000.0, 40000.0}) {
+      const glm::vec4 clip = vp * glm::vec4(float(d), 0.0f, 0.0f, 1.0f);
+      const float depth = clip.z / clip.w;
+      EXPECT_NEAR(render::view_distance(cam, depth), d, 1e-5 * d + (ortho ? 0.01 : 0.0))
+          << (ortho ? "ortho " : "perspective ") << d;
+    }
+    EXPECT_NEAR(render::view_distance(cam, 1.0f), cam.near_m, 1e-9);
+    EXPECT_NEAR(render::view_distance(cam, 0.0f), cam.far_m, 1e-6);
+  }
+}
+
+// Behind a 0.5 m near plane, a float depth read at 10 km places the point within centimetres:
+// a depth read at a far silhouette lands on the terrain, not metres behind it.
+TEST(Picking, ReversedFloatDepthResolvesCentimetresTenKilometresAway) {
+  render::Camera cam = render::look_at(0, 0, 0, 1, 0, 0);
+  cam.near_m = 0.5, cam.far_m = 40000;
+  const glm::mat4 vp = render::view_projection(cam, 800, 600);
+  const glm::vec4 clip = vp * glm::vec4(10000.0f, 0.0f, 0.0f, 1.0f);
+  const float depth = clip.z / clip.w;
+  const float next = std::nextafter(depth, 1.0f);  // one float step nearer
+  EXPECT_LT(render::view_distance(cam, depth) - render::view_distance(cam, next), 0.01);
+  const auto back = render::unproject(cam, 800, 600, 399.5, 299.5, depth);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_NEAR((*back)[0], 10000.0, 0.05);
 }
 
 // `loam-client render --camera X --look X` used to draw from a NaN view matrix: a camera on
