@@ -126,6 +126,13 @@ int main(int argc, char** argv) {
       ->add_option("--fly", vo.fly_mps,
                    "Headless: fly a loop around the centre at this speed (m/s) instead of orbiting")
       ->check(cli::FiniteRange(0, 5000));
+  view_cmd->add_flag(
+      "--walk", vo.walk,
+      "Walk on the terrain (window: G toggles, Space jumps; headless: a walker at the centre)");
+  view_cmd
+      ->add_option("--dig-under", vo.dig_under_s,
+                   "Headless walk: dig a crater under the walker at this time (s)")
+      ->check(cli::FiniteRange(0, 1e7));
   view_cmd->add_option("--screenshot-every", vo.screenshot_every_s, "Headless: a PNG this often (s)")
       ->check(cli::FiniteRange(0, 1e7));
   view_cmd->add_option("--screenshot", vo.screenshot, "PNG file (numbered when several)")

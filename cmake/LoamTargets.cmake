@@ -1,5 +1,5 @@
-# Compile settings every Loam target shares: warnings are errors on our own code.
-function(loam_target_defaults target)
+# Warnings are errors on our own code.
+function(loam_warnings target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Werror -Wshadow -Wconversion
                                            -Wno-sign-conversion)
   if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
@@ -7,6 +7,11 @@ function(loam_target_defaults target)
     # ("lit" + std::string, GCC bug 105651): a false positive, not an error of ours.
     target_compile_options(${target} PRIVATE -Wno-restrict)
   endif()
+endfunction()
+
+# Compile settings every Loam target shares: the warnings, and includes from the project root.
+function(loam_target_defaults target)
+  loam_warnings(${target})
   target_include_directories(${target} PUBLIC ${PROJECT_SOURCE_DIR})
 endfunction()
 

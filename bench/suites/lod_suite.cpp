@@ -77,8 +77,8 @@ struct Path {
   std::vector<render::Camera> frames, previous;
 };
 
-// `above_ground` sets the near plane: a quarter of it (at least 0.5 m), so that the depth
-// buffer resolves the terrain as finely as the view allows (the error evaluator reads it).
+// `above_ground` sets the near plane: a quarter of it (at least 0.5 m). With reversed float
+// depth the near plane hardly matters to precision; the error evaluator reads that depth.
 render::Camera camera_at(double x, double y, double z, double heading, double pitch_deg, double far_m,
                          double above_ground) {
   const double p = pitch_deg * M_PI / 180.0;
@@ -644,8 +644,10 @@ int run_lod(const Context& ctx, Report& report) {
       "and uploads (quadtree), the level regions' moves and uploads, block selection, culling and the "
       "instance upload (error-driven clipmap); on llvmpipe the draw calls run the "
       "vertex stage on the calling thread, so the render call's time is mostly the GPU's work. The near "
-      "plane is a quarter of the eye's height above the ground (at least 0.5 m): the evaluator reads depth, "
-      "and the full mesh's own error is the floor it measures. The stamp update re-reads a 65 x 65-sample "
+      "plane is a quarter of the eye's height above the ground (at least 0.5 m), and depth is reversed "
+      "float depth (32-bit float, clip depth 0..1 with the far plane at 0), which resolves centimetres "
+      "10 km away: the evaluator reads it, and the full mesh's own error is the floor it measures. The stamp "
+      "update re-reads a 65 x 65-sample "
       "rect at the world's centre, timed after a frame that looks at it: clipmaps re-upload it to every "
       "level holding it with its normals, "
       "geomipmapping re-uploads it and recomputes the error bounds of the patches it touches, the "

@@ -190,7 +190,8 @@ bool DisplayTerrain::predict(uint32_t client_seq, const QuantizedStamp& q) {
 
 std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
   std::vector<DisplayDirty> dirty;
-  const std::vector<client::StoreChange> changes = client.store().take_changes();
+  last_changes_ = client.store().take_changes();
+  const std::vector<client::StoreChange>& changes = last_changes_;
   const auto now = std::chrono::steady_clock::now();
 
   // 1. Which own stamps are settled: rejected, or their event is in (and not waiting).

@@ -98,6 +98,9 @@ class DisplayTerrain final : public HeightSource {
   // after the reconnect shows whichever happened).
   void abandon_unacknowledged();
 
+  // The store's changes the last sync() took in, oldest first (events and regions): what a
+  // game's deformation hooks hear of.
+  const std::vector<client::StoreChange>& last_changes() const { return last_changes_; }
   size_t overlay_size() const { return pending_.size(); }
   const DisplayCounters& counters() const { return counters_; }
   DisplayMemory memory() const;
@@ -147,6 +150,7 @@ class DisplayTerrain final : public HeightSource {
   std::vector<DisplayDirty> cpu_done_;
   std::vector<DisplayDirty> gpu_done_;  // readbacks collected early (a full page cache)
   std::vector<Pending> pending_;
+  std::vector<client::StoreChange> last_changes_;
   DisplayCounters counters_;
   std::chrono::milliseconds retire_timeout_{5000};
 };

@@ -53,6 +53,8 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   if (!display) return display.error();
   v->display_ = std::move(*display);
   (void)v->display_->sync(v->client_);  // takes in the coarsest tiles
+  v->snapshots_ = std::make_unique<query::SnapshotBuilder>(world);
+  v->refresh_terrain({});
   auto renderer = ClipmapRenderer::create(*v->display_, options.renderer);
   if (!renderer) return renderer.error();
   v->renderer_ = std::move(*renderer);
@@ -83,14 +85,29 @@ Status ViewerSession::follow(const Camera& camera) {
 Status ViewerSession::update(const Camera& camera, std::chrono::milliseconds wait) {
   const Status pumped = client_.pump(wait);
   LOAM_TRY(follow(camera));
-  for (const DisplayDirty& d : display_->sync(client_)) {
+  const std::vector<DisplayDirty> dirty = display_->sync(client_);
+  for (const DisplayDirty& d : dirty) {
     if (d.layer == Layer::kCoarse) {
       renderer_->invalidate(d.rect);
     } else {
       renderer_->invalidate_detail(d.rect);
     }
   }
+  refresh_terrain(dirty);
   return pumped;
+}
+
+void ViewerSession::refresh_terrain(const std::vector<DisplayDirty>& dirty) {
+  std::vector<TileCoord> held;
+  for (const TileCoord& c : client_.store().held()) {
+    if (c.mip == 0) held.push_back(c);
+  }
+  if (terrain_ && dirty.empty() && held == terrain_held_) return;
+  std::vector<query::ChangedRect> changed;
+  for (const DisplayDirty& d : dirty) changed.push_back({d.layer, d.rect});
+  terrain_ =
+      snapshots_->build(display_->world(), held, changed, client_.last_event_seq(), display_->overlay_size());
+  terrain_held_ = std::move(held);
 }
 
 Status ViewerSession::reconnect(const std::string& host, uint16_t port) {

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "client/net/terrain_client.h"
+#include "client/query/snapshot_builder.h"
 #include "client/render/clipmap_interest.h"
 #include "client/render/clipmap_renderer.h"
 #include "client/render/display_terrain.h"
@@ -79,6 +80,9 @@ class ViewerSession {
   DisplayTerrain& display() { return *display_; }
   ClipmapRenderer& renderer() { return *renderer_; }
   const ClipmapInterest& interest() const { return *interest_; }
+  // The display as the game library's queries see it (heights, rays, sweeps: the walk mode),
+  // brought up to date by update().
+  const query::TerrainSnapshot& terrain() const { return *terrain_; }
   ViewerStats stats() const;
   // After render(): which levels lack tiles of their mip now, and for how long.
   LevelCoverage coverage();
@@ -86,11 +90,15 @@ class ViewerSession {
  private:
   ViewerSession() = default;
   Status follow(const Camera& camera);
+  void refresh_terrain(const std::vector<DisplayDirty>& dirty);
 
   client::TerrainClient client_;
   std::unique_ptr<DisplayTerrain> display_;
   std::unique_ptr<ClipmapRenderer> renderer_;
   std::unique_ptr<ClipmapInterest> interest_;
+  std::unique_ptr<query::SnapshotBuilder> snapshots_;
+  std::shared_ptr<const query::TerrainSnapshot> terrain_;
+  std::vector<TileCoord> terrain_held_;    // the mip-0 tiles terrain_ holds
   std::optional<wire::Focus> focus_sent_;  // the focus the server last heard
   std::vector<std::optional<std::chrono::steady_clock::time_point>> lacking_since_;  // per level
 };

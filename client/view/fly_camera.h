@@ -36,7 +36,9 @@ class FlyCamera {
   double pitch() const { return pitch_; }
   double speed() const { return speed_; }  // meters per second at normal pace
   void set_speed(double s);                // clamped to 0.5 .. 5000
-  double turn_rate = 0.003;                // radians per pixel
+  // Moves the eye, keeping the direction (walk mode puts it at the walker's eye).
+  void set_position(double x, double y, double z) { x_ = x, y_ = y, z_ = z; }
+  double turn_rate = 0.003;  // radians per pixel
 
  private:
   double x_ = 0, y_ = 0, z_ = 100, yaw_ = 0, pitch_ = -0.3, speed_ = 40.0;

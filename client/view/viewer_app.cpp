@@ -15,11 +15,13 @@
 #include <numbers>
 #include <thread>
 
+#include "client/query/terrain_query.h"
 #include "client/render/headless.h"
 #include "client/render/reversed_depth.h"
 #include "client/render/viewer_session.h"
 #include "client/view/fly_camera.h"
 #include "client/view/stamp_tool.h"
+#include "client/view/walker.h"
 #include "gpu/egl_context.h"
 #include "gpu/glfw_context.h"
 #include "protocol/stamps/stamp_validate.h"
@@ -156,8 +158,35 @@ int run_headless(const ViewerAppOptions& o) {
   double longest_wait = 0;
   // A flight loops once a minute at the asked speed (300 m/s: 2.9 km around the centre).
   const double flight_radius = o.fly_mps > 0 ? o.fly_mps * 60.0 / (2.0 * std::numbers::pi) : 0.0;
+  // Walk mode: a walker at the centre looks around (a turn every 20 s) and, when asked, a crater
+  // is dug under its feet: it falls to the floor and looks at the walls.
+  std::optional<Walker> walker;
+  bool dug = false;
+  auto t_prev = t0;
   for (double t = 0; t < seconds; t = seconds_since(t0)) {
-    if (o.fly_mps > 0) {
+    if (o.walk) {
+      const double dt = std::min(0.1, seconds_since(t_prev));
+      t_prev = Clock::now();
+      if (!walker && query::height_at(s.terrain(), cx, cy)) walker = place_walker(s.terrain(), cx, cy);
+      const double yaw = 2.0 * std::numbers::pi * t / 20.0;
+      if (walker) step_walker(*walker, s.terrain(), WalkerInput{0, 0, yaw, false, false}, dt);
+      const glm::dvec3 eye = walker ? walker_eye(*walker) : glm::dvec3{cx, cy, ground(cx, cy) + 1.65};
+      cam = render::look_at(eye.x, eye.y, eye.z, eye.x + std::cos(yaw) * 10.0, eye.y + std::sin(yaw) * 10.0,
+                            eye.z - 1.5);
+      cam.fov_y_degrees = 70;
+      cam.near_m = 0.1;
+      cam.far_m = 6000.0;
+      if (walker && !dug && o.dig_under_s > 0 && t >= o.dig_under_s) {
+        dug = true;
+        StampTool dig;
+        dig.tool = Tool::kCrater;
+        dig.radius_m = 12.0;
+        if (stamp_at(s, dig, {walker->feet.x, walker->feet.y, walker->feet.z})) {
+          std::printf("viewer: dug a crater under the walker at %.1f, %.1f (feet at %.2f m)\n",
+                      walker->feet.x, walker->feet.y, walker->feet.z);
+        }
+      }
+    } else if (o.fly_mps > 0) {
       cam = flight_camera(cx, cy, flight_radius, 120.0, o.fly_mps, t, ground);
       cam.far_m = 8000.0;
     } else {
@@ -206,6 +235,12 @@ int run_headless(const ViewerAppOptions& o) {
     std::fprintf(stderr, "loam-client view: %s\n", st.error().describe().c_str());
   }
   print_stats(seconds_since(t0), s, f, frame_ms);
+  if (walker) {
+    std::printf("viewer walker: feet at %.2f, %.2f, %.2f m, ground %.2f m, %s\n", walker->feet.x,
+                walker->feet.y, walker->feet.z,
+                query::height_at(s.terrain(), walker->feet.x, walker->feet.y).value_or(-1.0),
+                walker->grounded ? "standing" : "in the air");
+  }
   std::printf(
       "viewer coverage: %lld frames, %.2f%% with a level on a coarser mip, %.2f%% waiting over 0.5 s, "
       "longest wait %.2f s\n",
@@ -283,7 +318,9 @@ int run_window(const ViewerAppOptions& o) {
   fly.set_speed(std::max(10.0, 0.05 * start.z));
   StampTool tool;
   auto ground = [&](double x, double y) { return ground_at(s.display(), x, y); };
-  bool hud = true, was_left = false, was_f1 = false, was_f12 = false;
+  bool hud = true, was_left = false, was_f1 = false, was_f12 = false, was_g = false, was_space = false;
+  std::optional<Walker> walker;
+  bool walking = o.walk;
   int shots = 0;
   double last_x = 0, last_y = 0;
   glfwGetCursorPos(win, &last_x, &last_y);
@@ -301,6 +338,7 @@ int run_window(const ViewerAppOptions& o) {
     double mx = 0, my = 0;
     glfwGetCursorPos(win, &mx, &my);
     FlyInput in;
+    WalkerInput walk_in;
     bool shoot = false;
     if (!io.WantCaptureKeyboard) {
       auto key = [&](int k) { return glfwGetKey(win, k) == GLFW_PRESS ? 1.0 : 0.0; };
@@ -316,6 +354,13 @@ int run_window(const ViewerAppOptions& o) {
       was_f1 = f1;
       shoot = key(GLFW_KEY_F12) > 0 && !was_f12;
       was_f12 = key(GLFW_KEY_F12) > 0;
+      if (key(GLFW_KEY_G) > 0 && !was_g) {
+        walking = !walking;
+        walker.reset();
+      }
+      was_g = key(GLFW_KEY_G) > 0;
+      walk_in.jump = key(GLFW_KEY_SPACE) > 0 && !was_space;
+      was_space = key(GLFW_KEY_SPACE) > 0;
       if (key(GLFW_KEY_ESCAPE) > 0) glfwSetWindowShouldClose(win, GLFW_TRUE);
     }
     const bool over_hud = io.WantCaptureMouse;
@@ -326,11 +371,27 @@ int run_window(const ViewerAppOptions& o) {
     last_x = mx, last_y = my;
     if (!over_hud && state.scroll != 0) tool.grow(std::pow(1.15, state.scroll));
     state.scroll = 0;
-    fly.update(in, dt, ground);
+    if (walking) {
+      // Walk: the keys move the walker, the mouse turns the view; the eye rides on the walker.
+      walk_in.forward = in.forward;
+      walk_in.right = in.right;
+      walk_in.run = in.fast;
+      walk_in.yaw = fly.yaw();
+      if (!walker && query::height_at(s.terrain(), fly.x(), fly.y()))
+        walker = place_walker(s.terrain(), fly.x(), fly.y());
+      if (walker) {
+        step_walker(*walker, s.terrain(), walk_in, dt);
+        const glm::dvec3 eye = walker_eye(*walker);
+        fly.set_position(eye.x, eye.y, eye.z);
+      }
+      in.forward = in.right = in.up = 0;
+    }
+    fly.update(in, dt, ground, walking ? 0.0 : 2.0);
     int w = 0, h = 0;
     glfwGetFramebufferSize(win, &w, &h);
     if (w <= 0 || h <= 0) continue;  // minimised
-    const render::Camera cam = fly.camera(60.0, 4.0 * o.renderer.view_distance);
+    render::Camera cam = fly.camera(60.0, 4.0 * o.renderer.view_distance);
+    if (walking) cam.near_m = 0.1;
     if (const Status st = s.update(cam); !st.ok() && !reconnect(s, o, st)) {
       code = 1;
       break;

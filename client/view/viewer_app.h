@@ -30,6 +30,8 @@ struct ViewerAppOptions {
   double fly_mps = 0;                     // headless: fly a loop at this speed instead of orbiting (0: orbit)
   double screenshot_every_s = 0;          // headless: write a PNG this often (0: only at the end)
   std::string screenshot = "viewer.png";  // file name; numbered (viewer_0001.png) when several
+  bool walk = false;                      // start in walk mode (window: G toggles; headless: walk the centre)
+  double dig_under_s = 0;  // headless walk: dig a crater under the walker at this time (0: never)
   bool vsync = true;
 };
 

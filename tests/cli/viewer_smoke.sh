@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Smoke run of the viewer against a real server, as the main job runs it: a server on the
 # embedded terrain, a bot deforming it, the headless viewer stamping at its view's centre
-# (exit 0 means no hash mismatch and no GPU/CPU divergence), and where a display exists (ctest
+# (exit 0 means no hash mismatch and no GPU/CPU divergence), walking (a crater dug under the
+# walker, which must fall in and stand on its floor), and where a display exists (ctest
 # runs under xvfb-run in scripts/test.sh) the windowed viewer for a few frames with a
 # screenshot of its HUD; then `loam-client render` of the live session and, after the server
 # stopped (writing a snapshot), of its data folder. The server requires tokens (a
@@ -25,6 +26,14 @@ bot=$!
 LOAM_TOKEN=$editor "$build/client/loam-client" view --headless --port "$port" --seconds 4 --stamp-every 1 \
   --size 320x180 --screenshot "$dir/headless.png"
 test -s "$dir/headless.png"
+# Walk mode: a walker at the centre; a crater dug under it at 2 s; it falls in and stands on the floor.
+LOAM_TOKEN=$editor "$build/client/loam-client" view --headless --port "$port" --walk --dig-under 2 --seconds 6 \
+  --size 320x180 --screenshot "$dir/walker.png" | tee "$dir/walk.log"
+test -s "$dir/walker.png"
+dug_z=$(sed -n 's/.*dug a crater under the walker .*feet at \([-0-9.]*\) m.*/\1/p' "$dir/walk.log")
+end_z=$(sed -n 's/^viewer walker: feet at [-0-9.]*, [-0-9.]*, \([-0-9.]*\) m.*standing.*/\1/p' "$dir/walk.log")
+echo "viewer_smoke: walker feet at ${dug_z} m when dug, ${end_z} m standing at the end"
+awk -v a="$dug_z" -v b="$end_z" 'BEGIN { exit !(a != "" && b != "" && b < a - 1.0) }'
 if [ -n "${DISPLAY:-}" ]; then
   "$build/client/loam-client" view --port "$port" --seconds 2 --size 480x270 --no-vsync --screenshot "$dir/window.png" \
     --token-file "$dir/tokens"

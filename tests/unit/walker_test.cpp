@@ -1,0 +1,163 @@
+// The walk mode's character (client/view/walker.h) on snapshots of small worlds: it stands on
+// slopes it may climb, slides down steeper ones, jumps as high as physics says, follows the
+// ground while walking, and falls into a crater dug under it in the time a fall takes.
+#include "client/view/walker.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "client/query/snapshot_builder.h"
+#include "client/query/terrain_query.h"
+#include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_validate.h"
+#include "protocol/world.h"
+
+namespace loam::view {
+namespace {
+
+WorldParams params() {
+  WorldParams p;
+  p.meters_per_sample = 1.0;
+  p.meters_per_unit = 1.0 / 64.0;
+  p.tiles_x = p.tiles_y = 1;
+  return p;
+}
+
+// A plane rising along +x at `degrees`, from 50 m at x = 0.
+World slope_world(double degrees) {
+  const WorldParams p = params();
+  World w(p);
+  const RectI r = p.sample_rect();
+  std::vector<uint16_t> s(size_t(r.area()));
+  const double rise = std::tan(degrees * std::numbers::pi / 180.0);
+  for (int64_t y = 0; y < r.y1; ++y) {
+    for (int64_t x = 0; x < r.x1; ++x)
+      s[size_t(y * r.x1 + x)] = quantize_height(p, 50.0 + rise * double(x));
+  }
+  (void)w.write_coarse(r, s);
+  (void)w.commit(1);
+  return w;
+}
+
+std::shared_ptr<const query::TerrainSnapshot> snap(const World& w) {
+  query::SnapshotBuilder b(w.params());
+  const std::vector<TileCoord> held = {{Layer::kCoarse, 0, 0, 0}};
+  return b.build(w, held, {}, 1, 0);
+}
+
+double ground(const query::TerrainSnapshot& s, const Walker& w) {
+  return *query::height_at(s, w.feet.x, w.feet.y);
+}
+
+TEST(Walker, PlacedOnAWalkableSlopeItStaysOnTheGroundStandingAndWalking) {
+  const World world = slope_world(30);
+  const auto s = snap(world);
+  Walker w = place_walker(*s, 100, 128);
+  ASSERT_TRUE(w.grounded);
+  const double z0 = w.feet.z;
+  for (int i = 0; i < 300; ++i) step_walker(w, *s, {}, 1.0 / 60);  // 5 s standing
+  EXPECT_TRUE(w.grounded);
+  EXPECT_NEAR(w.feet.z, z0, 0.01);
+  EXPECT_NEAR(w.feet.x, 100, 0.01);
+  // Uphill, then downhill: on the ground all the way (never more than a few cm above it).
+  for (double yaw : {0.0, std::numbers::pi}) {
+    for (int i = 0; i < 240; ++i) {
+      step_walker(w, *s, {1.0, 0.0, yaw}, 1.0 / 60);
+      ASSERT_TRUE(w.grounded) << "yaw " << yaw << " step " << i;
+      // The capsule's lowest point rests on the slope a little above the ground under its axis.
+      ASSERT_LT(w.feet.z - ground(*s, w), 0.3 * (1.0 / std::cos(std::numbers::pi / 6) - 1.0) + 0.05);
+      ASSERT_GE(w.feet.z - ground(*s, w), -1e-6);
+    }
+  }
+  EXPECT_NEAR(w.feet.x, 100, 0.05);  // 4 s up at 1.4 m/s along the slope, 4 s back
+}
+
+TEST(Walker, SteeperThanItsLimitItSlidesDown) {
+  const World world = slope_world(60);
+  const auto s = snap(world);
+  Walker w = place_walker(*s, 120, 128);
+  EXPECT_FALSE(w.grounded);
+  const double x0 = w.feet.x;
+  for (int i = 0; i < 60; ++i) step_walker(w, *s, {}, 1.0 / 60);
+  EXPECT_LT(w.feet.x, x0 - 1.0);
+  EXPECT_GE(w.feet.z - ground(*s, w), -1e-6);  // sliding on it, not through it
+}
+
+TEST(Walker, AJumpRisesAsHighAsItsTakeOffSpeedAllows) {
+  World world(params(), 3200);
+  const auto s = snap(world);
+  Walker w = place_walker(*s, 128, 128);
+  ASSERT_TRUE(w.grounded);
+  const double z0 = w.feet.z;
+  WalkerInput jump;
+  jump.jump = true;
+  step_walker(w, *s, jump, 1.0 / 60);
+  double apex = w.feet.z;
+  int frames = 1;
+  while (!w.grounded && frames < 600) {
+    step_walker(w, *s, {}, 1.0 / 60);
+    apex = std::max(apex, w.feet.z);
+    ++frames;
+  }
+  const WalkerConfig c;
+  EXPECT_NEAR(apex - z0, c.jump_speed * c.jump_speed / (2 * c.gravity), 0.03);
+  EXPECT_NEAR(frames / 60.0, 2 * c.jump_speed / c.gravity, 2.0 / 60);
+  EXPECT_NEAR(w.feet.z, z0, 0.01);
+}
+
+TEST(Walker, ACraterDugUnderItMakesItFallToTheFloorInTheTimeTheFallTakes) {
+  World world(params(), 6400);  // flat, 100 m
+  auto s = snap(world);
+  Walker w = place_walker(*s, 128, 128);
+  ASSERT_TRUE(w.grounded);
+  for (int i = 0; i < 30; ++i) step_walker(w, *s, {}, 1.0 / 60);
+  const double z0 = w.feet.z;
+  // A crater 4 m deep and 20 m wide right under it, as the server would apply it.
+  StampParams crater;
+  crater.kind = StampKind::kCrater;
+  crater.center_x = 128;
+  crater.center_y = 128;
+  crater.radius = 10;
+  crater.intensity = 4;
+  const auto q = validate_stamp(crater, world.params());
+  ASSERT_TRUE(q) << q.error().describe();
+  ASSERT_TRUE(apply_stamp(world, *q));
+  (void)world.commit(2);
+  s = snap(world);
+  const double floor = *query::height_at(*s, w.feet.x, w.feet.y);
+  ASSERT_LT(floor, z0 - 3.0);
+  int frames = 0;
+  while (frames < 600) {
+    step_walker(w, *s, {}, 1.0 / 60);
+    ++frames;
+    if (w.grounded) break;
+  }
+  ASSERT_TRUE(w.grounded);
+  const WalkerConfig c;
+  // Free fall from z0 to the floor (the capsule's bottom meets the bowl where it is a little
+  // higher than its centre): sqrt(2 d / g), within two frames.
+  const double expected = std::sqrt(2.0 * (z0 - w.feet.z) / c.gravity);
+  EXPECT_NEAR(frames / 60.0, expected, 2.0 / 60);
+  EXPECT_NEAR(w.feet.z, floor, 0.1);
+  EXPECT_GE(w.feet.z - floor, -1e-6);
+  // And it stays on the floor.
+  for (int i = 0; i < 120; ++i) step_walker(w, *s, {}, 1.0 / 60);
+  EXPECT_TRUE(w.grounded);
+  EXPECT_NEAR(w.feet.x, 128, 0.05);
+}
+
+TEST(Walker, BadTimeStepsChangeNothing) {
+  World world(params(), 3200);
+  const auto s = snap(world);
+  Walker w = place_walker(*s, 128, 128);
+  const Walker before = w;
+  step_walker(w, *s, {1, 0, 0}, std::nan(""));
+  step_walker(w, *s, {1, 0, 0}, -1.0);
+  step_walker(w, *s, {1, 0, 0}, 0.0);
+  EXPECT_EQ(w.feet, before.feet);
+}
+
+}  // namespace
+}  // namespace loam::view
