@@ -78,7 +78,7 @@ int run_query(const Context& ctx, Report& report) {
   }
   terrains.push_back({"rough synthetic (1 m, 1 m noise)", rough_world(ctx.quick ? 2 : 8)});
 
-  Table table("query", {"terrain", "query", "ns per query (median)", "spread", "triangles tested",
+  Table table("query", {"terrain", "query", "ns per query (median)", "p10..p90", "triangles tested",
                         "blocks visited", "blocks skipped", "hits %", "answer"});
   Table publish("query_publish", {"terrain", "what", "cost", "spread"});
   const int n = ctx.quick ? 200 : 4000;
@@ -158,7 +158,8 @@ int run_query(const Context& ctx, Report& report) {
         for (const Point& q : pts) (void)c.run(q, scratch);
       });
       const double per = double(pts.size());
-      table.add_row({t.name, c.name, fmt(tm.median_s / per * 1e9, 0), tm.spread(),
+      table.add_row({t.name, c.name, fmt(tm.median_s / per * 1e9, 0),
+                     fmt(tm.p10_s / per * 1e9, 0) + ".." + fmt(tm.p90_s / per * 1e9, 0) + " ns",
                      fmt(double(work.triangles_tested) / per, 1), fmt(double(work.blocks_visited) / per, 2),
                      fmt(double(work.blocks_skipped) / per, 2), fmt(100.0 * hits / per, 1), c.answer});
       std::printf("  %s, %s: %.0f ns\n", t.name.c_str(), c.name.c_str(), tm.median_s / per * 1e9);

@@ -209,6 +209,26 @@ bool clip_xy(const glm::dvec3& o, const glm::dvec3& d, double lox, double loy, d
   return t0 <= t1;
 }
 
+// When a box of half extents `half` centred at `mid`, moved by t * motion (t in [0, 1]), first
+// overlaps the box [lo, hi]; nullopt when it never does.
+std::optional<double> moving_box_entry(const glm::dvec3& mid, const glm::dvec3& half,
+                                       const glm::dvec3& motion, const glm::dvec3& lo, const glm::dvec3& hi) {
+  double t0 = 0.0, t1 = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const double blo = lo[a] - half[a], bhi = hi[a] + half[a];
+    if (motion[a] == 0.0) {
+      if (mid[a] < blo || mid[a] > bhi) return std::nullopt;
+      continue;
+    }
+    double ta = (blo - mid[a]) / motion[a], tb = (bhi - mid[a]) / motion[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return std::nullopt;
+  }
+  return t0;
+}
+
 bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 }  // namespace
@@ -369,29 +389,15 @@ SweepResult sweep_capsule(const TerrainSnapshot& s, const Capsule& capsule, cons
         if (work) ++work->blocks_skipped;
         continue;
       }
-      // The block's box grown by the shape's half extents, against the path of its centre.
-      const glm::dvec3 blo{double(bx * kBlockSamples) * h - half.x, double(by * kBlockSamples) * h - half.y,
-                           range->first - half.z};
-      const glm::dvec3 bhi{double((bx + 1) * kBlockSamples) * h + half.x,
-                           double((by + 1) * kBlockSamples) * h + half.y, range->second + half.z};
-      double t0 = 0.0, t1 = 1.0;
-      bool meets = true;
-      for (int a = 0; a < 3 && meets; ++a) {
-        if (motion[a] == 0.0) {
-          meets = mid[a] >= blo[a] && mid[a] <= bhi[a];
-          continue;
-        }
-        double ta = (blo[a] - mid[a]) / motion[a], tb = (bhi[a] - mid[a]) / motion[a];
-        if (ta > tb) std::swap(ta, tb);
-        t0 = std::max(t0, ta);
-        t1 = std::min(t1, tb);
-        meets = t0 <= t1;
-      }
-      if (!meets) {
+      // The block's box against the path of the shape's box.
+      const auto entry = moving_box_entry(
+          mid, half, motion, {double(bx * kBlockSamples) * h, double(by * kBlockSamples) * h, range->first},
+          {double((bx + 1) * kBlockSamples) * h, double((by + 1) * kBlockSamples) * h, range->second});
+      if (!entry) {
         if (work) ++work->blocks_skipped;
         continue;
       }
-      candidates.push_back({t0, bx, by});
+      candidates.push_back({*entry, bx, by});
     }
   }
   std::sort(candidates.begin(), candidates.end(),
@@ -408,6 +414,18 @@ SweepResult sweep_capsule(const TerrainSnapshot& s, const Capsule& capsule, cons
                   cj1 = std::min(j1, c.by * kBlockSamples + kBlockSamples - 1);
     for (int64_t cj = cj0; cj <= cj1; ++cj) {
       for (int64_t ci = ci0; ci <= ci1; ++ci) {
+        // The cell's box against the shape's path: a long sweep visits the cells along it only.
+        const auto c4 = corners(r, ci, cj);
+        if (!c4) {
+          out.reached_unheld = true;
+          continue;
+        }
+        const double d = s.detail_extent_m();
+        const auto entry = moving_box_entry(
+            mid, half, motion,
+            {double(ci) * h, double(cj) * h, std::min({c4->h00, c4->h10, c4->h01, c4->h11}) - d},
+            {double(ci + 1) * h, double(cj + 1) * h, std::max({c4->h00, c4->h10, c4->h01, c4->h11}) + d});
+        if (!entry || (out.contact && *entry > out.contact->t)) continue;
         if (!cell_triangles(r, ci, cj, tris)) {
           out.reached_unheld = true;
           continue;

@@ -172,7 +172,7 @@ int run_headless(const ViewerAppOptions& o) {
       if (walker) step_walker(*walker, s.terrain(), WalkerInput{0, 0, yaw, false, false}, dt);
       const glm::dvec3 eye = walker ? walker_eye(*walker) : glm::dvec3{cx, cy, ground(cx, cy) + 1.65};
       cam = render::look_at(eye.x, eye.y, eye.z, eye.x + std::cos(yaw) * 10.0, eye.y + std::sin(yaw) * 10.0,
-                            eye.z - 1.5);
+                            eye.z - 0.8);
       cam.fov_y_degrees = 70;
       cam.near_m = 0.1;
       cam.far_m = 6000.0;

@@ -33,8 +33,7 @@ World slope_world(double degrees) {
   std::vector<uint16_t> s(size_t(r.area()));
   const double rise = std::tan(degrees * std::numbers::pi / 180.0);
   for (int64_t y = 0; y < r.y1; ++y) {
-    for (int64_t x = 0; x < r.x1; ++x)
-      s[size_t(y * r.x1 + x)] = quantize_height(p, 50.0 + rise * double(x));
+    for (int64_t x = 0; x < r.x1; ++x) s[size_t(y * r.x1 + x)] = quantize_height(p, 50.0 + rise * double(x));
   }
   (void)w.write_coarse(r, s);
   (void)w.commit(1);
