@@ -233,53 +233,51 @@ bool finite(const glm::dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.
 
 }  // namespace
 
-std::optional<double> height_at(const TerrainSnapshot& s, double x, double y) {
+namespace {
+
+// The two triangles under a point: the coarse cell's corners and the point's fraction in it,
+// and the same on the detail grid (zeros where no detail is held).
+struct PointCells {
+  CellCorners coarse, detail;
+  double fx = 0, fy = 0, dfx = 0, dfy = 0;
+};
+
+std::optional<PointCells> locate(const TerrainSnapshot& s, double x, double y) {
   if (!std::isfinite(x) || !std::isfinite(y)) return std::nullopt;
   SampleReader r(s);
   const WorldParams& p = s.params();
+  PointCells out;
   int64_t i, j;
-  double fx, fy;
-  cell_of(x / p.meters_per_sample, r.world().x1 - 2, i, fx);
-  cell_of(y / p.meters_per_sample, r.world().y1 - 2, j, fy);
+  cell_of(x / p.meters_per_sample, r.world().x1 - 2, i, out.fx);
+  cell_of(y / p.meters_per_sample, r.world().y1 - 2, j, out.fy);
   if (!r.cell_in_world(i, j)) return std::nullopt;
   const auto c = corners(r, i, j);
   if (!c) return std::nullopt;
-  double z = plane_height(*c, fx, fy);
+  out.coarse = *c;
   if (s.detail_tiles() != 0) {
     const double dm = p.detail_meters_per_sample();
     int64_t di, dj;
-    double dfx, dfy;
-    split_coordinate(x / dm, di, dfx);
-    split_coordinate(y / dm, dj, dfy);
-    const CellCorners d{r.detail_m(di, dj), r.detail_m(di + 1, dj), r.detail_m(di, dj + 1),
-                        r.detail_m(di + 1, dj + 1)};
-    z += plane_height(d, dfx, dfy);
+    split_coordinate(x / dm, di, out.dfx);
+    split_coordinate(y / dm, dj, out.dfy);
+    out.detail = {r.detail_m(di, dj), r.detail_m(di + 1, dj), r.detail_m(di, dj + 1),
+                  r.detail_m(di + 1, dj + 1)};
   }
-  return z;
+  return out;
+}
+
+}  // namespace
+
+std::optional<double> height_at(const TerrainSnapshot& s, double x, double y) {
+  const auto c = locate(s, x, y);
+  if (!c) return std::nullopt;
+  return plane_height(c->coarse, c->fx, c->fy) + plane_height(c->detail, c->dfx, c->dfy);
 }
 
 std::optional<glm::dvec3> normal_at(const TerrainSnapshot& s, double x, double y) {
-  if (!std::isfinite(x) || !std::isfinite(y)) return std::nullopt;
-  SampleReader r(s);
-  const WorldParams& p = s.params();
-  int64_t i, j;
-  double fx, fy;
-  cell_of(x / p.meters_per_sample, r.world().x1 - 2, i, fx);
-  cell_of(y / p.meters_per_sample, r.world().y1 - 2, j, fy);
-  if (!r.cell_in_world(i, j)) return std::nullopt;
-  const auto c = corners(r, i, j);
+  const auto c = locate(s, x, y);
   if (!c) return std::nullopt;
-  glm::dvec2 g = plane_slope(*c, fx, fy) / p.meters_per_sample;
-  if (s.detail_tiles() != 0) {
-    const double dm = p.detail_meters_per_sample();
-    int64_t di, dj;
-    double dfx, dfy;
-    split_coordinate(x / dm, di, dfx);
-    split_coordinate(y / dm, dj, dfy);
-    const CellCorners d{r.detail_m(di, dj), r.detail_m(di + 1, dj), r.detail_m(di, dj + 1),
-                        r.detail_m(di + 1, dj + 1)};
-    g += plane_slope(d, dfx, dfy) / dm;
-  }
+  const glm::dvec2 g = plane_slope(c->coarse, c->fx, c->fy) / s.params().meters_per_sample +
+                       plane_slope(c->detail, c->dfx, c->dfy) / s.params().detail_meters_per_sample();
   return glm::normalize(glm::dvec3{-g.x, -g.y, 1.0});
 }
 
