@@ -349,8 +349,10 @@ Status serialize(S& s, DeformEvent& m) {
       dy = code % 15 - 7;
     }
     if constexpr (S::kReading) {
-      const int64_t tx = ax + dx, ty = ay + dy;
-      if (tx < INT32_MIN || tx > INT32_MAX || ty < INT32_MIN || ty > INT32_MAX)
+      // dx and dy are any int64 a hostile frame writes: the sum is checked, never overflowed.
+      int64_t tx = 0, ty = 0;
+      if (__builtin_add_overflow(ax, dx, &tx) || __builtin_add_overflow(ay, dy, &ty) || tx < INT32_MIN ||
+          tx > INT32_MAX || ty < INT32_MIN || ty > INT32_MAX)
         return make_error(ErrorCode::kInvalidArgument, "deform_event.tile_dx",
                           "tile coordinate out of range");
       t.tile.tx = int32_t(tx);

@@ -8,13 +8,16 @@
 // them there instead of comparing).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <span>
 #include <string>
 
+#include "client/query/snapshot_builder.h"
 #include "client/render/clipmap_renderer.h"
 #include "client/render/headless.h"
+#include "client/view/walker.h"
 #include "dem/default_terrain.h"
 #include "dem/refined_default.h"
 #include "gl_test_context.h"
@@ -73,47 +76,104 @@ World deformed(World w) {
   return w;
 }
 
-// Renders each view (of `dented` where the view says so) and compares it with its golden, or
-// writes it to LOAM_APPROVE_GOLDENS.
-void render_and_compare(std::span<const GoldenView> views, const World& plain, const World& dented) {
+// Whether goldens can be checked here (idiff present) or are being approved; skips otherwise.
+#define LOAM_REQUIRE_IDIFF()                                                                            \
+  do {                                                                                                  \
+    if (std::system("idiff --version > /dev/null 2>&1") != 0 && !std::getenv("LOAM_APPROVE_GOLDENS")) { \
+      if (gpu::test::running_in_ci()) FAIL() << "idiff (openimageio-tools) is missing";                 \
+      GTEST_SKIP() << "idiff (openimageio-tools) is missing";                                           \
+    }                                                                                                   \
+  } while (0)
+
+// Renders `cam` of `source` into `target` and compares it with the golden `name`.png, or writes
+// it to LOAM_APPROVE_GOLDENS.
+void render_and_compare_one(OffscreenTarget& target, const HeightSource& source, const Camera& cam,
+                            const std::string& name) {
   const char* approve = std::getenv("LOAM_APPROVE_GOLDENS");
   const fs::path golden_dir = fs::path(LOAM_SOURCE_DIR) / "tests/golden/images";
   const fs::path out_dir = fs::absolute("golden-out");
   fs::create_directories(out_dir);
-  const bool have_idiff = std::system("idiff --version > /dev/null 2>&1") == 0;
-  if (!have_idiff && !approve) {
-    if (gpu::test::running_in_ci()) FAIL() << "idiff (openimageio-tools) is missing";
-    GTEST_SKIP() << "idiff (openimageio-tools) is missing";
+  RendererConfig cfg;  // the defaults users get
+  auto renderer = ClipmapRenderer::create(source, cfg);
+  ASSERT_TRUE(renderer.ok());
+  target.begin(0.50f, 0.60f, 0.75f, 0.0f);
+  (*renderer)->render(cam, kWidth, kHeight);
+  const fs::path out = approve ? fs::path(approve) / (name + ".png") : out_dir / (name + ".png");
+  ASSERT_TRUE(write_png(out.string(), kWidth, kHeight, target.read_rgba()).ok());
+  if (approve) {
+    std::printf("approved %s\n", out.c_str());
+    return;
   }
+  const fs::path golden = golden_dir / (name + ".png"), diff = out_dir / (name + ".diff.png");
+  ASSERT_TRUE(fs::exists(golden)) << golden << " is missing: run scripts/approve-goldens.sh";
+  const std::string cmd = std::string("idiff -q ") + kIdiffThresholds + " -abs -scale 10 -od -o '" +
+                          diff.string() + "' '" + golden.string() + "' '" + out.string() + "'";
+  const int rc = std::system(cmd.c_str());
+  EXPECT_EQ(rc, 0) << name << ": the render differs from its golden beyond the threshold ("
+                   << kIdiffThresholds << "); rendered " << out << ", difference x10 in " << diff
+                   << "; if the change is intended, run scripts/approve-goldens.sh";
+}
+
+// Renders each view (of `dented` where the view says so) and compares it with its golden.
+void render_and_compare(std::span<const GoldenView> views, const World& plain, const World& dented) {
+  LOAM_REQUIRE_IDIFF();
   auto target = OffscreenTarget::create(kWidth, kHeight);
   ASSERT_TRUE(target.ok());
   for (const GoldenView& v : views) {
     const World& w = v.deformed ? dented : plain;
     WorldHeightSource source(w);
-    RendererConfig cfg;  // the defaults users get
-    auto renderer = ClipmapRenderer::create(source, cfg);
-    ASSERT_TRUE(renderer.ok());
     Camera cam =
         look_at(v.x, v.y, height_at(w, v.x, v.y) + v.dz, v.tx, v.ty, height_at(w, v.tx, v.ty) + v.tdz);
     cam.far_m = 8000;
-    target->begin(0.50f, 0.60f, 0.75f, 0.0f);
-    (*renderer)->render(cam, kWidth, kHeight);
-    const std::string name = std::string(v.name) + ".png";
-    const fs::path out = approve ? fs::path(approve) / name : out_dir / name;
-    ASSERT_TRUE(write_png(out.string(), kWidth, kHeight, target->read_rgba()).ok());
-    if (approve) {
-      std::printf("approved %s\n", out.c_str());
-      continue;
-    }
-    const fs::path golden = golden_dir / name, diff = out_dir / (std::string(v.name) + ".diff.png");
-    ASSERT_TRUE(fs::exists(golden)) << golden << " is missing: run scripts/approve-goldens.sh";
-    const std::string cmd = std::string("idiff -q ") + kIdiffThresholds + " -abs -scale 10 -od -o '" +
-                            diff.string() + "' '" + golden.string() + "' '" + out.string() + "'";
-    const int rc = std::system(cmd.c_str());
-    EXPECT_EQ(rc, 0) << v.name << ": the render differs from its golden beyond the threshold ("
-                     << kIdiffThresholds << "); rendered " << out << ", difference x10 in " << diff
-                     << "; if the change is intended, run scripts/approve-goldens.sh";
+    render_and_compare_one(*target, source, cam, v.name);
   }
+}
+
+// The walk mode's view: a walker standing in the Tarim basin, a crater dug under it; it falls
+// to the floor, and its eye looks across the crater at the wall.
+TEST(ClipmapGolden, AWalkersViewFromTheFloorOfACraterDugUnderIt) {
+  LOAM_REQUIRE_GL();
+  LOAM_REQUIRE_IDIFF();
+  auto imported = load_default_terrain();
+  ASSERT_TRUE(imported.ok());
+  World w = std::move(imported->world);
+  const std::vector<TileCoord> held = [&] {
+    std::vector<TileCoord> out;
+    const RectI t = w.params().tile_range(0);
+    for (int64_t ty = t.y0; ty < t.y1; ++ty) {
+      for (int64_t tx = t.x0; tx < t.x1; ++tx) out.push_back({Layer::kCoarse, 0, int32_t(tx), int32_t(ty)});
+    }
+    return out;
+  }();
+  query::SnapshotBuilder snapshots(w.params());
+  auto s = snapshots.build(w, held, {}, 0, 0);
+  view::Walker walker = view::place_walker(*s, 640, 486);
+  ASSERT_TRUE(walker.grounded) << "ground normal z " << walker.ground_normal.z << " at " << walker.feet.z;
+  const double before = walker.feet.z;
+  StampParams crater;
+  crater.kind = StampKind::kCrater;
+  crater.center_x = walker.feet.x, crater.center_y = walker.feet.y;
+  crater.radius = 10, crater.intensity = 2.5, crater.shape = 0.3;
+  auto q = validate_stamp(crater, w.params());
+  ASSERT_TRUE(q.ok()) << q.error().describe();
+  ASSERT_TRUE(apply_stamp(w, *q).ok());
+  w.commit(1);
+  s = snapshots.build(w, held, std::vector<query::ChangedRect>{{Layer::kCoarse, w.params().sample_rect()}}, 1,
+                      0);
+  for (int i = 0; i < 180; ++i) view::step_walker(walker, *s, {}, 1.0 / 60);
+  ASSERT_TRUE(walker.grounded);
+  EXPECT_LT(walker.feet.z, before - 1.5);
+  const glm::dvec3 eye = view::walker_eye(walker);
+  const double yaw = 0.6;
+  Camera cam =
+      look_at(eye.x, eye.y, eye.z, eye.x + 10 * std::cos(yaw), eye.y + 10 * std::sin(yaw), eye.z - 0.8);
+  cam.fov_y_degrees = 70;
+  cam.near_m = 0.1;
+  cam.far_m = 8000;
+  auto target = OffscreenTarget::create(kWidth, kHeight);
+  ASSERT_TRUE(target.ok());
+  WorldHeightSource source(w);
+  render_and_compare_one(*target, source, cam, "walker_in_crater");
 }
 
 TEST(ClipmapGolden, ViewsOfTheEmbeddedTerrainMatchTheirGoldens) {

@@ -612,3 +612,22 @@ TEST(WireErrors, FromWireKeepsCapacityRefusalsApartFromAuthorization) {
 
 }  // namespace
 }  // namespace loam::wire
+
+namespace loam::wire {
+namespace {
+
+// Found by wire_fuzz (fuzz/corpus/wire_fuzz/deform_event_tile_offset_overflow.bin): a DeformEvent
+// whose long-form tile offset is near INT64_MIN overflowed when added to the stamp's tile.
+TEST(WireMessages, ATileOffsetNearTheInt64LimitIsAnErrorNotAnOverflow) {
+  const uint8_t bytes[] = {0x32, 0x00, 0x00, 0x00, 0x0b, 0x00, 0xc1, 0xa8, 0xa5, 0x04, 0xac, 0x02,
+                           0x00, 0x00, 0x05, 0x00, 0x08, 0x07, 0x06, 0x05, 0x04, 0x8b, 0x01, 0x80,
+                           0xff, 0xff, 0xff, 0xff, 0x01, 0x00, 0x01, 0x00, 0xff, 0xff, 0xff, 0xff,
+                           0x06, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0xff, 0x01, 0x00,
+                           0x60, 0x30, 0x02, 0xf0, 0x35, 0x1c, 0x83, 0x06};
+  const auto m = decode_frame(std::span<const uint8_t>(bytes, sizeof bytes));
+  ASSERT_FALSE(m.ok());
+  EXPECT_FALSE(m.error().field.empty());
+}
+
+}  // namespace
+}  // namespace loam::wire
