@@ -79,6 +79,16 @@ typedef struct {
   double x0, y0, x1, y1;
 } loam_deform_event;
 
+typedef struct {
+  int connected;
+  double rtt_ms; /* -1: none measured yet */
+  double bytes_in_per_s, bytes_out_per_s;
+  uint64_t bytes_in, bytes_out;
+  uint32_t server_clients, server_tick_p50_us, server_tick_p99_us;
+  uint64_t server_sequence;
+  size_t tiles_held, own_stamps_unsettled;
+} loam_session_stats;
+
 typedef void (*loam_deform_fn)(const loam_deform_event* event, void* user);
 typedef void (*loam_stamp_result_fn)(uint64_t ticket, int accepted, uint64_t seq, const char* error,
                                      void* user);
@@ -93,6 +103,8 @@ LOAM_C_API loam_client* loam_connect(const loam_options* options, char* error, s
 LOAM_C_API void loam_disconnect(loam_client* client);
 LOAM_C_API loam_world_info loam_world(const loam_client* client);
 LOAM_C_API int loam_connected(const loam_client* client);
+/* Refreshed about once a second: round trip, byte rates, the server's tick times. */
+LOAM_C_API loam_session_stats loam_session(const loam_client* client);
 
 LOAM_C_API void loam_set_view(loam_client* client, double x, double y, double radius);
 /* 1 when every tile of the view is held and visible to queries, 0 on timeout. */

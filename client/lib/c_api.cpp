@@ -130,6 +130,13 @@ loam_world_info loam_world(const loam_client* client) {
 
 int loam_connected(const loam_client* client) { return client->client->connected() ? 1 : 0; }
 
+loam_session_stats loam_session(const loam_client* client) {
+  const loam::game::SessionStats s = client->client->session();
+  return {s.connected ? 1 : 0,  s.rtt_ms,          s.bytes_in_per_s, s.bytes_out_per_s,
+          s.bytes_in,           s.bytes_out,       s.server_clients, s.server_tick_p50_us,
+          s.server_tick_p99_us, s.server_sequence, s.tiles_held,     s.own_stamps_unsettled};
+}
+
 void loam_set_view(loam_client* client, double x, double y, double radius) {
   client->client->set_view(x, y, radius);
 }

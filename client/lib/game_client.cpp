@@ -187,6 +187,8 @@ struct Client::Impl {
   std::vector<TileCoord> last_held;
   std::map<uint32_t, uint64_t> ticket_of_seq;  // own stamps sent, awaiting their ack
   std::chrono::steady_clock::time_point next_reconnect{};
+  std::chrono::steady_clock::time_point next_stats{};
+  uint64_t last_bytes_in = 0, last_bytes_out = 0;
 
   // Shared with game threads.
   query::SnapshotSlot slot;
@@ -195,6 +197,7 @@ struct Client::Impl {
   std::deque<Command> commands;
   uint64_t commands_submitted = 0, commands_published = 0;
   bool view_loaded = false;
+  SessionStats stats;    // guarded by mu
   size_t unsettled = 0;  // own stamps submitted and not settled (guarded by mu)
   std::vector<DeformEvent> events;
   std::vector<StampResult> results;
@@ -328,6 +331,37 @@ void Client::Impl::step() {
   }
   publish(dirty, !todo.empty());
 
+  // About once a second: a Ping (round trip), a StatsRequest (the server's numbers) and the
+  // byte rates since the last time.
+  std::optional<SessionStats> refreshed;
+  if (const auto now = std::chrono::steady_clock::now(); connected && now >= next_stats) {
+    const double dt = next_stats == std::chrono::steady_clock::time_point{}
+                          ? 0.0
+                          : std::chrono::duration<double>(now - next_stats).count() + 1.0;
+    next_stats = now + std::chrono::seconds(1);
+    (void)net.ping();
+    (void)net.request_stats();
+    SessionStats st;
+    st.connected = true;
+    st.rtt_ms = net.rtt_ms().value_or(-1.0);
+    st.bytes_in = net.connection().bytes_in();
+    st.bytes_out = net.connection().bytes_out();
+    if (dt > 0) {
+      st.bytes_in_per_s = double(st.bytes_in - last_bytes_in) / dt;
+      st.bytes_out_per_s = double(st.bytes_out - last_bytes_out) / dt;
+    }
+    last_bytes_in = st.bytes_in;
+    last_bytes_out = st.bytes_out;
+    if (const auto& s = net.server_stats()) {
+      st.server_clients = s->clients;
+      st.server_tick_p50_us = s->tick_p50_us;
+      st.server_tick_p99_us = s->tick_p99_us;
+      st.server_sequence = s->global_sequence;
+    }
+    st.tiles_held = last_held.size();
+    refreshed = st;
+  }
+
   bool loaded = true;
   for (const TileCoord& t : view_tiles) loaded = loaded && net.store().holds(t);
   {
@@ -335,6 +369,9 @@ void Client::Impl::step() {
     commands_published = taken;
     view_loaded = loaded;
     unsettled = ticket_of_seq.size() + display->overlay_size();
+    if (refreshed) stats = *refreshed;
+    stats.connected = connected;
+    stats.own_stamps_unsettled = unsettled;
     for (auto& e : new_events) events.push_back(std::move(e));
     for (auto& r : new_results) results.push_back(std::move(r));
   }
@@ -508,6 +545,11 @@ size_t Client::dispatch() {
 }
 
 bool Client::connected() const { return impl_->connected.load(); }
+
+SessionStats Client::session() const {
+  std::lock_guard<std::mutex> lock(impl_->mu);
+  return impl_->stats;
+}
 
 std::string Client::last_error() const {
   std::lock_guard<std::mutex> lock(impl_->mu);

@@ -8,6 +8,15 @@
 
 namespace loam::client {
 
+namespace {
+// Microseconds of the steady clock (never 0 in practice): what a Ping carries and its Pong echoes.
+uint64_t steady_us() {
+  return uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(
+                      std::chrono::steady_clock::now().time_since_epoch())
+                      .count());
+}
+}  // namespace
+
 Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   wire::Hello hello;
   hello.client_name = name_;
@@ -268,9 +277,21 @@ Status TerrainClient::handle(wire::Message& m) {
     case wire::MessageType::kBye: bye_ = std::get<wire::Bye>(m); return {};
     case wire::MessageType::kPing:
       return connection_->send(wire::Pong{std::get<wire::Ping>(m).client_time_us, 0});
+    case wire::MessageType::kPong: {
+      const uint64_t sent = std::get<wire::Pong>(m).client_time_us, now = steady_us();
+      if (sent != 0 && sent <= now) rtt_ms_ = double(now - sent) / 1000.0;
+      return {};
+    }
+    case wire::MessageType::kStats:
+      if (std::get<wire::Stats>(m).request_id == stats_request_id_) server_stats_ = std::get<wire::Stats>(m);
+      return {};
     default: return {};
   }
 }
+
+Status TerrainClient::ping() { return connection_->send(wire::Ping{steady_us()}); }
+
+Status TerrainClient::request_stats() { return connection_->send(wire::StatsRequest{++stats_request_id_}); }
 
 Status TerrainClient::pump(std::chrono::milliseconds timeout) {
   // A queued Deform due before the timeout cuts the wait short, so the pacing keeps its rate.

@@ -81,6 +81,15 @@ class TerrainClient {
   bool wait_until(const std::function<bool()>& pred, std::chrono::milliseconds timeout);
   std::optional<AckResult> ack(uint32_t client_seq) const;
 
+  // The session's numbers, for a HUD: ping() sends a Ping, whose Pong gives the round trip as
+  // this client sees it (until pump() handles the Pong, so a viewer's frame time is in it);
+  // request_stats() sends a StatsRequest, whose Stats (the server's tick times, clients,
+  // bytes) is kept. Both are answered in pump().
+  Status ping();
+  Status request_stats();
+  std::optional<double> rtt_ms() const { return rtt_ms_; }
+  const std::optional<wire::Stats>& server_stats() const { return server_stats_; }
+
   // Stamp images fetched from the server (StampImageRequest) as texture-stamp events need them.
   const TextureRegistry& textures() const { return textures_; }
   ConfirmedStore& store() { return *store_; }
@@ -129,6 +138,9 @@ class TerrainClient {
   std::shared_ptr<const TileBase> base_;
   uint64_t tiles_generated_ = 0;
   uint64_t region_chunks_received_ = 0;
+  std::optional<double> rtt_ms_;
+  std::optional<wire::Stats> server_stats_;
+  uint32_t stats_request_id_ = 0;
 };
 
 }  // namespace loam::client

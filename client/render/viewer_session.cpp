@@ -84,6 +84,18 @@ Status ViewerSession::follow(const Camera& camera) {
 
 Status ViewerSession::update(const Camera& camera, std::chrono::milliseconds wait) {
   const Status pumped = client_.pump(wait);
+  // Once a second, the HUD's session numbers: a Ping, a StatsRequest, the byte rate.
+  if (const auto now = std::chrono::steady_clock::now(); pumped.ok() && now >= next_ping_) {
+    const uint64_t in = client_.connection().bytes_in();
+    if (next_ping_ != std::chrono::steady_clock::time_point{}) {
+      bytes_in_per_s_ =
+          double(in - bytes_in_at_ping_) / (1.0 + std::chrono::duration<double>(now - next_ping_).count());
+    }
+    bytes_in_at_ping_ = in;
+    next_ping_ = now + std::chrono::seconds(1);
+    (void)client_.ping();
+    (void)client_.request_stats();
+  }
   LOAM_TRY(follow(camera));
   const std::vector<DisplayDirty> dirty = display_->sync(client_);
   for (const DisplayDirty& d : dirty) {
@@ -187,6 +199,13 @@ ViewerStats ViewerSession::stats() const {
   s.gpu_pages_resident = m.gpu.coarse_pages + m.gpu.detail_pages;
   s.gpu_terrain_bytes = m.gpu.total() + renderer_->gpu_bytes();
   s.cpu_terrain_bytes = m.cpu_bytes + store.held_bytes();
+  s.rtt_ms = client_.rtt_ms().value_or(-1.0);
+  s.bytes_in_per_s = bytes_in_per_s_;
+  if (const auto& st = client_.server_stats()) {
+    s.server_tick_p50_us = st->tick_p50_us;
+    s.server_tick_p99_us = st->tick_p99_us;
+    s.server_clients = st->clients;
+  }
   return s;
 }
 

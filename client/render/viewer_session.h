@@ -40,6 +40,10 @@ struct ViewerStats {
   size_t gpu_terrain_bytes = 0, gpu_page_bytes = 0;
   int32_t gpu_pages_resident = 0;
   size_t cpu_terrain_bytes = 0;
+  // The session (refreshed once a second): round trip (-1: none yet), bytes in per second
+  // against the budget the server streams within (0: none), the server's tick times.
+  double rtt_ms = -1, bytes_in_per_s = 0;
+  uint32_t server_tick_p50_us = 0, server_tick_p99_us = 0, server_clients = 0;
 };
 
 // Whether each clipmap level's region is held at the level's own mip (or finer), as of the
@@ -98,7 +102,10 @@ class ViewerSession {
   std::unique_ptr<ClipmapInterest> interest_;
   std::unique_ptr<query::SnapshotBuilder> snapshots_;
   std::shared_ptr<const query::TerrainSnapshot> terrain_;
-  std::vector<TileCoord> terrain_held_;    // the mip-0 tiles terrain_ holds
+  std::vector<TileCoord> terrain_held_;  // the mip-0 tiles terrain_ holds
+  std::chrono::steady_clock::time_point next_ping_{};
+  uint64_t bytes_in_at_ping_ = 0;
+  double bytes_in_per_s_ = 0;
   std::optional<wire::Focus> focus_sent_;  // the focus the server last heard
   std::vector<std::optional<std::chrono::steady_clock::time_point>> lacking_since_;  // per level
 };

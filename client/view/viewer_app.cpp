@@ -73,13 +73,16 @@ void print_stats(double t, const render::ViewerSession& s, const render::FrameSt
       "viewer %6.1f s: frame %.1f ms, %lld triangles, %d draws | tiles %llu/%llu | events %llu applied, %llu "
       "on "
       "the GPU | overlay %zu, predicted %llu, corrections %llu | divergent %llu | hashes %llu checked, %llu "
-      "mismatched | terrain memory GPU %.1f MiB (%d pages), CPU %.1f MiB\n",
+      "mismatched | terrain memory GPU %.1f MiB (%d pages), CPU %.1f MiB | RTT %.1f ms, in %.1f KiB/s, "
+      "server "
+      "tick p99 %.2f ms\n",
       t, frame_ms, (long long)f.triangles, f.draw_calls, (unsigned long long)v.tiles_held,
       (unsigned long long)v.tiles_subscribed, (unsigned long long)v.events_applied,
       (unsigned long long)v.display.events_stamped, v.overlay, (unsigned long long)v.display.predicted,
       (unsigned long long)v.display.corrections, (unsigned long long)v.display.divergent_texels,
       (unsigned long long)v.hash_checks, (unsigned long long)v.hash_mismatches,
-      double(v.gpu_terrain_bytes) / (1 << 20), v.gpu_pages_resident, double(v.cpu_terrain_bytes) / (1 << 20));
+      double(v.gpu_terrain_bytes) / (1 << 20), v.gpu_pages_resident, double(v.cpu_terrain_bytes) / (1 << 20),
+      v.rtt_ms, v.bytes_in_per_s / 1024.0, v.server_tick_p99_us / 1000.0);
   std::fflush(stdout);
 }
 
@@ -269,6 +272,9 @@ void draw_hud(const render::ViewerSession& s, const FlyCamera& fly, const StampT
               1000.0 / std::max(frame_ms, 0.01), (long long)f.triangles, f.draw_calls);
   ImGui::Text("camera %.1f, %.1f, %.1f m, speed %.0f m/s", fly.x(), fly.y(), fly.z(), fly.speed());
   ImGui::Separator();
+  ImGui::Text("session: RTT %.1f ms, in %.1f KiB/s, server tick p50 %.2f / p99 %.2f ms, %u clients", v.rtt_ms,
+              v.bytes_in_per_s / 1024.0, v.server_tick_p50_us / 1000.0, v.server_tick_p99_us / 1000.0,
+              v.server_clients);
   ImGui::Text("tiles %llu held of %llu subscribed, %llu regions", (unsigned long long)v.tiles_held,
               (unsigned long long)v.tiles_subscribed, (unsigned long long)v.regions);
   ImGui::Text("events %llu applied, %llu stamped on the GPU, %llu copied",

@@ -168,6 +168,22 @@ TEST(GameClient, AGameThreadQueriesWhileTheNetworkThreadPublishes) {
   EXPECT_EQ(misses.load(), 0u);
   EXPECT_TRUE(generations_ordered.load());
   EXPECT_EQ(a->view().own_stamps_shown(), 0u);
+  // The HUD's numbers: a round trip measured, bytes counted, the server's clients and ticks.
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  loam::game::SessionStats st;
+  while (std::chrono::steady_clock::now() < deadline) {
+    st = a->session();
+    if (st.rtt_ms > 0 && st.server_clients > 0 && st.server_sequence >= 20) break;
+    std::this_thread::sleep_for(50ms);
+  }
+  EXPECT_TRUE(st.connected);
+  EXPECT_GT(st.rtt_ms, 0.0);
+  EXPECT_LT(st.rtt_ms, 5000.0);
+  EXPECT_GE(st.server_clients, 1u);
+  EXPECT_GE(st.server_sequence, 20u);
+  EXPECT_GT(st.bytes_in, 0u);
+  EXPECT_GT(st.bytes_out, 0u);
+  EXPECT_GT(st.tiles_held, 0u);
 }
 
 TEST(GameClient, BadStampsAreRefusedWithTheReasonAndSpectatorsCannotDig) {

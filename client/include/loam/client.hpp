@@ -143,6 +143,19 @@ struct DeformEvent {
   double x0 = 0, y0 = 0, x1 = 0, y1 = 0;  // the area it changed, meters (empty: nothing)
 };
 
+// The session as a HUD shows it, refreshed about once a second by the network thread.
+struct SessionStats {
+  bool connected = false;
+  double rtt_ms = -1;                              // the last round trip (-1: none measured yet)
+  double bytes_in_per_s = 0, bytes_out_per_s = 0;  // over the last second
+  uint64_t bytes_in = 0, bytes_out = 0;            // since connecting
+  uint32_t server_clients = 0;                     // the server's numbers (0 until its first answer)
+  uint32_t server_tick_p50_us = 0, server_tick_p99_us = 0;
+  uint64_t server_sequence = 0;
+  size_t tiles_held = 0;
+  size_t own_stamps_unsettled = 0;
+};
+
 struct StampResult {
   uint64_t ticket = 0;  // stamp()'s answer
   bool accepted = false;
@@ -189,6 +202,7 @@ class LOAM_CLIENT_API Client {
 
   // False once the connection is lost (it is retried every second meanwhile).
   bool connected() const;
+  SessionStats session() const;
   std::string last_error() const;
 
  private:
