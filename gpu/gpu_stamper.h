@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "gpu/gl_handle.h"
+#include "gpu/stamp_results.h"
 #include "gpu/tile_pages.h"
 #include "protocol/geometry.h"
 #include "protocol/result.h"
@@ -60,13 +61,6 @@ class World;
 }
 
 namespace loam::gpu {
-
-// One completed readback: the samples of `layer` that changed (global layer sample rect).
-struct StampReadback {
-  uint64_t ticket = 0;
-  Layer layer = Layer::kCoarse;
-  RectI changed;
-};
 
 // Which shader stage runs the per-sample kinds (shockwaves always run in compute).
 enum class StampPath {
@@ -82,15 +76,6 @@ struct GpuStamperOptions {
   // 64 MiB. A stamp reaching more tiles of a layer than its budget is refused (kOversize).
   int32_t max_coarse_pages = 1024;
   int32_t max_detail_pages = 1024;
-};
-
-// What the stamper holds on the GPU.
-struct GpuStamperMemory {
-  size_t page_bytes = 0;                       // both layers' page arrays
-  size_t scratch_bytes = 0;                    // wave fields, vertex-pass copies, readback buffers
-  int32_t coarse_pages = 0, detail_pages = 0;  // resident tiles
-  uint64_t evictions = 0;
-  size_t total() const { return page_bytes + scratch_bytes; }
 };
 
 class GpuStamper {

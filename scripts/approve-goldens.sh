@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Re-renders the golden images of tests/gl/clipmap_golden_test.cpp and replaces the committed
+# Re-renders the golden images (the terrain views, materials and shadows, the HUD) and replaces the committed
 # ones in tests/golden/images/ (after a deliberate change to the renderer). Review the new
 # images (git diff shows them changed; open them) before committing.
 # Usage: scripts/approve-goldens.sh [build folder, default build/release]
@@ -10,5 +10,5 @@ if [ ! -x "$build/tests/loam_gl_tests" ]; then
   cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
   ninja -C "$build" loam_gl_tests
 fi
-LOAM_APPROVE_GOLDENS="$PWD/tests/golden/images" "$build/tests/loam_gl_tests" --gtest_filter='ClipmapGolden.*'
+LOAM_APPROVE_GOLDENS="$PWD/tests/golden/images" "$build/tests/loam_gl_tests" --gtest_filter='ClipmapGolden.*:MaterialsGolden.*:HudGolden.*'
 git status --short tests/golden/images

@@ -5,7 +5,7 @@
 // this level's texture: its samples are this level's even samples (normals blend in the
 // fragment shader, from the two levels' normal maps). Vertices outside the world are pulled
 // to its edge and down to the skirt's depth: the terrain ends in an earth wall, not in the
-// clamped samples beyond it.
+// clamped samples beyond it. The same stage draws the sun's shadow map (another view_proj).
 layout(binding = 0) uniform usampler2D u_heights;
 layout(binding = 3) uniform isampler2D u_detail;
 
@@ -14,6 +14,7 @@ out vec2 v_sample;   // mip-0 sample coordinates minus the anchor
 out float v_height;  // meters above the height offset's zero
 out float v_alpha;   // geomorph blend toward the coarser level
 out float v_skirt;   // 1 on vertices pulled to the skirt
+out float v_curv;    // the height's Laplacian at this level's spacing, 1/m (> 0: concave)
 
 float q(ivec2 p) {
   // p >= -kLevelPad > -u_tex_size, so the sum is non-negative and % is well defined.
@@ -56,5 +57,11 @@ void main() {
   v_height = h * u_meters_per_unit;
   v_alpha = alpha;
   v_skirt = skirt ? 1.0 : 0.0;
+  // Curvature at the level's own scale: valleys and crater floors gather sediment, ridges
+  // and rims shed it (the materials' splatting reads it).
+  float lap = q(local + ivec2(1, 0)) + q(local - ivec2(1, 0)) + q(local + ivec2(0, 1)) + q(local - ivec2(0, 1)) -
+              4.0 * q(local);
+  float step_m = float(u_spacing) * u_meters_per_sample;
+  v_curv = lap * u_meters_per_unit / (step_m * step_m);
   gl_Position = u_view_proj * vec4(v_rel, 1.0);
 }

@@ -30,6 +30,15 @@ layout(std140, binding = 0) uniform ClipmapFrame {
   float u_detail_meters_per_unit;
   float u_frame_pad1;
   float u_frame_pad2;
+  mat4 u_light_view_proj;       // render frame -> the sun's shadow map (reversed depth)
+  vec4 u_tex_phase;             // material texture phases of the anchor (scale A xy, scale B zw)
+  vec2 u_macro_phase;           // ... of the slow variation
+  float u_shadow_texel;         // 1 / shadow map side
+  int u_shadows_on;
+  int u_materials_on;
+  int u_change_on;              // the change layer holds the change against the initial terrain
+  int u_frame_pad3;
+  int u_frame_pad4;
 };
 
 // Once per level (a range of one buffer bound per level's draws).

@@ -87,6 +87,8 @@ typedef struct {
   uint32_t server_clients, server_tick_p50_us, server_tick_p99_us;
   uint64_t server_sequence;
   size_t tiles_held, own_stamps_unsettled;
+  uint32_t
+      budget_bytes_per_s; /* the server's streaming budget for this client (0: unlimited or not known yet) */
 } loam_session_stats;
 
 typedef void (*loam_deform_fn)(const loam_deform_event* event, void* user);

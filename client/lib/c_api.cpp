@@ -134,7 +134,8 @@ loam_session_stats loam_session(const loam_client* client) {
   const loam::game::SessionStats s = client->client->session();
   return {s.connected ? 1 : 0,  s.rtt_ms,          s.bytes_in_per_s, s.bytes_out_per_s,
           s.bytes_in,           s.bytes_out,       s.server_clients, s.server_tick_p50_us,
-          s.server_tick_p99_us, s.server_sequence, s.tiles_held,     s.own_stamps_unsettled};
+          s.server_tick_p99_us, s.server_sequence, s.tiles_held,     s.own_stamps_unsettled,
+          s.budget_bytes_per_s};
 }
 
 void loam_set_view(loam_client* client, double x, double y, double radius) {

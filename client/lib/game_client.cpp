@@ -356,6 +356,7 @@ void Client::Impl::step() {
       st.server_clients = s->clients;
       st.server_tick_p50_us = s->tick_p50_us;
       st.server_tick_p99_us = s->tick_p99_us;
+      st.budget_bytes_per_s = s->client_bytes_per_second;
       st.server_sequence = s->global_sequence;
     }
     st.tiles_held = last_held.size();
@@ -409,7 +410,7 @@ std::unique_ptr<Client> Client::connect(const Options& options, std::string* err
   impl->client_id = impl->net.welcome().client_id;
   impl->net.store().record_changes(true);
   auto display =
-      render::DisplayTerrain::create(impl->net.store(), render::DisplayStamping::kCpu, &impl->net.textures());
+      render::DisplayTerrain::create(impl->net.store(), {}, &impl->net.textures());  // stamps on the CPU
   if (!display) return fail(display.error().describe());
   impl->display = std::move(*display);
   impl->builder = std::make_unique<query::SnapshotBuilder>(impl->params);

@@ -266,6 +266,16 @@ std::vector<TileCoord> ConfirmedStore::tiles_waiting_for(uint64_t texture_id) co
   return out;
 }
 
+std::vector<TileCoord> ConfirmedStore::tiles_behind() const {
+  std::set<TileCoord> out;
+  for (const auto& [seq, e] : buffer_) {
+    for (const wire::TileVersion& bv : e.base_versions) {
+      if (versions_.count(bv.tile)) out.insert(bv.tile);
+    }
+  }
+  return {out.begin(), out.end()};
+}
+
 std::vector<TileCoord> ConfirmedStore::check_hashes(const wire::TileHashes& h) {
   std::vector<TileCoord> mismatched;
   for (const wire::TileHashEntry& e : h.entries) {

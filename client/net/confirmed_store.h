@@ -91,6 +91,10 @@ class ConfirmedStore {
   // whole when the image cannot be had).
   std::vector<TileCoord> tiles_waiting_for(uint64_t texture_id) const;
 
+  // Held tiles a buffered event changes: the server has moved past the version held, and a
+  // region (or an earlier event) must come before they are current again. Sorted, unique.
+  std::vector<TileCoord> tiles_behind() const;
+
   // Compares held tiles at the same version with the server's hashes; returns mismatches.
   std::vector<TileCoord> check_hashes(const wire::TileHashes& h);
 

@@ -282,6 +282,17 @@ Status TerrainClient::handle(wire::Message& m) {
       if (sent != 0 && sent <= now) rtt_ms_ = double(now - sent) / 1000.0;
       return {};
     }
+    case wire::MessageType::kStampImageList: {
+      const auto& list = std::get<wire::StampImageList>(m);
+      if (list.request_id != image_list_request_id_) return {};
+      stamp_images_ = list.images;
+      for (const wire::StampImageListEntry& e : stamp_images_) {
+        const bool served = e.width <= wire::kMaxStampImageSide && e.height <= wire::kMaxStampImageSide;
+        if (served && !textures_.contains(e.image_id) && textures_requested_.insert(e.image_id).second)
+          LOAM_TRY(connection_->send(wire::StampImageRequest{e.image_id}));
+      }
+      return {};
+    }
     case wire::MessageType::kStats:
       if (std::get<wire::Stats>(m).request_id == stats_request_id_) server_stats_ = std::get<wire::Stats>(m);
       return {};
@@ -290,6 +301,10 @@ Status TerrainClient::handle(wire::Message& m) {
 }
 
 Status TerrainClient::ping() { return connection_->send(wire::Ping{steady_us()}); }
+
+Status TerrainClient::request_stamp_images() {
+  return connection_->send(wire::StampImageListRequest{++image_list_request_id_});
+}
 
 Status TerrainClient::request_stats() { return connection_->send(wire::StatsRequest{++stats_request_id_}); }
 

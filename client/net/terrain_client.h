@@ -43,6 +43,9 @@ class TerrainClient {
   void set_tls(transport::TlsClientOptions options) { tls_ = std::move(options); }
   // The base the client generates untouched tiles from (null: none), and how many it made.
   const TileBase* base() const { return base_.get(); }
+  // The same, shared (it is replaced on a reconnect): every tile's version 0, the session's
+  // initial terrain.
+  const std::shared_ptr<const TileBase>& shared_base() const { return base_; }
   uint64_t tiles_generated() const { return tiles_generated_; }
   // RegionUpdate messages received (chunks of whole tiles or patches) since connect.
   uint64_t region_chunks_received() const { return region_chunks_received_; }
@@ -90,8 +93,14 @@ class TerrainClient {
   std::optional<double> rtt_ms() const { return rtt_ms_; }
   const std::optional<wire::Stats>& server_stats() const { return server_stats_; }
 
-  // Stamp images fetched from the server (StampImageRequest) as texture-stamp events need them.
+  // Stamp images fetched from the server (StampImageRequest) as texture-stamp events need them,
+  // or as the list below names them.
   const TextureRegistry& textures() const { return textures_; }
+  // The server's registered stamp images, for a tool panel: request_stamp_images() asks for
+  // the list (answered in pump()) and fetches every image the server serves, so it can be previewed and
+  // stamps with it predicted.
+  Status request_stamp_images();
+  const std::vector<wire::StampImageListEntry>& stamp_images() const { return stamp_images_; }
   ConfirmedStore& store() { return *store_; }
   const ConfirmedStore& store() const { return *store_; }
   uint64_t last_seen_seq() const { return last_seen_seq_; }
@@ -124,6 +133,8 @@ class TerrainClient {
   std::map<TileCoord, wire::RegionAssembler> assemblers_;
   TextureRegistry textures_;
   std::set<uint64_t> textures_requested_;
+  std::vector<wire::StampImageListEntry> stamp_images_;
+  uint32_t image_list_request_id_ = 0;
   std::map<uint32_t, AckResult> acks_;
   DeformPacer pacer_;
   std::vector<wire::ErrorMsg> errors_;

@@ -23,6 +23,11 @@ struct ClipmapFrameBlock {
   int32_t detail_size, detail_factor, debug_morph, pad0;
   float meters_per_sample, meters_per_unit, height_base, band;
   float skirt_z, detail_meters_per_unit, pad1, pad2;
+  float light_view_proj[16];  // render frame -> the sun's shadow map (client/render/sun_shadow.h)
+  float tex_phase[4];         // material texture phases of the anchor: scale A (xy), scale B (zw)
+  float macro_phase[2], shadow_texel;
+  int32_t shadows_on;
+  int32_t materials_on, change_on, pad3, pad4;
 };
 static_assert(offsetof(ClipmapFrameBlock, world_rel) == 64);
 static_assert(offsetof(ClipmapFrameBlock, detail_base) == 88);
@@ -30,7 +35,10 @@ static_assert(offsetof(ClipmapFrameBlock, sea_level) == 108);  // a float packs 
 static_assert(offsetof(ClipmapFrameBlock, cam_offset) == 128);
 static_assert(offsetof(ClipmapFrameBlock, n) == 144);
 static_assert(offsetof(ClipmapFrameBlock, meters_per_sample) == 176);
-static_assert(sizeof(ClipmapFrameBlock) == 208);
+static_assert(offsetof(ClipmapFrameBlock, light_view_proj) == 208);
+static_assert(offsetof(ClipmapFrameBlock, macro_phase) == 288);
+static_assert(offsetof(ClipmapFrameBlock, materials_on) == 304);
+static_assert(sizeof(ClipmapFrameBlock) == 320);
 
 inline constexpr std::array kClipmapFrameMembers = {
     LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, view_proj, "u_view_proj"),
@@ -59,6 +67,15 @@ inline constexpr std::array kClipmapFrameMembers = {
     LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, detail_meters_per_unit, "u_detail_meters_per_unit"),
     LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, pad1, "u_frame_pad1"),
     LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, pad2, "u_frame_pad2"),
+    LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, light_view_proj, "u_light_view_proj"),
+    LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, tex_phase, "u_tex_phase"),
+    LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, macro_phase, "u_macro_phase"),
+    LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, shadow_texel, "u_shadow_texel"),
+    LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, shadows_on, "u_shadows_on"),
+    LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, materials_on, "u_materials_on"),
+    LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, change_on, "u_change_on"),
+    LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, pad3, "u_frame_pad3"),
+    LOAM_UNIFORM_MEMBER(ClipmapFrameBlock, pad4, "u_frame_pad4"),
 };
 
 struct ClipmapLevelBlock {

@@ -12,56 +12,13 @@
 
 #include "client/render/clipmap_blocks.h"
 #include "client/render/frustum.h"
+#include "client/render/material_textures.h"
 #include "client/render/reversed_depth.h"
+#include "client/render/sun_shadow.h"
 #include "client/render/toroidal_upload.h"
 #include "gpu/shader_library.h"
 
 namespace loam::render {
-
-void HeightSource::read_detail(const RectI&, std::span<int8_t> out) const {
-  std::fill(out.begin(), out.end(), 0);
-}
-
-void WorldHeightSource::read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const {
-  if (mip == 0) {
-    world_.read_coarse(rect, out);
-    return;
-  }
-  // From the mip's own tiles (World keeps them equal to decimation), not mip-0 samples at a
-  // stride: a level far out would otherwise touch (2^mip)^2 times as many tiles. A mip sample
-  // outside the mip's tile range repeats the range's edge sample, as World's clamp rule gives.
-  const WorldParams& p = world_.params();
-  if (mip >= p.mip_count()) {
-    const int64_t s = int64_t(1) << mip;
-    size_t i = 0;
-    for (int64_t y = rect.y0; y < rect.y1; ++y)
-      for (int64_t x = rect.x0; x < rect.x1; ++x) out[i++] = world_.coarse(x * s, y * s);
-    return;
-  }
-  const RectI tiles = p.tile_range(mip);
-  const RectI span{tiles.x0 * kTileSize, tiles.y0 * kTileSize, tiles.x1 * kTileSize, tiles.y1 * kTileSize};
-  const int64_t w = rect.width();
-  for (int64_t y = rect.y0; y < rect.y1; ++y) {
-    const int64_t cy = std::clamp(y, span.y0, span.y1 - 1);
-    const int32_t ty = int32_t(floor_div(cy, kTileSize));
-    uint16_t* row = out.data() + (y - rect.y0) * w;
-    int32_t held_tx = INT32_MIN;
-    const uint16_t* tile = nullptr;
-    for (int64_t x = rect.x0; x < rect.x1; ++x) {
-      const int64_t cx = std::clamp(x, span.x0, span.x1 - 1);
-      const int32_t tx = int32_t(floor_div(cx, kTileSize));
-      if (tx != held_tx) {
-        tile = world_.coarse_tile(mip, tx, ty).data();
-        held_tx = tx;
-      }
-      row[x - rect.x0] = tile[floor_mod(cy, kTileSize) * kTileSize + floor_mod(cx, kTileSize)];
-    }
-  }
-}
-
-void WorldHeightSource::read_detail(const RectI& rect, std::span<int8_t> out) const {
-  world_.read_detail(rect, out);
-}
 
 namespace {
 
@@ -77,6 +34,23 @@ RectI in_level_grid(const RectI& mip0, int64_t s) {
 }
 
 constexpr double kSkirtDepthM = 30.0;  // the earth skirt reaches this far below the lowest terrain
+
+// Texture units of the clipmap program (shaders/clipmap.frag.glsl).
+constexpr GLuint kChangeUnit = 5, kMaterialsUnit = 6, kShadowUnit = 7;
+constexpr int32_t kMaterialTextureSize = 256;
+// Material texture scales (meters per repeat): two, at an irrational ratio and turned against
+// each other, so neither's repetition lines up; and a slow variation that mixes them.
+constexpr double kMaterialScaleA = 5.3, kMaterialScaleB = 37.0, kMaterialScaleMacro = 431.0;
+constexpr double kMaterialTurnB = 0.6458;  // radians (37 degrees)
+
+// (x, y) / scale, turned by `turn`, as a phase in [0, 1): the texture coordinate of an anchor
+// (world meters), so a fragment's coordinate is phase + its offset from the anchor / scale,
+// exact however far the anchor is.
+std::array<float, 2> tile_phase(double x, double y, double scale, double turn) {
+  const double c = std::cos(turn), s = std::sin(turn);
+  const double u = (c * x - s * y) / scale, v = (s * x + c * y) / scale;
+  return {float(u - std::floor(u)), float(v - std::floor(v))};
+}
 
 }  // namespace
 
@@ -138,6 +112,16 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
     glTextureParameteri(level.normals.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTextureParameteri(level.normals.get(), GL_TEXTURE_WRAP_S, GL_REPEAT);
     glTextureParameteri(level.normals.get(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+    if (config.materials) {
+      level.change = gpu::make_texture(GL_TEXTURE_2D);
+      glTextureStorage2D(level.change.get(), 1, GL_R16F, r->tex_size_, r->tex_size_);
+      glTextureParameteri(level.change.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+      glTextureParameteri(level.change.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+      glTextureParameteri(level.change.get(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+      glTextureParameteri(level.change.get(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+      const float zero = 0.0f;
+      glClearTexImage(level.change.get(), 0, GL_RED, GL_FLOAT, &zero);
+    }
     level.mirror.assign(size_t(r->tex_size_) * size_t(r->tex_size_), 0);
     level.world = in_level_grid(p.sample_rect(), int64_t(1) << l);
     r->level_.push_back(std::move(level));
@@ -181,9 +165,63 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
   LOAM_TRY(gpu::verify_uniform_block(r->program_.get(), "ClipmapLevel", sizeof(ClipmapLevelBlock),
                                      kClipmapLevelMembers));
   LOAM_TRY(gpu::verify_no_loose_uniforms(r->program_.get()));
-  r->frame_block_.emplace(1);
+  if (config.materials) {
+    const int32_t size = kMaterialTextureSize;
+    const int32_t mips = std::bit_width(uint32_t(size));
+    r->materials_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
+    glTextureStorage3D(r->materials_.get(), mips, GL_RGBA8, size, size, kMaterialCount);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    for (int32_t m = 0; m < kMaterialCount; ++m) {
+      const std::vector<uint8_t> texels = material_texture(Material(m), size);
+      glTextureSubImage3D(r->materials_.get(), 0, 0, 0, m, size, size, 1, GL_RGBA, GL_UNSIGNED_BYTE,
+                          texels.data());
+    }
+    glGenerateTextureMipmap(r->materials_.get());
+    glTextureParameteri(r->materials_.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTextureParameteri(r->materials_.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(r->materials_.get(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(r->materials_.get(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+    // Anisotropic filtering keeps grazing views sharp without shimmer where the driver has it.
+    if (epoxy_has_gl_extension("GL_EXT_texture_filter_anisotropic") ||
+        epoxy_has_gl_extension("GL_ARB_texture_filter_anisotropic")) {
+      glTextureParameterf(r->materials_.get(), GL_TEXTURE_MAX_ANISOTROPY_EXT, 8.0f);
+    }
+  }
+  if (config.shadows) {
+    if (config.shadow_size < 64 || config.shadow_size > 8192) {
+      return make_error(ErrorCode::kInvalidArgument, "clipmap.shadow_size", "must be 64..8192");
+    }
+    r->shadow_map_ = gpu::make_texture(GL_TEXTURE_2D);
+    glTextureStorage2D(r->shadow_map_.get(), 1, GL_DEPTH_COMPONENT32F, config.shadow_size,
+                       config.shadow_size);
+    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    // Reversed depth: lit where the fragment is at least as near the sun as the stored depth.
+    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_COMPARE_FUNC, GL_GEQUAL);
+    GLuint fbo = 0;
+    glCreateFramebuffers(1, &fbo);
+    r->shadow_fbo_ = gpu::GlFramebuffer(fbo);
+    glNamedFramebufferTexture(fbo, GL_DEPTH_ATTACHMENT, r->shadow_map_.get(), 0);
+    glNamedFramebufferDrawBuffer(fbo, GL_NONE);
+    if (glCheckNamedFramebufferStatus(fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+      return make_error(ErrorCode::kUnsupported, "clipmap.shadows", "the shadow framebuffer is incomplete");
+    }
+    const std::string_view shadow_fragment[] = {"clipmap_blocks.glsl", "shadow_depth.frag.glsl"};
+    auto shadow = gpu::build_graphics_program_from(vertex, shadow_fragment);
+    if (!shadow) return shadow.error();
+    r->shadow_program_ = std::move(*shadow);
+  }
+  r->frame_block_.emplace(2);  // the view, and the sun's view for the shadow pass
   r->level_block_.emplace(r->levels_);
   return r;
+}
+
+void ClipmapRenderer::set_sun(float azimuth_degrees, float elevation_degrees) {
+  config_.sun_azimuth_degrees = azimuth_degrees;
+  config_.sun_elevation_degrees = std::clamp(elevation_degrees, -10.0f, 90.0f);
 }
 
 std::array<double, 2> ClipmapRenderer::lod_center_samples(const Camera& camera) const {
@@ -200,6 +238,16 @@ int64_t ClipmapRenderer::upload(Level& level, int32_t mip, const RectI& rect) {
     source_->read(mip, piece, scratch_);
     glTextureSubImage2D(level.texture.get(), 0, GLint(tx), GLint(ty), GLsizei(w), GLsizei(h), GL_RED_INTEGER,
                         GL_UNSIGNED_SHORT, scratch_.data());
+    if (level.change) {
+      change_scratch_.resize(size_t(piece.area()));
+      if (source_->read_change(mip, piece, change_scratch_)) {
+        change_known_ = true;
+      } else {
+        std::fill(change_scratch_.begin(), change_scratch_.end(), 0.0f);
+      }
+      glTextureSubImage2D(level.change.get(), 0, GLint(tx), GLint(ty), GLsizei(w), GLsizei(h), GL_RED,
+                          GL_FLOAT, change_scratch_.data());
+    }
     for (int64_t j = 0; j < h; ++j) {
       std::copy_n(scratch_.begin() + j * w, w, level.mirror.begin() + (ty + j) * n + tx);
     }
@@ -337,6 +385,12 @@ size_t ClipmapRenderer::gpu_bytes() const {
   const size_t detail_texels = size_t(config_.detail_size) * size_t(config_.detail_size);
   bytes += detail_texels * (1 + 4);  // R8I offsets, RG16F gradients
   if (mesh_) bytes += mesh_->indices().size() * sizeof(uint32_t);
+  if (config_.materials) {
+    bytes += size_t(levels_) * level_texels * 2;  // R16F change
+    // RGBA8 layers with their mip chains (a third more).
+    bytes += size_t(kMaterialCount) * kMaterialTextureSize * kMaterialTextureSize * 4 * 4 / 3;
+  }
+  if (config_.shadows) bytes += size_t(config_.shadow_size) * size_t(config_.shadow_size) * 4;
   return bytes;
 }
 
@@ -395,8 +449,6 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
     glBindTextureUnit(3, detail_.offsets.get());
     glBindTextureUnit(4, detail_.gradient.get());
   }
-  frame_block_->write(0, f);
-  frame_block_->bind(kFrameBinding);
   const int64_t tn = tex_size_;
   for (int32_t l = 0; l < levels_; ++l) {
     const LevelPlacement& lp = placed_[size_t(l)];
@@ -419,10 +471,74 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
     level_block_->write(l, b);
   }
 
+  // Materials: texture phases of the anchor, so texture coordinates stay exact far out.
+  if (config_.materials) {
+    const double axm = double(ax) * mps, aym = double(ay) * mps;
+    const auto pa = tile_phase(axm, aym, kMaterialScaleA, 0.0),
+               pb = tile_phase(axm, aym, kMaterialScaleB, kMaterialTurnB);
+    const auto pm = tile_phase(axm, aym, kMaterialScaleMacro, 0.0);
+    f.tex_phase[0] = pa[0], f.tex_phase[1] = pa[1], f.tex_phase[2] = pb[0], f.tex_phase[3] = pb[1];
+    f.macro_phase[0] = pm[0], f.macro_phase[1] = pm[1];
+    f.materials_on = 1;
+    f.change_on = change_known_ ? 1 : 0;
+    glBindTextureUnit(kMaterialsUnit, materials_.get());
+  }
+  // The sun's shadow map: the terrain drawn from the sun over a square around the camera.
+  GLint target_fbo = 0;
+  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target_fbo);
+  if (config_.shadows && config_.sun_elevation_degrees > 0.5f) {
+    const double radius =
+        config_.shadow_distance_m > 0 ? config_.shadow_distance_m : std::min(config_.view_distance, 3000.0);
+    const glm::vec3 sun(f.sun_dir[0], f.sun_dir[1], f.sun_dir[2]);
+    const SunShadowFrame sf =
+        sun_shadow_frame(camera, glm::dvec3(sun), radius, p.height_offset + config_.min_height_m,
+                         p.height_offset + config_.max_height_m, config_.shadow_size);
+    ClipmapFrameBlock light = f;
+    std::copy_n(&sf.light_view_proj[0][0], 16, light.view_proj);
+    frame_block_->write(1, light);
+    frame_block_->bind(kFrameBinding, 1);
+    glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo_.get());
+    glViewport(0, 0, config_.shadow_size, config_.shadow_size);
+    clear_depth_reversed();
+    glClear(GL_DEPTH_BUFFER_BIT);
+    glUseProgram(shadow_program_.get());
+    glBindVertexArray(vao_.get());
+    {
+      const ReversedDepthTest depth_test;
+      // Slope-scaled offset away from the sun (reversed depth: toward 0) against acne.
+      glEnable(GL_POLYGON_OFFSET_FILL);
+      glPolygonOffset(-1.5f, -2.0f);
+      FrameStats shadow_stats;
+      draw_levels(camera, frustum_of(sf.light_view_proj), cam_offset, shadow_stats);
+      glDisable(GL_POLYGON_OFFSET_FILL);
+      stats.shadow_triangles = shadow_stats.triangles;
+      stats.draw_calls += shadow_stats.draw_calls;
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, GLuint(target_fbo));
+    std::copy_n(&sf.light_view_proj[0][0], 16, f.light_view_proj);
+    f.shadows_on = 1;
+    f.shadow_texel = float(1.0 / config_.shadow_size);
+    glBindTextureUnit(kShadowUnit, shadow_map_.get());
+  }
+
+  frame_block_->write(0, f);
+  frame_block_->bind(kFrameBinding, 0);
   glUseProgram(program_.get());
   glBindVertexArray(vao_.get());
   const ReversedDepthTest depth_test;
   glViewport(0, 0, width, height);
+  draw_levels(camera, frustum, cam_offset, stats);
+  glBindVertexArray(0);
+  glUseProgram(0);
+  return stats;
+}
+
+void ClipmapRenderer::draw_levels(const Camera& camera, const Frustum& frustum, const glm::vec2& cam_offset,
+                                  FrameStats& stats) {
+  const WorldParams& p = source_->params();
+  const double mps = p.meters_per_sample;
+  const int64_t ax = placed_.back().origin_x, ay = placed_.back().origin_y;
+  const int64_t tn = tex_size_;
   const float z_margin =
       float(kSkirtDepthM + (config_.detail_displacement ? 128.0 * p.detail_meters_per_unit : 0.0));
   for (int32_t l = 0; l < levels_; ++l) {
@@ -434,6 +550,7 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
     glBindTextureUnit(0, level.texture.get());
     glBindTextureUnit(1, level.normals.get());
     if (l + 1 < levels_) glBindTextureUnit(2, level_[size_t(l + 1)].normals.get());
+    if (level.change) glBindTextureUnit(kChangeUnit, level.change.get());
     std::vector<const Piece*> pieces;
     for (const Piece& piece : mesh_->ring()) pieces.push_back(&piece);
     pieces.push_back(lp.trim_variant < 0 ? &mesh_->fill() : &mesh_->trim(lp.trim_variant));
@@ -467,9 +584,6 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
       if (piece->kind != PieceKind::kDegenerate) stats.triangles += piece->index_count / 3;
     }
   }
-  glBindVertexArray(0);
-  glUseProgram(0);
-  return stats;
 }
 
 }  // namespace loam::render

@@ -34,35 +34,13 @@
 #include "client/render/camera.h"
 #include "client/render/clipmap_blocks.h"
 #include "client/render/clipmap_mesh.h"
+#include "client/render/frustum.h"
+#include "client/render/height_source.h"
 #include "gpu/gl_handle.h"
 #include "gpu/normal_pass.h"
 #include "protocol/world.h"
 
 namespace loam::render {
-
-// Where level textures get their samples: the server's world, a local DEM, or (later) the
-// client's confirmed store plus its overlay.
-class HeightSource {
- public:
-  virtual ~HeightSource() = default;
-  virtual const WorldParams& params() const = 0;
-  // Mip-`mip` samples of `rect` (that mip's grid: sample i is mip-0 sample i * 2^mip),
-  // row-major into `out` (rect.area() values). Samples outside the world clamp to its edge.
-  virtual void read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const = 0;
-  // Detail offsets of a rect of the detail grid (0 where there are none).
-  virtual void read_detail(const RectI& rect, std::span<int8_t> out) const;
-};
-
-class WorldHeightSource final : public HeightSource {
- public:
-  explicit WorldHeightSource(const World& world) : world_(world) {}
-  const WorldParams& params() const override { return world_.params(); }
-  void read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const override;
-  void read_detail(const RectI& rect, std::span<int8_t> out) const override;
-
- private:
-  const World& world_;
-};
 
 struct RendererConfig {
   int32_t n = 127;     // vertices per level side, 2^k - 1
@@ -74,13 +52,23 @@ struct RendererConfig {
   float sun_azimuth_degrees = 135.0f, sun_elevation_degrees = 35.0f;
   int32_t detail_size = 512;         // detail samples per side around the camera; 0: no detail
   bool detail_displacement = false;  // also displace the finest level's vertices by the detail
+  // Materials: tiling detail textures splatted by height, slope and curvature, and exposed
+  // earth where the terrain was dug or heaped (where the source knows the initial terrain).
+  // Off: the flat colour bands only.
+  bool materials = true;
+  // The sun's shadow map over a square of 2 x shadow_distance_m around the camera (0: the view
+  // distance, at most 3 km), shadow_size texels per side. Off: no shadow pass.
+  bool shadows = true;
+  int32_t shadow_size = 2048;
+  double shadow_distance_m = 0;
 };
 
 struct FrameStats {
   int64_t triangles = 0;  // non-degenerate triangles submitted
   int32_t draw_calls = 0;
   int32_t pieces_culled = 0;
-  int64_t texels_uploaded = 0;  // by this frame's level update
+  int64_t texels_uploaded = 0;   // by this frame's level update
+  int64_t shadow_triangles = 0;  // drawn into the sun's shadow map (draw_calls include that pass)
 };
 
 class ClipmapRenderer {
@@ -96,6 +84,9 @@ class ClipmapRenderer {
   FrameStats render(const Camera& camera, int32_t width, int32_t height);
   // The level-texture half of render(), for tests of the upload traffic.
   int64_t update_levels(const Camera& camera);
+  // Moves the sun (degrees: azimuth clockwise from north, elevation above the horizon); the
+  // next frame's light and shadows follow.
+  void set_sun(float azimuth_degrees, float elevation_degrees);
   // Samples of `mip0_rect` changed in the source: re-read them into every level holding them.
   void invalidate(const RectI& mip0_rect);
   // Detail samples of `detail_rect` (detail grid) changed in the source.
@@ -118,6 +109,7 @@ class ClipmapRenderer {
   struct Level {
     gpu::GlTexture texture;        // heights, R16UI
     gpu::GlTexture normals;        // R32UI, packed FD4 normals
+    gpu::GlTexture change;         // R16F, meters against the initial terrain (materials)
     std::vector<uint16_t> mirror;  // N x N, the texture's content, for culling bounds
     bool valid = false;
     int64_t region_x = 0, region_y = 0;  // level-grid sample at the region's low corner
@@ -135,6 +127,9 @@ class ClipmapRenderer {
   int64_t update_detail(const Camera& camera);
   int64_t upload_detail(const RectI& rect);  // detail grid
   std::array<double, 2> lod_center_samples(const Camera& camera) const;
+  // Draws every level's pieces inside `frustum` with the bound program and frame block.
+  void draw_levels(const Camera& camera, const Frustum& frustum, const glm::vec2& cam_offset,
+                   FrameStats& stats);
 
   const HeightSource* source_ = nullptr;
   RendererConfig config_;
@@ -146,7 +141,11 @@ class ClipmapRenderer {
   std::vector<LevelPlacement> placed_;
   gpu::GlBuffer indices_;
   gpu::GlVertexArray vao_;
-  gpu::GlProgram program_, gradient_program_;
+  gpu::GlProgram program_, gradient_program_, shadow_program_;
+  gpu::GlTexture materials_;   // RGBA8 2D array, one layer per Material, mipmapped
+  gpu::GlTexture shadow_map_;  // DEPTH32F, compared (sampler2DShadow)
+  gpu::GlFramebuffer shadow_fbo_;
+  bool change_known_ = false;  // the source answered read_change at least once
   // The programs' uniform blocks (client/render/clipmap_blocks.h): one frame, one per level.
   std::optional<gpu::UniformBuffer<ClipmapFrameBlock>> frame_block_;
   std::optional<gpu::UniformBuffer<ClipmapLevelBlock>> level_block_;
@@ -154,6 +153,7 @@ class ClipmapRenderer {
   std::optional<gpu::LevelNormalPass> normal_pass_;
   Detail detail_;
   std::vector<uint16_t> scratch_;
+  std::vector<float> change_scratch_;
   std::vector<int8_t> detail_scratch_;
 };
 

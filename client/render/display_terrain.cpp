@@ -4,7 +4,6 @@
 #include <climits>
 #include <optional>
 
-#include "gpu/gpu_stamper.h"
 #include "protocol/stamps/stamp_apply.h"
 
 namespace loam::render {
@@ -44,7 +43,7 @@ DisplayTerrain::DisplayTerrain(const client::ConfirmedStore& store, const Textur
 DisplayTerrain::~DisplayTerrain() = default;
 
 Result<std::unique_ptr<DisplayTerrain>> DisplayTerrain::create(const client::ConfirmedStore& store,
-                                                               DisplayStamping stamping,
+                                                               const DisplayStamperFactory& gpu,
                                                                const TextureRegistry* textures) {
   std::unique_ptr<DisplayTerrain> d(new DisplayTerrain(store, textures));
   // Start from whatever the store already holds (a reconnect keeps it): its held mip-0
@@ -58,8 +57,8 @@ Result<std::unique_ptr<DisplayTerrain>> DisplayTerrain::create(const client::Con
     }
   }
   d->display_.commit(0);
-  if (stamping == DisplayStamping::kGpu) {
-    auto stamper = gpu::GpuStamper::create(d->display_, textures);
+  if (gpu) {
+    auto stamper = gpu(d->display_, textures);
     if (!stamper) return stamper.error();
     d->stamper_ = std::move(*stamper);
   }
@@ -389,6 +388,64 @@ DisplayTerrain::TileSource DisplayTerrain::source_for(int32_t mip, int32_t tx, i
     if (const auto t = from_mip(m)) return *t;
   }
   return {};
+}
+
+void DisplayTerrain::set_initial_base(std::shared_ptr<const TileBase> base) {
+  if (base != initial_base_) base_tiles_.clear();
+  initial_base_ = std::move(base);
+}
+
+bool DisplayTerrain::may_have_changed(int32_t tx, int32_t ty) const {
+  const auto v = store_->version({Layer::kCoarse, 0, tx, ty});
+  if (v && *v > 0) return true;
+  const RectI tile{int64_t(tx) * kTileSize, int64_t(ty) * kTileSize, int64_t(tx + 1) * kTileSize,
+                   int64_t(ty + 1) * kTileSize};
+  for (const Pending& p : pending_) {
+    if (p.stamp.layer == Layer::kCoarse && !p.reach.intersect(tile).empty()) return true;
+  }
+  return false;
+}
+
+const uint16_t* DisplayTerrain::base_tile(int32_t tx, int32_t ty) const {
+  auto it = base_tiles_.find({tx, ty});
+  if (it == base_tiles_.end()) {
+    if (base_tiles_.size() >= 64) base_tiles_.clear();
+    std::vector<uint16_t> samples(kTileSamples);
+    initial_base_->coarse_tile(0, tx, ty, samples);
+    it = base_tiles_.emplace(std::pair{tx, ty}, std::move(samples)).first;
+  }
+  return it->second.data();
+}
+
+bool DisplayTerrain::read_change(int32_t mip, const RectI& rect, std::span<float> out) const {
+  if (!initial_base_) return false;
+  std::vector<uint16_t> now(out.size());
+  read(mip, rect, now);
+  const RectI w = display_.params().sample_rect();
+  const double mpu = display_.params().meters_per_unit;
+  const int64_t s = int64_t(1) << mip;
+  size_t i = 0;
+  int64_t cached_tx = INT64_MIN, cached_ty = INT64_MIN;
+  const uint16_t* base = nullptr;  // null: the tile reads as unchanged
+  for (int64_t y = rect.y0; y < rect.y1; ++y) {
+    const int64_t gy = std::clamp(y * s, w.y0, w.y1 - 1);
+    for (int64_t x = rect.x0; x < rect.x1; ++x, ++i) {
+      const int64_t gx = std::clamp(x * s, w.x0, w.x1 - 1);
+      const int64_t tx = floor_div(gx, kTileSize), ty = floor_div(gy, kTileSize);
+      if (tx != cached_tx || ty != cached_ty) {
+        cached_tx = tx, cached_ty = ty;
+        base = may_have_changed(int32_t(tx), int32_t(ty)) ? base_tile(int32_t(tx), int32_t(ty)) : nullptr;
+      }
+      out[i] =
+          base
+              ? float(
+                    (int32_t(now[i]) -
+                     int32_t(base[size_t(floor_mod(gy, kTileSize) * kTileSize + floor_mod(gx, kTileSize))])) *
+                    mpu)
+              : 0.0f;
+    }
+  }
+  return true;
 }
 
 void DisplayTerrain::read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const {

@@ -1,7 +1,8 @@
 // The terrain as a viewer shows it: the confirmed store's state plus the user's own stamps
 // that the server has not settled yet (the overlay), so a crater appears the moment it is
-// made. It is kept in a GPU tile cache (a GpuStamper: the shared stamp shaders, bit-exact with
-// the CPU reference) and in the CPU mirror the clipmap levels read (a HeightSource).
+// made. It is kept in the CPU mirror the clipmap levels read (a HeightSource) and, in a viewer,
+// in a GPU tile cache (a DisplayStamper: the shared stamp shaders, bit-exact with the CPU
+// reference). The display itself needs no GL: without a stamper it stamps on the CPU.
 //
 // Each frame, sync() follows the client:
 //   - events the confirmed store applied are stamped on the GPU copy too, where the display
@@ -24,27 +25,26 @@
 // store forgot at the next sync; the GPU pages are a bounded cache (gpu/tile_pages.h), so no
 // world is too large for it.
 //
-// With DisplayStamping::kGpu the GL 4.5 context it was created in must be current for every
-// call; not thread-safe. The store must outlive it.
+// With a GPU stamper the GL 4.5 context it was created in must be current for every call; not
+// thread-safe. The store must outlive it.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <span>
 #include <vector>
 
 #include "client/net/confirmed_store.h"
 #include "client/net/terrain_client.h"
-#include "client/render/clipmap_renderer.h"
-#include "gpu/gpu_stamper.h"
+#include "client/render/display_stamper.h"
+#include "client/render/height_source.h"
 #include "protocol/result.h"
 #include "protocol/stamps/texture_registry.h"
 #include "protocol/world.h"
 
 namespace loam::render {
-
-enum class DisplayStamping { kGpu, kCpu };
 
 struct DisplayCounters {
   uint64_t events_stamped = 0;    // confirmed events stamped on the display copy
@@ -63,7 +63,7 @@ struct DisplayCounters {
 // What the display holds: its CPU copy of the held tiles and its GPU tile cache.
 struct DisplayMemory {
   size_t cpu_bytes = 0;
-  gpu::GpuStamperMemory gpu;  // zero with DisplayStamping::kCpu
+  gpu::GpuStamperMemory gpu;  // zero without a GPU stamper
 };
 
 // Samples of the display that changed (a layer's global mip-0 grid), for the renderer.
@@ -74,8 +74,9 @@ struct DisplayDirty {
 
 class DisplayTerrain final : public HeightSource {
  public:
+  // `gpu` makes the display's GPU tile cache (empty: the display stamps on the CPU alone).
   static Result<std::unique_ptr<DisplayTerrain>> create(const client::ConfirmedStore& store,
-                                                        DisplayStamping stamping,
+                                                        const DisplayStamperFactory& gpu,
                                                         const TextureRegistry* textures = nullptr);
   ~DisplayTerrain() override;
   DisplayTerrain(const DisplayTerrain&) = delete;
@@ -85,6 +86,12 @@ class DisplayTerrain final : public HeightSource {
   void read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const override;
   // Detail offsets of a rect of the detail grid; 0 where the detail tile is not held.
   void read_detail(const RectI& rect, std::span<int8_t> out) const;
+
+  // The session's initial terrain (the base every tile's version 0 is, where the client can
+  // generate it): read_change() measures against it, for the renderer's dug-material layer.
+  // Without one, read_change() answers false and no ground reads as dug.
+  void set_initial_base(std::shared_ptr<const TileBase> base);
+  bool read_change(int32_t mip, const RectI& rect, std::span<float> out) const override;
 
   // Shows the user's own stamp, sent as `client_seq`, at once. Returns false (nothing shown
   // until the server confirms it) where the stamp is invalid or reaches a tile not held.
@@ -138,6 +145,10 @@ class DisplayTerrain final : public HeightSource {
     std::span<const uint16_t> samples;
   };
   TileSource source_for(int32_t mip, int32_t tx, int32_t ty) const;
+  // Whether mip-0 coarse tile (tx, ty) may differ from the initial base: held past version 0,
+  // or under an own stamp shown. Others read as unchanged without asking the base.
+  bool may_have_changed(int32_t tx, int32_t ty) const;
+  const uint16_t* base_tile(int32_t tx, int32_t ty) const;  // mip 0, cached
   // What a settled prediction should become if it was right: the displayed samples of its
   // reach with this sync's events of other stamps (in server order) applied on top.
   std::vector<int32_t> expected_after(const Pending& p,
@@ -146,11 +157,15 @@ class DisplayTerrain final : public HeightSource {
   const client::ConfirmedStore* store_;
   const TextureRegistry* textures_;
   World display_;
-  std::unique_ptr<gpu::GpuStamper> stamper_;
+  std::unique_ptr<DisplayStamper> stamper_;
   std::vector<DisplayDirty> cpu_done_;
   std::vector<DisplayDirty> gpu_done_;  // readbacks collected early (a full page cache)
   std::vector<Pending> pending_;
   std::vector<client::StoreChange> last_changes_;
+  std::shared_ptr<const TileBase> initial_base_;
+  // Mip-0 base tiles read_change() asked for: few (only tiles that changed), dropped together
+  // when they pass 64 (8 MiB).
+  mutable std::map<std::pair<int32_t, int32_t>, std::vector<uint16_t>> base_tiles_;
   DisplayCounters counters_;
   std::chrono::milliseconds retire_timeout_{5000};
 };

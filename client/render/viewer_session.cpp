@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "client/render/display_gpu_stamper.h"
 #include "dem/refined_default.h"
 
 namespace loam::render {
@@ -25,6 +26,7 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   v->client_.set_base_provider(generate_known_base);
   v->client_.set_tls(options.tls);
   LOAM_TRY(v->client_.connect(host, port, options.name, options.role, options.token));
+  LOAM_TRY(v->client_.request_stamp_images());  // the tool panel's list, with previews
   const WorldParams& world = v->client_.welcome().world;
   // The coarsest mip first: a few tiles that show the whole world and set the materials.
   std::vector<TileCoord> top;
@@ -49,10 +51,14 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
         ErrorCode::kIo, "viewer.connect",
         "the coarsest mip did not arrive within " + std::to_string(options.connect_timeout.count()) + " ms");
   }
-  auto display = DisplayTerrain::create(v->client_.store(), options.stamping, &v->client_.textures());
+  auto display = DisplayTerrain::create(
+      v->client_.store(),
+      options.stamping == DisplayStamping::kGpu ? gpu_display_stamper() : DisplayStamperFactory{},
+      &v->client_.textures());
   if (!display) return display.error();
   v->display_ = std::move(*display);
-  (void)v->display_->sync(v->client_);  // takes in the coarsest tiles
+  v->display_->set_initial_base(v->client_.shared_base());  // the dug-material layer's reference
+  (void)v->display_->sync(v->client_);                      // takes in the coarsest tiles
   v->snapshots_ = std::make_unique<query::SnapshotBuilder>(world);
   v->refresh_terrain({});
   auto renderer = ClipmapRenderer::create(*v->display_, options.renderer);
@@ -124,7 +130,9 @@ void ViewerSession::refresh_terrain(const std::vector<DisplayDirty>& dirty) {
 
 Status ViewerSession::reconnect(const std::string& host, uint16_t port) {
   display_->abandon_unacknowledged();
-  return client_.reconnect(host, port);
+  LOAM_TRY(client_.reconnect(host, port));
+  display_->set_initial_base(client_.shared_base());
+  return {};
 }
 
 FrameStats ViewerSession::render(const Camera& camera, int32_t width, int32_t height) {
@@ -205,6 +213,7 @@ ViewerStats ViewerSession::stats() const {
     s.server_tick_p50_us = st->tick_p50_us;
     s.server_tick_p99_us = st->tick_p99_us;
     s.server_clients = st->clients;
+    s.budget_bytes_per_s = st->client_bytes_per_second;
   }
   return s;
 }

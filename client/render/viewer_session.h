@@ -19,6 +19,9 @@
 
 namespace loam::render {
 
+// Where the display stamps: on the GPU tile cache (display_gpu_stamper.h), or on the CPU alone.
+enum class DisplayStamping { kGpu, kCpu };
+
 struct ViewerOptions {
   RendererConfig renderer;
   InterestConfig interest;  // n and levels are taken from the renderer
@@ -44,6 +47,7 @@ struct ViewerStats {
   // against the budget the server streams within (0: none), the server's tick times.
   double rtt_ms = -1, bytes_in_per_s = 0;
   uint32_t server_tick_p50_us = 0, server_tick_p99_us = 0, server_clients = 0;
+  uint32_t budget_bytes_per_s = 0;  // what the server streams to this client within (0: not known yet)
 };
 
 // Whether each clipmap level's region is held at the level's own mip (or finer), as of the

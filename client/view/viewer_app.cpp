@@ -20,7 +20,11 @@
 #include "client/render/reversed_depth.h"
 #include "client/render/viewer_session.h"
 #include "client/view/fly_camera.h"
+#include "client/view/hud.h"
+#include "client/view/minimap.h"
+#include "client/view/stamp_previews.h"
 #include "client/view/stamp_tool.h"
+#include "client/view/tile_states.h"
 #include "client/view/walker.h"
 #include "gpu/egl_context.h"
 #include "gpu/glfw_context.h"
@@ -51,9 +55,10 @@ double ground_at(const render::HeightSource& src, double x, double y) {
 // Sends the tool's stamp for a click at a terrain point; false when the stamp is not valid here
 // (outside the world, say) or the connection is gone.
 bool stamp_at(render::ViewerSession& session, StampTool& tool, const std::array<double, 3>& p) {
-  auto q = validate_stamp(tool.at(p[0], p[1], p[2]), session.client().welcome().world);
+  auto q = validate_stamp(tool.at(p[0], p[1], p[2]), session.client().welcome().world, {},
+                          &session.client().textures());
   if (!q) {
-    std::fprintf(stderr, "viewer: %s stamp not made: %s\n", to_string(tool.tool),
+    std::fprintf(stderr, "viewer: %s stamp not made: %s\n", to_string(tool.kind),
                  q.error().describe().c_str());
     return false;
   }
@@ -168,11 +173,16 @@ int run_headless(const ViewerAppOptions& o) {
   auto t_prev = t0;
   for (double t = 0; t < seconds; t = seconds_since(t0)) {
     if (o.walk) {
-      const double dt = std::min(0.1, seconds_since(t_prev));
+      // The walker steps at 60 Hz through the time the frame took (up to a second), so it falls
+      // and lands in real time however slow the frames are.
+      const double elapsed = std::min(1.0, seconds_since(t_prev));
       t_prev = Clock::now();
       if (!walker && query::height_at(s.terrain(), cx, cy)) walker = place_walker(s.terrain(), cx, cy);
       const double yaw = 2.0 * std::numbers::pi * t / 20.0;
-      if (walker) step_walker(*walker, s.terrain(), WalkerInput{0, 0, yaw, false, false}, dt);
+      if (walker) {
+        for (double left = elapsed; left > 1e-9; left -= 1.0 / 60.0)
+          step_walker(*walker, s.terrain(), WalkerInput{0, 0, yaw, false, false}, std::min(left, 1.0 / 60.0));
+      }
       const glm::dvec3 eye = walker ? walker_eye(*walker) : glm::dvec3{cx, cy, ground(cx, cy) + 1.65};
       cam = render::look_at(eye.x, eye.y, eye.z, eye.x + std::cos(yaw) * 10.0, eye.y + std::sin(yaw) * 10.0,
                             eye.z - 0.8);
@@ -182,8 +192,8 @@ int run_headless(const ViewerAppOptions& o) {
       if (walker && !dug && o.dig_under_s > 0 && t >= o.dig_under_s) {
         dug = true;
         StampTool dig;
-        dig.tool = Tool::kCrater;
         dig.radius_m = 12.0;
+        dig.select(Tool::kCrater);
         if (stamp_at(s, dig, {walker->feet.x, walker->feet.y, walker->feet.z})) {
           std::printf("viewer: dug a crater under the walker at %.1f, %.1f (feet at %.2f m)\n",
                       walker->feet.x, walker->feet.y, walker->feet.z);
@@ -210,13 +220,13 @@ int run_headless(const ViewerAppOptions& o) {
     longest_wait = std::max(longest_wait, cov.longest_wait_s);
     if (o.stamp_every_s > 0 && t >= next_stamp) {
       next_stamp += o.stamp_every_s;
-      tool.tool = Tool(int(t / o.stamp_every_s) % 3 == 2 ? int(Tool::kRaise) : int(Tool::kCrater));
+      tool.select(int(t / o.stamp_every_s) % 3 == 2 ? Tool::kRaise : Tool::kCrater);
       const std::vector<float> depth = target->read_depth();
       const int32_t px = o.width / 2, py = o.height / 2;
       if (auto p = render::unproject(cam, o.width, o.height, px, py, depth[size_t(py * o.width + px)])) {
         // Big enough to see from where the camera is: a twentieth of the distance.
-        tool.radius_m =
-            std::clamp(0.05 * std::hypot((*p)[0] - cam.x, (*p)[1] - cam.y, (*p)[2] - cam.z), 3.0, 40.0);
+        tool.set_radius(
+            std::clamp(0.05 * std::hypot((*p)[0] - cam.x, (*p)[1] - cam.y, (*p)[2] - cam.z), 3.0, 40.0));
         stamp_at(s, tool, *p);
       }
     }
@@ -261,38 +271,19 @@ void on_scroll(GLFWwindow* window, double, double dy) {
   static_cast<WindowState*>(glfwGetWindowUserPointer(window))->scroll += dy;
 }
 
-void draw_hud(const render::ViewerSession& s, const FlyCamera& fly, const StampTool& tool,
-              const render::FrameStats& f, double frame_ms, const std::string& renderer) {
-  const render::ViewerStats v = s.stats();
-  ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_Once);
-  ImGui::SetNextWindowBgAlpha(0.6f);
-  ImGui::Begin("Loam", nullptr, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoFocusOnAppearing);
-  ImGui::Text("%s", renderer.c_str());
-  ImGui::Text("frame %.1f ms (%.0f fps), %lld triangles, %d draw calls", frame_ms,
-              1000.0 / std::max(frame_ms, 0.01), (long long)f.triangles, f.draw_calls);
-  ImGui::Text("camera %.1f, %.1f, %.1f m, speed %.0f m/s", fly.x(), fly.y(), fly.z(), fly.speed());
-  ImGui::Separator();
-  ImGui::Text("session: RTT %.1f ms, in %.1f KiB/s, server tick p50 %.2f / p99 %.2f ms, %u clients", v.rtt_ms,
-              v.bytes_in_per_s / 1024.0, v.server_tick_p50_us / 1000.0, v.server_tick_p99_us / 1000.0,
-              v.server_clients);
-  ImGui::Text("tiles %llu held of %llu subscribed, %llu regions", (unsigned long long)v.tiles_held,
-              (unsigned long long)v.tiles_subscribed, (unsigned long long)v.regions);
-  ImGui::Text("events %llu applied, %llu stamped on the GPU, %llu copied",
-              (unsigned long long)v.events_applied, (unsigned long long)v.display.events_stamped,
-              (unsigned long long)v.display.events_copied);
-  ImGui::Text("overlay %zu pending, %llu predicted, %llu corrections", v.overlay,
-              (unsigned long long)v.display.predicted, (unsigned long long)v.display.corrections);
-  ImGui::Text("hash checks %llu, mismatches %llu, GPU/CPU divergent texels %llu",
-              (unsigned long long)v.hash_checks, (unsigned long long)v.hash_mismatches,
-              (unsigned long long)v.display.divergent_texels);
-  ImGui::Text("terrain memory: GPU %.1f MiB (%d tile pages, %.1f MiB), CPU %.1f MiB",
-              double(v.gpu_terrain_bytes) / (1 << 20), v.gpu_pages_resident,
-              double(v.gpu_page_bytes) / (1 << 20), double(v.cpu_terrain_bytes) / (1 << 20));
-  ImGui::Separator();
-  ImGui::Text("tool [1-6]: %s, radius %.1f m [wheel]", to_string(tool.tool), tool.radius_m);
-  ImGui::TextDisabled(
-      "WASD/QE move, shift fast, right-drag look, left-click deform, F1 HUD, F12 screenshot, Esc quit");
-  ImGui::End();
+// The minimap's input from the session: the levels' regions in mip-0 samples, the camera.
+MinimapInput minimap_input(render::ViewerSession& s, const render::Camera& cam, double aspect,
+                           const TileStates& tiles) {
+  MinimapInput in;
+  in.world = s.client().welcome().world;
+  for (int32_t l = 0; l < s.renderer().levels(); ++l) {
+    const RectI r = s.renderer().level_region(l);
+    in.level_regions.push_back({r.x0 << l, r.y0 << l, r.x1 << l, r.y1 << l});
+  }
+  in.camera = cam;
+  in.aspect = aspect;
+  in.tiles = &tiles.tiles();
+  return in;
 }
 
 int run_window(const ViewerAppOptions& o) {
@@ -323,6 +314,10 @@ int run_window(const ViewerAppOptions& o) {
                                         start.z + start.fz);
   fly.set_speed(std::max(10.0, 0.05 * start.z));
   StampTool tool;
+  tool.select(Tool::kCrater);
+  TileStates tiles;
+  StampPreviews previews;
+  double next_tiles = 0;
   auto ground = [&](double x, double y) { return ground_at(s.display(), x, y); };
   bool hud = true, was_left = false, was_f1 = false, was_f12 = false, was_g = false, was_space = false;
   std::optional<Walker> walker;
@@ -353,7 +348,7 @@ int run_window(const ViewerAppOptions& o) {
       in.up = key(GLFW_KEY_E) - key(GLFW_KEY_Q);
       in.fast = key(GLFW_KEY_LEFT_SHIFT) > 0 || key(GLFW_KEY_RIGHT_SHIFT) > 0;
       for (int i = 0; i < kToolCount; ++i) {
-        if (key(GLFW_KEY_1 + i) > 0) tool.tool = Tool(i);
+        if (key(GLFW_KEY_1 + i) > 0) tool.select(Tool(i));
       }
       const bool f1 = key(GLFW_KEY_F1) > 0;
       if (f1 && !was_f1) hud = !hud;
@@ -368,6 +363,14 @@ int run_window(const ViewerAppOptions& o) {
       walk_in.jump = key(GLFW_KEY_SPACE) > 0 && !was_space;
       was_space = key(GLFW_KEY_SPACE) > 0;
       if (key(GLFW_KEY_ESCAPE) > 0) glfwSetWindowShouldClose(win, GLFW_TRUE);
+      // The sun: Z/X turn it (azimuth), C/V lower and raise it; the shadows follow.
+      const double turn = (key(GLFW_KEY_X) - key(GLFW_KEY_Z)) * 30.0 * dt,
+                   lift = (key(GLFW_KEY_V) - key(GLFW_KEY_C)) * 10.0 * dt;
+      if (turn != 0 || lift != 0) {
+        const render::RendererConfig& rc = s.renderer().config();
+        s.renderer().set_sun(float(std::fmod(rc.sun_azimuth_degrees + turn + 360.0, 360.0)),
+                             float(rc.sun_elevation_degrees + lift));
+      }
     }
     const bool over_hud = io.WantCaptureMouse;
     if (!over_hud && glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) {
@@ -386,7 +389,11 @@ int run_window(const ViewerAppOptions& o) {
       if (!walker && query::height_at(s.terrain(), fly.x(), fly.y()))
         walker = place_walker(s.terrain(), fly.x(), fly.y());
       if (walker) {
-        step_walker(*walker, s.terrain(), walk_in, dt);
+        // At 60 Hz through the frame's time: a jump is taken on the first step only.
+        for (double left = dt; left > 1e-9; left -= 1.0 / 60.0) {
+          step_walker(*walker, s.terrain(), walk_in, std::min(left, 1.0 / 60.0));
+          walk_in.jump = false;
+        }
         const glm::dvec3 eye = walker_eye(*walker);
         fly.set_position(eye.x, eye.y, eye.z);
       }
@@ -425,7 +432,26 @@ int run_window(const ViewerAppOptions& o) {
       ImGui_ImplOpenGL3_NewFrame();
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
-      draw_hud(s, fly, tool, f, frame_ms, window->renderer());
+      // The cache view's tile states four times a second (they are sets of thousands of tiles).
+      if (const double now = seconds_since(t0); now >= next_tiles) {
+        next_tiles = now + 0.25;
+        const client::ConfirmedStore& store = s.client().store();
+        tiles.update(store.wanted(), store.held(), store.tiles_behind(), now);
+      }
+      previews.update(s.client().textures());
+      HudStatus status;
+      status.renderer = window->renderer();
+      status.frame_ms = frame_ms;
+      status.triangles = f.triangles;
+      status.draw_calls = f.draw_calls;
+      status.camera_x = fly.x(), status.camera_y = fly.y(), status.camera_z = fly.z();
+      status.speed_mps = fly.speed();
+      status.walking = walking;
+      status.session = s.stats();
+      draw_status_panel(status);
+      draw_minimap_panel(layout_minimap(minimap_input(s, cam, double(w) / double(h), tiles), 240.0f),
+                         tiles.counts());
+      draw_tool_panel(tool, s.client().stamp_images(), previews);
       ImGui::Render();
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
     }

@@ -14,6 +14,8 @@ namespace loam::wire {
 inline constexpr uint32_t kHelloMagic = 0x4D414F4Cu;
 // A peer with a different major version cannot parse our messages; minor versions only add
 // optional behaviour negotiated in Hello/Welcome, never change a layout.
+// 6.0: StampImageListRequest / StampImageList (the server's registered stamp images, for a
+// tool panel); Stats ends with the byte budget the server streams to the asking client.
 // 5.0: Welcome names the base the initial terrain is (its TileBase identity; 0: none a client
 // can rebuild), so a client that can generate that base claims every tile at version 0 and
 // only edited tiles travel.
@@ -27,7 +29,7 @@ inline constexpr uint32_t kHelloMagic = 0x4D414F4Cu;
 // 2.0: Subscribe entries say whether a version is held (version 0, the initial terrain, can be
 // claimed); RegionUpdate patches (the changed samples of a tile over a held version); region
 // codec payloads of format 3. 1.1 had added StatsRequest / Stats.
-inline constexpr uint16_t kProtocolMajor = 5;
+inline constexpr uint16_t kProtocolMajor = 6;
 inline constexpr uint16_t kProtocolMinor = 0;
 
 // Frame header: u32 payload length, u16 message type (little-endian), then the payload.
@@ -54,11 +56,13 @@ enum class MessageType : uint16_t {
   kTileHashes = 13,
   kStampImageRequest = 14,
   kStampImageResponse = 15,
-  kStatsRequest = 16,  // since 1.1
-  kStats = 17,         // since 1.1
+  kStatsRequest = 16,           // since 1.1
+  kStats = 17,                  // since 1.1
+  kStampImageListRequest = 18,  // since 6.0
+  kStampImageList = 19,         // since 6.0
 };
 inline constexpr uint16_t kFirstMessageType = 1;
-inline constexpr uint16_t kLastMessageType = 17;
+inline constexpr uint16_t kLastMessageType = 19;
 const char* to_string(MessageType type);
 
 // --- Caps (a decoder never loops or allocates past these) ---
@@ -72,6 +76,7 @@ inline constexpr uint32_t kMaxRegionChunkBytes = 256u << 10;  // payload bytes p
 inline constexpr uint32_t kMaxRegionPayloadBytes = 4u << 20;  // a whole region, all chunks
 inline constexpr uint32_t kMaxTileHashEntries = 1024;         // per TileHashes message
 inline constexpr uint32_t kMaxStampImageSide = 512;           // pixels, either side
+inline constexpr uint32_t kMaxStampImageListEntries = 1024;   // per StampImageList message
 inline constexpr uint32_t kMaxStampImageBytes = kMaxStampImageSide * kMaxStampImageSide * 2;
 
 }  // namespace loam::wire

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <utility>
 
+#include "protocol/stamps/texture_registry.h"
 #include "protocol/wire/byte_stream.h"
 #include "protocol/wire/fields.h"
 
@@ -27,6 +28,8 @@ const char* to_string(MessageType type) {
     case MessageType::kStatsRequest: return "StatsRequest";
     case MessageType::kStats: return "Stats";
     case MessageType::kStampImageResponse: return "StampImageResponse";
+    case MessageType::kStampImageListRequest: return "StampImageListRequest";
+    case MessageType::kStampImageList: return "StampImageList";
   }
   return "unknown";
 }
@@ -464,7 +467,26 @@ Status serialize(S& s, Stats& m) {
   LOAM_TRY(s.bits(m.region_encodes, "stats.region_encodes"));
   LOAM_TRY(s.bits(m.region_cache_hits, "stats.region_cache_hits"));
   LOAM_TRY(s.bits(m.events_sent, "stats.events_sent"));
-  return s.bits(m.regions_sent, "stats.regions_sent");
+  LOAM_TRY(s.bits(m.regions_sent, "stats.regions_sent"));
+  return s.bits(m.client_bytes_per_second, "stats.client_bytes_per_second");
+}
+
+template <typename S>
+Status serialize(S& s, StampImageListRequest& m) {
+  return s.bits(m.request_id, "stamp_image_list_request.request_id");
+}
+
+template <typename S>
+Status serialize(S& s, StampImageList& m) {
+  LOAM_TRY(s.bits(m.request_id, "stamp_image_list.request_id"));
+  return serialize_vector(s, m.images, kMaxStampImageListEntries, 16, "stamp_image_list.count",
+                          [&](StampImageListEntry& e) -> Status {
+                            LOAM_TRY(s.bits(e.image_id, "stamp_image_list.image_id"));
+                            LOAM_TRY(serialize_range<uint32_t>(s, e.width, 1, uint32_t(kMaxTextureSide),
+                                                               "stamp_image_list.width"));
+                            return serialize_range<uint32_t>(s, e.height, 1, uint32_t(kMaxTextureSide),
+                                                             "stamp_image_list.height");
+                          });
 }
 
 template <size_t I>

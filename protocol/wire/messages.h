@@ -273,13 +273,35 @@ struct Stats {
   uint64_t region_cache_hits = 0;
   uint64_t events_sent = 0;
   uint64_t regions_sent = 0;
+  // Since 6.0: the bytes per second the server streams regions to the asking client within.
+  uint32_t client_bytes_per_second = 0;
   friend bool operator==(const Stats&, const Stats&) = default;
+};
+
+// Asks which stamp images the server has registered (answered with StampImageList). Since 6.0.
+struct StampImageListRequest {
+  uint32_t request_id = 0;  // echoed in StampImageList
+  friend bool operator==(const StampImageListRequest&, const StampImageListRequest&) = default;
+};
+
+struct StampImageListEntry {
+  uint64_t image_id = 0;  // content hash: a texture stamp's texture_id
+  uint32_t width = 0;     // pixels, > 0 (may exceed kMaxStampImageSide: such an image is used
+  uint32_t height = 0;    // by id but not served by StampImageRequest)
+  friend bool operator==(const StampImageListEntry&, const StampImageListEntry&) = default;
+};
+
+// The server's registered stamp images, ordered by id (the first kMaxStampImageListEntries).
+struct StampImageList {
+  uint32_t request_id = 0;
+  std::vector<StampImageListEntry> images;
+  friend bool operator==(const StampImageList&, const StampImageList&) = default;
 };
 
 // Alternative i holds the message whose MessageType is i + 1.
 using Message = std::variant<Hello, Welcome, ErrorMsg, Ping, Pong, Bye, Subscribe, Unsubscribe, Deform,
                              DeformAck, DeformEvent, RegionUpdate, TileHashes, StampImageRequest,
-                             StampImageResponse, StatsRequest, Stats>;
+                             StampImageResponse, StatsRequest, Stats, StampImageListRequest, StampImageList>;
 
 MessageType message_type(const Message& m);
 

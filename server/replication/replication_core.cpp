@@ -251,6 +251,9 @@ void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now)
     case wire::MessageType::kStatsRequest:
       send(c, stats_message(std::get<wire::StatsRequest>(m).request_id, now));
       return;
+    case wire::MessageType::kStampImageListRequest:
+      on_stamp_image_list(c, std::get<wire::StampImageListRequest>(m));
+      return;
     default:
       violation(c, wire::WireErrorCode::kUnknownType, "type",
                 std::string(wire::to_string(type)) + " is a server-to-client message");
@@ -274,6 +277,7 @@ bool ReplicationCore::admit_request(Client& c, wire::MessageType type, CoreTime 
     case wire::MessageType::kSubscribe:
     case wire::MessageType::kUnsubscribe:
     case wire::MessageType::kStampImageRequest:
+    case wire::MessageType::kStampImageListRequest:
     case wire::MessageType::kStatsRequest: break;
     default: return true;  // Hello, Bye, Deform (its own bucket), and what the switch refuses
   }
@@ -542,6 +546,16 @@ void ReplicationCore::on_stamp_image(Client& c, const wire::StampImageRequest& r
     std::memcpy(resp.pixels.data(), t->samples.data(), resp.pixels.size());
   }
   send(c, resp);
+}
+
+void ReplicationCore::on_stamp_image_list(Client& c, const wire::StampImageListRequest& r) {
+  wire::StampImageList list;
+  list.request_id = r.request_id;
+  for (const StampTexture* t : terrain_.textures().all()) {
+    if (list.images.size() == wire::kMaxStampImageListEntries) break;
+    list.images.push_back({t->id, uint32_t(t->width), uint32_t(t->height)});
+  }
+  send(c, list);
 }
 
 // --- The tick ---
@@ -1036,6 +1050,7 @@ wire::Stats ReplicationCore::stats_message(uint32_t request_id, CoreTime now) co
   st.region_cache_hits = frames_.counters().hits;
   st.events_sent = stats_.events_sent;
   st.regions_sent = stats_.regions_sent;
+  st.client_bytes_per_second = config_.client_bytes_per_second;
   return st;
 }
 

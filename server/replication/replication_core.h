@@ -183,6 +183,7 @@ class ReplicationCore {
   void on_subscribe(Client& c, const wire::Subscribe& sub);
   void on_deform(Client& c, const wire::Deform& d, CoreTime now);
   void on_stamp_image(Client& c, const wire::StampImageRequest& r);
+  void on_stamp_image_list(Client& c, const wire::StampImageListRequest& r);
   wire::Stats stats_message(uint32_t request_id, CoreTime now) const;
   bool valid_tile(const TileCoord& t) const;
 

@@ -26,8 +26,9 @@ bot=$!
 LOAM_TOKEN=$editor "$build/client/loam-client" view --headless --port "$port" --seconds 4 --stamp-every 1 \
   --size 320x180 --screenshot "$dir/headless.png"
 test -s "$dir/headless.png"
-# Walk mode: a walker at the centre; a crater dug under it at 2 s; it falls in and stands on the floor.
-LOAM_TOKEN=$editor "$build/client/loam-client" view --headless --port "$port" --walk --dig-under 2 --seconds 6 \
+# Walk mode: a walker at the centre; a crater dug under it at 2 s; it falls in and stands on the
+# floor (12 s: the first frames of a sanitized build under load can take seconds).
+LOAM_TOKEN=$editor "$build/client/loam-client" view --headless --port "$port" --walk --dig-under 2 --seconds 12 \
   --size 320x180 --screenshot "$dir/walker.png" | tee "$dir/walk.log"
 test -s "$dir/walker.png"
 dug_z=$(sed -n 's/.*dug a crater under the walker .*feet at \([-0-9.]*\) m.*/\1/p' "$dir/walk.log")
@@ -35,7 +36,10 @@ end_z=$(sed -n 's/^viewer walker: feet at [-0-9.]*, [-0-9.]*, \([-0-9.]*\) m.*st
 echo "viewer_smoke: walker feet at ${dug_z} m when dug, ${end_z} m standing at the end"
 awk -v a="$dug_z" -v b="$end_z" 'BEGIN { exit !(a != "" && b != "" && b < a - 1.0) }'
 if [ -n "${DISPLAY:-}" ]; then
-  "$build/client/loam-client" view --port "$port" --seconds 2 --size 480x270 --no-vsync --screenshot "$dir/window.png" \
+  # Mesa's GLX driver is unloaded at exit with a few bytes it never freed (an unnamed module to
+  # LeakSanitizer, so no suppression can name it): leaks are not checked for the window, as for
+  # every GL test.
+  ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_leaks=0" "$build/client/loam-client" view --port "$port" --seconds 2 --size 480x270 --no-vsync --screenshot "$dir/window.png" \
     --token-file "$dir/tokens"
   test -s "$dir/window.png"
 else

@@ -21,6 +21,7 @@
 #include "dem/default_terrain.h"
 #include "dem/refined_default.h"
 #include "gl_test_context.h"
+#include "golden_image.h"
 #include "protocol/stamps/stamp_apply.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/surface.h"
@@ -28,11 +29,7 @@
 namespace loam::render {
 namespace {
 
-namespace fs = std::filesystem;
-
 constexpr int32_t kWidth = 320, kHeight = 180;
-constexpr const char* kIdiffThresholds =
-    "-fail 0.008 -failpercent 1 -warn 0.008 -warnpercent 1 -hardfail 0.5";
 
 // Camera and target positions in world meters; heights are above the ground under them.
 struct GoldenView {
@@ -76,42 +73,16 @@ World deformed(World w) {
   return w;
 }
 
-// Whether goldens can be checked here (idiff present) or are being approved; skips otherwise.
-#define LOAM_REQUIRE_IDIFF()                                                                            \
-  do {                                                                                                  \
-    if (std::system("idiff --version > /dev/null 2>&1") != 0 && !std::getenv("LOAM_APPROVE_GOLDENS")) { \
-      if (gpu::test::running_in_ci()) FAIL() << "idiff (openimageio-tools) is missing";                 \
-      GTEST_SKIP() << "idiff (openimageio-tools) is missing";                                           \
-    }                                                                                                   \
-  } while (0)
-
 // Renders `cam` of `source` into `target` and compares it with the golden `name`.png, or writes
 // it to LOAM_APPROVE_GOLDENS.
 void render_and_compare_one(OffscreenTarget& target, const HeightSource& source, const Camera& cam,
-                            const std::string& name) {
-  const char* approve = std::getenv("LOAM_APPROVE_GOLDENS");
-  const fs::path golden_dir = fs::path(LOAM_SOURCE_DIR) / "tests/golden/images";
-  const fs::path out_dir = fs::absolute("golden-out");
-  fs::create_directories(out_dir);
-  RendererConfig cfg;  // the defaults users get
+                            const std::string& name,
+                            const RendererConfig& cfg = {}) {  // the defaults users get
   auto renderer = ClipmapRenderer::create(source, cfg);
   ASSERT_TRUE(renderer.ok());
   target.begin(0.50f, 0.60f, 0.75f, 0.0f);
   (*renderer)->render(cam, kWidth, kHeight);
-  const fs::path out = approve ? fs::path(approve) / (name + ".png") : out_dir / (name + ".png");
-  ASSERT_TRUE(write_png(out.string(), kWidth, kHeight, target.read_rgba()).ok());
-  if (approve) {
-    std::printf("approved %s\n", out.c_str());
-    return;
-  }
-  const fs::path golden = golden_dir / (name + ".png"), diff = out_dir / (name + ".diff.png");
-  ASSERT_TRUE(fs::exists(golden)) << golden << " is missing: run scripts/approve-goldens.sh";
-  const std::string cmd = std::string("idiff -q ") + kIdiffThresholds + " -abs -scale 10 -od -o '" +
-                          diff.string() + "' '" + golden.string() + "' '" + out.string() + "'";
-  const int rc = std::system(cmd.c_str());
-  EXPECT_EQ(rc, 0) << name << ": the render differs from its golden beyond the threshold ("
-                   << kIdiffThresholds << "); rendered " << out << ", difference x10 in " << diff
-                   << "; if the change is intended, run scripts/approve-goldens.sh";
+  test::compare_with_golden(name, kWidth, kHeight, target.read_rgba());
 }
 
 // Renders each view (of `dented` where the view says so) and compares it with its golden.
@@ -121,7 +92,7 @@ void render_and_compare(std::span<const GoldenView> views, const World& plain, c
   ASSERT_TRUE(target.ok());
   for (const GoldenView& v : views) {
     const World& w = v.deformed ? dented : plain;
-    WorldHeightSource source(w);
+    WorldHeightSource source(w, v.deformed ? &plain : nullptr);  // dug ground against the plain terrain
     Camera cam =
         look_at(v.x, v.y, height_at(w, v.x, v.y) + v.dz, v.tx, v.ty, height_at(w, v.tx, v.ty) + v.tdz);
     cam.far_m = 8000;
@@ -156,6 +127,7 @@ TEST(ClipmapGolden, AWalkersViewFromTheFloorOfACraterDugUnderIt) {
   crater.radius = 10, crater.intensity = 2.5, crater.shape = 0.3;
   auto q = validate_stamp(crater, w.params());
   ASSERT_TRUE(q.ok()) << q.error().describe();
+  const World undug = w;
   ASSERT_TRUE(apply_stamp(w, *q).ok());
   w.commit(1);
   s = snapshots.build(w, held, std::vector<query::ChangedRect>{{Layer::kCoarse, w.params().sample_rect()}}, 1,
@@ -172,7 +144,7 @@ TEST(ClipmapGolden, AWalkersViewFromTheFloorOfACraterDugUnderIt) {
   cam.far_m = 8000;
   auto target = OffscreenTarget::create(kWidth, kHeight);
   ASSERT_TRUE(target.ok());
-  WorldHeightSource source(w);
+  WorldHeightSource source(w, &undug);
   render_and_compare_one(*target, source, cam, "walker_in_crater");
 }
 

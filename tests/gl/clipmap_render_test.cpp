@@ -208,6 +208,11 @@ TEST(ClipmapRender, FarFromTheOriginTheSameTerrainRendersTheSameImage) {
   RendererConfig cfg;
   cfg.n = 63;
   cfg.view_distance = 3000;
+  // Positions and heights are what this pins bit for bit. The shadow square and the material
+  // textures' phases are computed in double from world positions, so far out they differ from
+  // home in the last float bits (they stay within a texel: covered by the goldens).
+  cfg.materials = false;
+  cfg.shadows = false;
   const int32_t levels = levels_for_view_distance(cfg.n, home.params().meters_per_sample, cfg.view_distance);
   const int32_t kx = 153 << levels, ky = -(153 << levels);  // tiles
   WorldParams far_params = home.params();

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <set>
 #include <thread>
 
 #include "dem/default_terrain.h"
@@ -406,6 +407,43 @@ TEST(Session, TextureStampEventsAreAppliedOnceTheirImageIsFetched) {
   EXPECT_EQ(watcher.textures().size(), 1u);
   EXPECT_EQ(watcher.store().counters().regions, regions_before) << "no tile had to be sent again";
   EXPECT_EQ(watcher.store().counters().events_applied, 3u);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
+// A tool panel lists the server's images (StampImageList) and gets each one to preview; the
+// list is what the server registered, and the budget the server streams within comes in Stats.
+TEST(Session, TheServerListsItsStampImagesAndEachArrivesForAPreview) {
+  const std::string dir = temp_data_dir("texlist");
+  std::vector<std::string> args = {"--client-budget", "65536"};
+  std::set<uint64_t> ids;
+  for (int i = 0; i < 2; ++i) {
+    const std::string png = dir + "/stamp" + std::to_string(i) + ".png";
+    auto w = load_default_terrain();
+    ASSERT_TRUE(w.ok());
+    ASSERT_TRUE(export_png16(w->world, {300 + 40 * i, 200, 348 + 40 * i, 240 + 8 * i}, png).ok());
+    auto decoded = read_stamp_texture_file(png);
+    ASSERT_TRUE(decoded.ok()) << decoded.error().describe();
+    ids.insert(texture_content_id(decoded->width, decoded->height, decoded->samples));
+    args.insert(args.end(), {"--stamp-image", png});
+  }
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir + "/data", args)) << server.log();
+  client::TerrainClient c;
+  ASSERT_TRUE(c.connect("127.0.0.1", server.port(), "panel").ok());
+  ASSERT_TRUE(c.request_stamp_images().ok());
+  ASSERT_TRUE(c.request_stats().ok());
+  ASSERT_TRUE(c.wait_until(
+      [&] { return c.stamp_images().size() == 2 && c.textures().size() == 2 && c.server_stats(); }, 10s));
+  std::set<uint64_t> listed;
+  for (const wire::StampImageListEntry& e : c.stamp_images()) {
+    listed.insert(e.image_id);
+    const StampTexture* t = c.textures().find(e.image_id);
+    ASSERT_NE(t, nullptr);
+    EXPECT_EQ(uint32_t(t->width), e.width);
+    EXPECT_EQ(uint32_t(t->height), e.height);
+  }
+  EXPECT_EQ(listed, ids);
+  EXPECT_EQ(c.server_stats()->client_bytes_per_second, 65536u);
   EXPECT_EQ(server.terminate(), 0) << server.log();
 }
 

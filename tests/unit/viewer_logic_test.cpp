@@ -10,6 +10,7 @@
 #include "client/view/fly_camera.h"
 #include "client/view/stamp_tool.h"
 #include "protocol/stamps/stamp_validate.h"
+#include "protocol/stamps/texture_registry.h"
 
 namespace loam::view {
 namespace {
@@ -125,18 +126,71 @@ TEST(StampTool, EveryToolGivesAStampTheWorldValidates) {
   w.meters_per_unit = 0.01;
   StampTool tool;
   for (double radius : {0.5, 8.0, 120.0}) {
-    tool.radius_m = radius;
     for (int t = 0; t < kToolCount; ++t) {
-      tool.tool = Tool(t);
+      tool.radius_m = radius;
+      tool.select(Tool(t));
       const StampParams p = tool.at(700, 600, 12.5);
       auto q = validate_stamp(p, w);
-      EXPECT_TRUE(q.ok()) << to_string(tool.tool) << " radius " << radius << ": "
+      EXPECT_TRUE(q.ok()) << to_string(Tool(t)) << " radius " << radius << ": "
                           << (q.ok() ? "" : q.error().describe());
-      EXPECT_EQ(p.layer, tool.tool == Tool::kFootprint ? Layer::kDetail : Layer::kCoarse);
+      EXPECT_EQ(p.layer, Tool(t) == Tool::kFootprint ? Layer::kDetail : Layer::kCoarse);
     }
   }
   tool.grow(1e6);
   EXPECT_EQ(tool.radius_m, 500.0);
+}
+
+// The tool panel can send any kind with any blend: the fields a kind does not have stay unset,
+// so every combination the panel offers validates (texture stamps with a registered image).
+TEST(StampTool, EveryKindAndBlendThePanelOffersValidates) {
+  WorldParams w;
+  w.meters_per_sample = 2.0;
+  w.tiles_x = 4;
+  w.tiles_y = 3;
+  w.height_offset = -100;
+  w.meters_per_unit = 0.01;
+  TextureRegistry textures;
+  std::vector<uint16_t> img(16 * 16);
+  for (size_t i = 0; i < img.size(); ++i) img[i] = uint16_t(i * 200);
+  const uint64_t id = *textures.add(16, 16, img);
+  for (int k = 0; k < kStampKindCount; ++k) {
+    for (int b = 0; b < kBlendModeCount; ++b) {
+      StampTool tool;
+      tool.select(Tool::kCrater);
+      tool.set_kind(StampKind(k));
+      tool.blend = BlendMode(b);
+      tool.texture_id = id;
+      tool.rotation_degrees = 30;
+      const bool own = tool.kind == StampKind::kFootprint || tool.kind == StampKind::kFlatten ||
+                       tool.kind == StampKind::kShockwave;
+      auto q = validate_stamp(tool.at(700, 600, 12.5), w, {}, &textures);
+      if (own && tool.blend != BlendMode::kAdd) {
+        EXPECT_FALSE(q.ok()) << to_string(tool.kind) << " " << to_string(tool.blend);
+        continue;
+      }
+      EXPECT_TRUE(q.ok()) << to_string(tool.kind) << " " << to_string(tool.blend) << ": "
+                          << (q.ok() ? "" : q.error().describe());
+    }
+  }
+  // The volume-conserving crater, which the presets never send.
+  StampTool crater;
+  crater.select(Tool::kCrater);
+  crater.volume_conserving = true;
+  auto q = validate_stamp(crater.at(700, 600, 12.5), w);
+  ASSERT_TRUE(q.ok()) << q.error().describe();
+  EXPECT_EQ(q->flags & kStampFlagVolumeConserving, kStampFlagVolumeConserving);
+}
+
+TEST(StampTool, GrowingAPresetKeepsItsProportions) {
+  StampTool tool;
+  tool.radius_m = 8;
+  tool.select(Tool::kCrater);
+  tool.grow(2.0);
+  EXPECT_DOUBLE_EQ(tool.radius_m, 16.0);
+  EXPECT_DOUBLE_EQ(tool.intensity, 4.0);
+  tool.select(Tool::kFlatten);
+  tool.grow(2.0);
+  EXPECT_DOUBLE_EQ(tool.intensity, 0.8);  // a strength, not a height
 }
 
 }  // namespace

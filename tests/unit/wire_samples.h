@@ -125,6 +125,11 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   missing.found = false;
   v.emplace_back("stamp_image_missing", missing);
   v.emplace_back("stats_request", StatsRequest{7});
+  v.emplace_back("stamp_image_list_request", StampImageListRequest{3});
+  StampImageList list;
+  list.request_id = 3;
+  list.images = {{0x0123456789ABCDEFull, 64, 64}, {0xDEADBEEFCAFEF00Dull, 4096, 1}};
+  v.emplace_back("stamp_image_list", list);
   Stats st;
   st.request_id = 7;
   st.clients = 3;
@@ -142,6 +147,7 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   st.region_cache_hits = 310000;
   st.events_sent = 123456 * 3;
   st.regions_sent = 315000;
+  st.client_bytes_per_second = 131072;
   v.emplace_back("stats", st);
   DeformEvent foot;  // a footprint carries its contact; its tiles one to the side of the center
   foot.global_seq = 9000001;

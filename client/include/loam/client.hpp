@@ -154,6 +154,8 @@ struct SessionStats {
   uint64_t server_sequence = 0;
   size_t tiles_held = 0;
   size_t own_stamps_unsettled = 0;
+  uint32_t budget_bytes_per_s =
+      0;  // what the server streams to this client within (0: unlimited or not known yet)
 };
 
 struct StampResult {

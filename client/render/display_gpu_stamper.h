@@ -1,0 +1,12 @@
+// The display's GPU tile cache: gpu::GpuStamper behind the DisplayStamper interface. Needs the
+// GL 4.5 context current for every call.
+#pragma once
+
+#include "client/render/display_stamper.h"
+#include "gpu/gpu_stamper.h"
+
+namespace loam::render {
+
+DisplayStamperFactory gpu_display_stamper(gpu::GpuStamperOptions options = {});
+
+}  // namespace loam::render

@@ -1,0 +1,29 @@
+// What a GPU stamper reports, without GL: its completed readbacks and the memory it holds.
+// Separate from gpu_stamper.h so code that only consumes them (a display that may or may not
+// stamp on a GPU) needs no GL headers.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+#include "protocol/geometry.h"
+
+namespace loam::gpu {
+
+// One completed readback: the samples of `layer` that changed (global layer sample rect).
+struct StampReadback {
+  uint64_t ticket = 0;
+  Layer layer = Layer::kCoarse;
+  RectI changed;
+};
+
+// What the stamper holds on the GPU.
+struct GpuStamperMemory {
+  size_t page_bytes = 0;                       // both layers' page arrays
+  size_t scratch_bytes = 0;                    // wave fields, vertex-pass copies, readback buffers
+  int32_t coarse_pages = 0, detail_pages = 0;  // resident tiles
+  uint64_t evictions = 0;
+  size_t total() const { return page_bytes + scratch_bytes; }
+};
+
+}  // namespace loam::gpu

@@ -1,0 +1,147 @@
+// Materials and light that follow deformation: a crater dug in the embedded terrain shows exposed
+// earth (the change layer against the undug terrain) and, under a low sun, the shadow of its
+// rim on its floor; moving the sun moves the shadow. Measured on the rendered pixels, plus
+// goldens of the crater with and without materials and shadows.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "client/render/clipmap_renderer.h"
+#include "client/render/headless.h"
+#include "dem/default_terrain.h"
+#include "gl_test_context.h"
+#include "golden_image.h"
+#include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_validate.h"
+#include "protocol/surface.h"
+
+namespace loam::render {
+namespace {
+
+constexpr int32_t kWidth = 320, kHeight = 180;
+// Flat around the crater: no ridge within 1.5 km rises above 4 degrees seen from the east.
+constexpr double kCraterX = 1200, kCraterY = 486, kCraterRadius = 30, kCraterDepth = 8;
+
+struct Scene {
+  World plain, dug;
+};
+
+const Scene& scene() {
+  static const Scene s = [] {
+    auto imported = load_default_terrain();
+    EXPECT_TRUE(imported.ok());
+    Scene out{imported->world, imported->world};
+    StampParams c;
+    c.kind = StampKind::kCrater;
+    c.center_x = kCraterX, c.center_y = kCraterY, c.radius = kCraterRadius, c.intensity = kCraterDepth;
+    c.shape = 0.3;
+    auto q = validate_stamp(c, out.dug.params());
+    EXPECT_TRUE(q.ok());
+    EXPECT_TRUE(apply_stamp(out.dug, *q).ok());
+    out.dug.commit(1);
+    return out;
+  }();
+  return s;
+}
+
+// A view down into the crater from the south, 70 m out.
+Camera crater_view(const World& w) {
+  Camera cam = look_at(kCraterX, kCraterY + 70, height_at(w, kCraterX, kCraterY + 70) + 40, kCraterX,
+                       kCraterY, height_at(scene().plain, kCraterX, kCraterY) - kCraterDepth * 0.5);
+  cam.far_m = 8000;
+  return cam;
+}
+
+std::vector<uint8_t> render(const HeightSource& source, const Camera& cam, const RendererConfig& cfg) {
+  auto target = OffscreenTarget::create(kWidth, kHeight);
+  EXPECT_TRUE(target.ok());
+  auto renderer = ClipmapRenderer::create(source, cfg);
+  EXPECT_TRUE(renderer.ok());
+  target->begin(0.50f, 0.60f, 0.75f, 0.0f);
+  (*renderer)->render(cam, kWidth, kHeight);
+  return target->read_rgba();
+}
+
+// Mean of a channel expression over the image's centre (the crater's floor and walls; `half`
+// pixels either way).
+template <typename F>
+double centre_mean(const std::vector<uint8_t>& rgba, F f, int half = kHeight / 6) {
+  double sum = 0;
+  int n = 0;
+  for (int y = kHeight / 2 - half; y < kHeight / 2 + half; ++y) {
+    for (int x = kWidth / 2 - half; x < kWidth / 2 + half; ++x, ++n) {
+      const uint8_t* p = &rgba[size_t(y * kWidth + x) * 4];
+      sum += f(double(p[0]), double(p[1]), double(p[2]));
+    }
+  }
+  return sum / n;
+}
+
+double luminance(double r, double g, double b) { return 0.2126 * r + 0.7152 * g + 0.0722 * b; }
+
+TEST(Materials, DugGroundReadsAsEarthWhereTheTerrainChangedAgainstItsInitialState) {
+  LOAM_REQUIRE_GL();
+  const Scene& s = scene();
+  RendererConfig cfg;
+  cfg.shadows = false;
+  const Camera cam = crater_view(s.dug);
+  const WorldHeightSource knows_initial(s.dug, &s.plain), no_initial(s.dug);
+  const auto with_layer = render(knows_initial, cam, cfg), without = render(no_initial, cam, cfg);
+  // Earth is redder than the basin's sand and dry grass: red minus blue rises inside the crater.
+  auto warmth = [](double r, double, double b) { return r - b; };
+  const double dug = centre_mean(with_layer, warmth), plain = centre_mean(without, warmth);
+  EXPECT_GT(dug, plain + 6.0) << "dug " << dug << ", without the change layer " << plain;
+  // The same source on the undug terrain: nothing changed, nothing reads as dug.
+  const WorldHeightSource undug(s.plain, &s.plain), undug_plain(s.plain);
+  const Camera plain_cam = crater_view(s.plain);
+  EXPECT_NEAR(centre_mean(render(undug, plain_cam, cfg), warmth),
+              centre_mean(render(undug_plain, plain_cam, cfg), warmth), 0.01);
+}
+
+TEST(Materials, UnderALowSunTheCraterRimShadowsItsFloorAndTheShadowMovesWithTheSun) {
+  LOAM_REQUIRE_GL();
+  const Scene& s = scene();
+  RendererConfig shadowed;
+  shadowed.sun_elevation_degrees = 12;
+  shadowed.sun_azimuth_degrees = 90;  // from the east: the east rim shadows the floor
+  RendererConfig lit = shadowed;
+  lit.shadows = false;
+  // How much the shadows darken the view's centre, on the dug and on the undug terrain.
+  auto darkening = [&](const World& w, const World* initial, const RendererConfig& on,
+                       const RendererConfig& off) {
+    const WorldHeightSource source(w, initial);
+    const Camera cam = crater_view(w);
+    // The crater's floor: the picture's centre, 16 pixels either way.
+    return centre_mean(render(source, cam, off), luminance, 16) -
+           centre_mean(render(source, cam, on), luminance, 16);
+  };
+  const double crater = darkening(s.dug, &s.plain, shadowed, lit);
+  const double flat = darkening(s.plain, &s.plain, shadowed, lit);
+  std::printf("low sun: shadows darken the crater by %.2f, the undug ground by %.2f\n", crater, flat);
+  EXPECT_GT(crater, flat + 5.0) << "the rim's shadow on the floor";
+  // A high sun leaves the floor lit: the shadow follows the sun.
+  RendererConfig noon = shadowed, noon_lit = lit;
+  noon.sun_elevation_degrees = noon_lit.sun_elevation_degrees = 75;
+  const double at_noon = darkening(s.dug, &s.plain, noon, noon_lit);
+  std::printf("high sun: shadows darken the crater by %.2f\n", at_noon);
+  EXPECT_LT(at_noon, 0.25 * crater);
+}
+
+TEST(MaterialsGolden, ADugCraterUnderALowSunWithAndWithoutMaterialsAndShadows) {
+  LOAM_REQUIRE_GL();
+  LOAM_REQUIRE_IDIFF();
+  const Scene& s = scene();
+  const Camera cam = crater_view(s.dug);
+  const WorldHeightSource dug(s.dug, &s.plain);
+  RendererConfig cfg;
+  cfg.sun_elevation_degrees = 14;
+  cfg.sun_azimuth_degrees = 90;
+  test::compare_with_golden("materials_dug_crater_low_sun", kWidth, kHeight, render(dug, cam, cfg));
+  RendererConfig bare = cfg;
+  bare.materials = false;
+  bare.shadows = false;
+  test::compare_with_golden("materials_off_dug_crater_low_sun", kWidth, kHeight, render(dug, cam, bare));
+}
+
+}  // namespace
+}  // namespace loam::render
