@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,47 @@ std::string fmt(double v, int digits = 2) {
   char b[32];
   std::snprintf(b, sizeof b, "%.*f", digits, v);
   return b;
+}
+
+// One renderer over the five views: each view's steady frame time (median of repeated frames)
+// and the per-view sums of what it drew; `after_view` sees each view's last frame (its depth).
+struct ViewsRun {
+  std::vector<double> steady_s;
+  int64_t triangles = 0, shadow_triangles = 0;
+  int64_t draw_calls = 0;
+  double median_ms() const {
+    std::vector<double> s = steady_s;
+    std::sort(s.begin(), s.end());
+    return s[s.size() / 2] * 1e3;
+  }
+};
+
+ViewsRun run_views(const Context& ctx, const World& world, render::ClipmapRenderer& r,
+                   render::OffscreenTarget& target, int32_t w, int32_t h, double view_distance,
+                   const MeasureOptions& opts,
+                   const std::function<void(const render::Camera&)>& after_view = {}) {
+  ViewsRun run;
+  for (const View& v : kViews) {
+    render::Camera cam = render::look_at(v.x, v.y, height_at(world, v.x, v.y) + v.dz, v.tx, v.ty,
+                                         height_at(world, v.tx, v.ty) + v.tdz);
+    cam.near_m = 1.0;
+    cam.far_m = 2.0 * view_distance;
+    render::FrameStats fs;
+    const Timing t = measure(
+        ctx,
+        [&] {
+          target.begin(0.5f, 0.6f, 0.75f, 0.0f);
+          fs = r.render(cam, w, h);
+          glFinish();
+        },
+        opts);
+    run.steady_s.push_back(t.median_s);
+    run.triangles += fs.triangles;
+    run.shadow_triangles += fs.shadow_triangles;
+    run.draw_calls += fs.draw_calls;
+    if (after_view) after_view(cam);
+  }
+  return run;
 }
 
 int run_clipmap(const Context& ctx, Report& report) {
@@ -75,33 +117,18 @@ int run_clipmap(const Context& ctx, Report& report) {
     render::RendererConfig cfg;
     cfg.n = c.n;
     cfg.morph = c.morph;
+    // The geometry's cost and error alone; the shading's is the second table.
+    cfg.materials = false;
+    cfg.shadows = false;
     auto r = render::ClipmapRenderer::create(source, cfg);
     if (!r) {
       std::fprintf(stderr, "clipmap: %s\n", r.error().describe().c_str());
       return 1;
     }
-    std::vector<double> px, m, steady;
-    int64_t triangles = 0;
-    int32_t draws = 0;
-    for (const View& v : kViews) {
-      render::Camera cam = render::look_at(v.x, v.y, height_at(world, v.x, v.y) + v.dz, v.tx, v.ty,
-                                           height_at(world, v.tx, v.ty) + v.tdz);
-      cam.near_m = 1.0;
-      cam.far_m = 2.0 * cfg.view_distance;
-      render::FrameStats fs;
-      const Timing t = measure(
-          ctx,
-          [&] {
-            target->begin(0.5f, 0.6f, 0.75f, 0.0f);
-            fs = (*r)->render(cam, w, h);
-            glFinish();
-          },
-          opts);
-      steady.push_back(t.median_s);
-      triangles += fs.triangles;
-      draws += fs.draw_calls;
-      add_screen_errors(world, cam, w, h, target->read_depth(), px, m);
-    }
+    std::vector<double> px, m;
+    const ViewsRun views = run_views(
+        ctx, world, **r, *target, w, h, cfg.view_distance, opts,
+        [&](const render::Camera& cam) { add_screen_errors(world, cam, w, h, target->read_depth(), px, m); });
     // Flying: 2 m per frame toward the first view's target (strip uploads every frame).
     const View& v = kViews[0];
     std::vector<double> fly;
@@ -120,14 +147,14 @@ int run_clipmap(const Context& ctx, Report& report) {
       fly.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
     std::sort(fly.begin(), fly.end());
-    std::sort(steady.begin(), steady.end());
-    const double steady_ms = steady[steady.size() / 2] * 1e3, fly_ms = fly[fly.size() / 2] * 1e3;
+    const double steady_ms = views.median_ms(), fly_ms = fly[fly.size() / 2] * 1e3;
     const ErrorStats e = summarize_errors(px, m);
-    const int64_t tri_per_view = triangles / int64_t(std::size(kViews));
+    const int64_t tri_per_view = views.triangles / int64_t(std::size(kViews));
     table.add_row({std::to_string(c.n), c.morph ? "on" : "off", std::to_string((*r)->levels()),
-                   std::to_string(tri_per_view), std::to_string(draws / int32_t(std::size(kViews))),
-                   fmt(steady_ms), fmt(fly_ms), std::to_string(texels / frames), fmt(e.mean_px, 3),
-                   fmt(e.p50_px, 3), fmt(e.p99_px), fmt(e.max_px), fmt(e.mean_m, 3), fmt(e.max_m)});
+                   std::to_string(tri_per_view),
+                   std::to_string(views.draw_calls / int64_t(std::size(kViews))), fmt(steady_ms), fmt(fly_ms),
+                   std::to_string(texels / frames), fmt(e.mean_px, 3), fmt(e.p50_px, 3), fmt(e.p99_px),
+                   fmt(e.max_px), fmt(e.mean_m, 3), fmt(e.max_m)});
     if (c.morph) {
       s_err.points.push_back({double(tri_per_view), e.p99_px});
       s_ms.points.push_back({double(tri_per_view), steady_ms});
@@ -138,18 +165,22 @@ int run_clipmap(const Context& ctx, Report& report) {
   }
   // Materials and shadows: what the shading costs at n = 127 over the same views (the
   // geometry and its error are the same in every row).
-  Table shading("shading",
-                {"materials", "shadows", "shadow map", "triangles (view)", "triangles (shadow pass)",
-                 "draw calls", "frame ms (steady)", "added ms", "renderer GPU MiB"});
+  Table shading("shading", {"materials", "anisotropy", "shadows", "shadow map", "triangles (view)",
+                            "triangles (shadow pass)", "draw calls", "frame ms (steady)", "added ms",
+                            "renderer GPU MiB"});
   struct Shading {
-    bool materials, shadows;
+    bool materials;
+    float anisotropy;
+    bool shadows;
     int32_t shadow_size;
   };
   double bare_ms = 0;
-  for (const Shading& sh : {Shading{false, false, 0}, Shading{true, false, 0}, Shading{true, true, 1024},
-                            Shading{true, true, 2048}}) {
+  for (const Shading& sh :
+       {Shading{false, 0, false, 0}, Shading{true, 1, false, 0}, Shading{true, 8, false, 0},
+        Shading{true, 0, true, 1024}, Shading{true, 0, true, 2048}}) {
     render::RendererConfig cfg;
     cfg.materials = sh.materials;
+    cfg.anisotropy = sh.anisotropy;
     cfg.shadows = sh.shadows;
     if (sh.shadows) cfg.shadow_size = sh.shadow_size;
     auto r = render::ClipmapRenderer::create(source, cfg);
@@ -157,46 +188,27 @@ int run_clipmap(const Context& ctx, Report& report) {
       std::fprintf(stderr, "clipmap: %s\n", r.error().describe().c_str());
       return 1;
     }
-    std::vector<double> steady;
-    int64_t triangles = 0, shadow_triangles = 0;
-    int32_t draws = 0;
-    for (const View& v : kViews) {
-      render::Camera cam = render::look_at(v.x, v.y, height_at(world, v.x, v.y) + v.dz, v.tx, v.ty,
-                                           height_at(world, v.tx, v.ty) + v.tdz);
-      cam.near_m = 1.0;
-      cam.far_m = 2.0 * cfg.view_distance;
-      render::FrameStats fs;
-      const Timing t = measure(
-          ctx,
-          [&] {
-            target->begin(0.5f, 0.6f, 0.75f, 0.0f);
-            fs = (*r)->render(cam, w, h);
-            glFinish();
-          },
-          opts);
-      steady.push_back(t.median_s);
-      triangles += fs.triangles;
-      shadow_triangles += fs.shadow_triangles;
-      draws += fs.draw_calls;
-    }
-    std::sort(steady.begin(), steady.end());
-    const double ms = steady[steady.size() / 2] * 1e3;
+    const ViewsRun views = run_views(ctx, world, **r, *target, w, h, cfg.view_distance, opts);
+    const double ms = views.median_ms();
     if (!sh.materials && !sh.shadows) bare_ms = ms;
-    const int64_t views = int64_t(std::size(kViews));
-    shading.add_row({sh.materials ? "on" : "off", sh.shadows ? "on" : "off",
-                     sh.shadows ? std::to_string(sh.shadow_size) + "^2" : "-",
-                     std::to_string(triangles / views), std::to_string(shadow_triangles / views),
-                     std::to_string(draws / int32_t(views)), fmt(ms), fmt(ms - bare_ms),
+    const int64_t n_views = int64_t(std::size(kViews));
+    shading.add_row({sh.materials ? "on" : "off",
+                     sh.materials ? fmt((*r)->anisotropy(), 0) + (sh.anisotropy == 0 ? " (auto)" : "") : "-",
+                     sh.shadows ? "on" : "off", sh.shadows ? std::to_string(sh.shadow_size) + "^2" : "-",
+                     std::to_string(views.triangles / n_views),
+                     std::to_string(views.shadow_triangles / n_views),
+                     std::to_string(views.draw_calls / n_views), fmt(ms), fmt(ms - bare_ms),
                      fmt(double((*r)->gpu_bytes()) / (1 << 20))});
-    std::printf("  materials %s shadows %s (%d): %.1f ms steady, %lld shadow triangles\n",
-                sh.materials ? "on" : "off", sh.shadows ? "on" : "off", sh.shadow_size, ms,
-                (long long)(shadow_triangles / views));
+    std::printf("  materials %s aniso %.0f shadows %s (%d): %.1f ms steady, %lld shadow triangles\n",
+                sh.materials ? "on" : "off", double((*r)->anisotropy()), sh.shadows ? "on" : "off",
+                sh.shadow_size, ms, (long long)(views.shadow_triangles / n_views));
   }
   report.paragraph(
       "Renderer: " + egl->renderer() + ". " + std::to_string(w) + "x" + std::to_string(h) +
       " pixels, the embedded terrain (2 m/sample, 364 m of relief, cliffs to 85 degrees), view "
       "distance 4 km (the level count follows it), detail 512^2, five views (plains, cliffs, close, "
-      "high, corner). Frame time is render + glFinish, median over repeated frames of each view "
+      "high, corner), shaded by the bare colour bands (no materials, no shadows: the geometry's own "
+      "cost). Frame time is render + glFinish, median over repeated frames of each view "
       "(steady: level textures current) and over " +
       std::to_string(ctx.quick ? 5 : 40) +
       " frames flying 2 m per frame (toroidal strip uploads and their normal maps every frame). "
@@ -204,10 +216,12 @@ int run_clipmap(const Context& ctx, Report& report) {
       "projected back; pixels, and meters vertically. Per-view averages of triangles and draw calls.");
   report.table(std::move(table));
   report.paragraph(
-      "Materials and shadows at n = 127 (the defaults: materials on, a 2048^2 shadow map over 2 x 3 km "
-      "around the camera), the same five views: frame time against the bare colour bands. Materials "
-      "sample five tiling detail textures at two scales and the level's change layer; the shadow pass "
-      "draws the levels again from the sun (culled to the map's square), depth only.");
+      "Materials and shadows at n = 127 (the defaults: materials on, anisotropy auto, a 2048^2 shadow "
+      "map over 2 x 3 km around the camera), the same five views: frame time against the bare colour "
+      "bands. Materials sample tiling detail textures (four materials at two scales, a slow variation "
+      "mixing them) and the level's change layer, trilinear or anisotropic; auto anisotropy is 8 on a "
+      "GPU and 1 on a software rasterizer. The shadow pass draws the levels again from the sun (culled "
+      "to the map's square), depth only; draw calls count both passes.");
   report.table(std::move(shading));
   report.plot({"clipmap_error.png",
                "Clipmap: screen-space error p99 and frame time against triangles (" + egl->renderer() + ")",

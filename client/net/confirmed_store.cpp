@@ -20,6 +20,7 @@ void ConfirmedStore::forget(const TileCoord& c) {
   wanted_.erase(c);
   versions_.erase(c);
   mip_tiles_.erase(c);
+  if (c.layer == Layer::kCoarse && c.mip == 0) initial_.erase({c.tx, c.ty});
   // The mirror keeps only what is held: memory follows the subscription.
   if (c.mip == 0) mirror_.discard_tile(c.layer, c.tx, c.ty);
 }
@@ -39,6 +40,7 @@ Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version,
     return {};
   }
   if (c.mip == 0) {
+    if (version != 0) keep_initial_of(c);
     mirror_.write_coarse(tile_rect(c.tx, c.ty), samples);
     mirror_.commit(version);
   } else {
@@ -104,6 +106,7 @@ Status ConfirmedStore::patch_coarse(const TileCoord& c, const RectI& rect, uint6
   if (c.layer != Layer::kCoarse)
     return make_error(ErrorCode::kInvalidArgument, "region.layer", "not a coarse tile");
   if (c.mip == 0) {
+    keep_initial_of(c);
     mirror_.write_coarse(rect.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize), samples);
     mirror_.commit(version);
   } else {
@@ -179,6 +182,7 @@ bool ConfirmedStore::try_apply(const wire::DeformEvent& e, const TextureRegistry
     return false;
   }
   if (any_mip0) {
+    for (const TileCoord& c : mine) keep_initial_of(c);
     auto applied = apply_stamp_with_contact(mirror_, e.stamp, e.contact, textures);
     mirror_.commit(e.global_seq);
     // The stamp ran over its whole rect: tiles under it that are not held were written too.
@@ -293,6 +297,24 @@ std::vector<TileCoord> ConfirmedStore::check_hashes(const wire::TileHashes& h) {
 std::optional<uint64_t> ConfirmedStore::version(const TileCoord& c) const {
   const auto it = versions_.find(c);
   if (it == versions_.end()) return std::nullopt;
+  return it->second;
+}
+
+void ConfirmedStore::keep_initial_of(const TileCoord& c) {
+  if (!keep_initial_ || c.layer != Layer::kCoarse || c.mip != 0) return;
+  const auto v = version(c);
+  if (!v || *v != 0 || initial_.count({c.tx, c.ty})) return;
+  const auto samples = mirror_.coarse_tile(0, c.tx, c.ty);
+  initial_.emplace(std::pair{c.tx, c.ty}, std::vector<uint16_t>(samples.begin(), samples.end()));
+}
+
+std::span<const uint16_t> ConfirmedStore::initial_coarse(int32_t tx, int32_t ty) const {
+  const TileCoord c{Layer::kCoarse, 0, tx, ty};
+  const auto v = version(c);
+  if (!v) return {};
+  if (*v == 0) return mirror_.coarse_tile(0, tx, ty);
+  const auto it = initial_.find({tx, ty});
+  if (it == initial_.end()) return {};
   return it->second;
 }
 

@@ -101,8 +101,11 @@ class ConfirmedStore {
   std::optional<uint64_t> version(const TileCoord& c) const;
   uint64_t hash(const TileCoord& c) const;  // of the held samples (0 if not held)
   std::vector<TileCoord> held() const;
-  // Bytes of samples held: the mirror's tiles plus the held coarser mip tiles.
-  size_t held_bytes() const { return mirror_.edited_bytes() + mip_tiles_.size() * kTileSamples * 2; }
+  // Bytes of samples held: the mirror's tiles, the held coarser mip tiles and the kept
+  // version-0 copies.
+  size_t held_bytes() const {
+    return mirror_.edited_bytes() + (mip_tiles_.size() + initial_.size()) * kTileSamples * 2;
+  }
   // Every tile the client asked for (held or still awaiting its first region).
   std::vector<TileCoord> wanted() const;
   size_t buffered() const { return buffer_.size(); }
@@ -110,6 +113,18 @@ class ConfirmedStore {
   bool holds(const TileCoord& c) const { return versions_.count(c) != 0; }
   // The mip-0 samples of both layers; only held tiles are meaningful.
   const World& mirror() const { return mirror_; }
+
+  // Keeps, from now on, the samples each held mip-0 coarse tile had at version 0 when it
+  // first changes while held (an event, a region, a patch): the session's initial terrain
+  // where it was edited in view, for a display that shows dug ground but cannot generate the
+  // initial terrain (an imported DEM). Off by default; the copies go with their tiles.
+  void keep_initial(bool on) { keep_initial_ = on; }
+  bool keeps_initial() const { return keep_initial_; }
+  // The version-0 samples of held mip-0 coarse tile (tx, ty): its own while it is at version
+  // 0, the kept copy once it changed while held; empty when not known (not held, or first
+  // held past version 0).
+  std::span<const uint16_t> initial_coarse(int32_t tx, int32_t ty) const;
+  size_t initial_tiles_kept() const { return initial_.size(); }
 
   // Changes are recorded from now on (off by default: bots and tests need none).
   void record_changes(bool on) { record_changes_ = on; }
@@ -124,6 +139,7 @@ class ConfirmedStore {
   void retry_buffered(const TextureRegistry* textures);
   void discard_unheld(Layer layer, const RectI& rect);
   void after_region(uint64_t version);
+  void keep_initial_of(const TileCoord& c);  // before tile c's samples change
   void record_region(const TileCoord& c, uint64_t version, const RectI& local);
   Status check_patch(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
                      size_t samples) const;
@@ -138,6 +154,8 @@ class ConfirmedStore {
   std::set<uint64_t> missing_textures_;
   bool record_changes_ = false;
   std::vector<StoreChange> changes_;
+  bool keep_initial_ = false;
+  std::map<std::pair<int32_t, int32_t>, std::vector<uint16_t>> initial_;  // mip-0 coarse, by tile
 };
 
 }  // namespace loam::client

@@ -16,6 +16,7 @@
 #include "client/render/reversed_depth.h"
 #include "client/render/sun_shadow.h"
 #include "client/render/toroidal_upload.h"
+#include "gpu/egl_context.h"
 #include "gpu/shader_library.h"
 
 namespace loam::render {
@@ -63,6 +64,9 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
     // A power of two, like the level tori (see region_size_): far-origin shifts are multiples.
     return make_error(ErrorCode::kInvalidArgument, "clipmap.detail_size",
                       "must be 0 or a power of two up to 4096");
+  }
+  if (!(config.anisotropy == 0.0f || (config.anisotropy >= 1.0f && config.anisotropy <= 16.0f))) {
+    return make_error(ErrorCode::kInvalidArgument, "clipmap.anisotropy", "must be 0 (auto) or 1..16");
   }
   std::unique_ptr<ClipmapRenderer> r(new ClipmapRenderer());
   r->source_ = &source;
@@ -182,9 +186,17 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
     glTextureParameteri(r->materials_.get(), GL_TEXTURE_WRAP_S, GL_REPEAT);
     glTextureParameteri(r->materials_.get(), GL_TEXTURE_WRAP_T, GL_REPEAT);
     // Anisotropic filtering keeps grazing views sharp without shimmer where the driver has it.
-    if (epoxy_has_gl_extension("GL_EXT_texture_filter_anisotropic") ||
-        epoxy_has_gl_extension("GL_ARB_texture_filter_anisotropic")) {
-      glTextureParameterf(r->materials_.get(), GL_TEXTURE_MAX_ANISOTROPY_EXT, 8.0f);
+    r->anisotropy_ = config.anisotropy;
+    if (r->anisotropy_ == 0.0f) {
+      const auto* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+      r->anisotropy_ = renderer != nullptr && gpu::is_software_renderer(renderer) ? 1.0f : 8.0f;
+    }
+    if (!epoxy_has_gl_extension("GL_EXT_texture_filter_anisotropic") &&
+        !epoxy_has_gl_extension("GL_ARB_texture_filter_anisotropic")) {
+      r->anisotropy_ = 1.0f;
+    }
+    if (r->anisotropy_ > 1.0f) {
+      glTextureParameterf(r->materials_.get(), GL_TEXTURE_MAX_ANISOTROPY_EXT, r->anisotropy_);
     }
   }
   if (config.shadows) {

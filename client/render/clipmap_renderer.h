@@ -56,6 +56,10 @@ struct RendererConfig {
   // earth where the terrain was dug or heaped (where the source knows the initial terrain).
   // Off: the flat colour bands only.
   bool materials = true;
+  // Anisotropic filtering of the material textures (where the driver has it), 1..16; 1 is
+  // plain trilinear. 0: 8 on a GPU (grazing views stay sharp, nearly free) and 1 on a software
+  // rasterizer, which pays for every tap (llvmpipe: 7x the frame at 8, bench/results/clipmap.md).
+  float anisotropy = 0.0f;
   // The sun's shadow map over a square of 2 x shadow_distance_m around the camera (0: the view
   // distance, at most 3 km), shadow_size texels per side. Off: no shadow pass.
   bool shadows = true;
@@ -98,6 +102,8 @@ class ClipmapRenderer {
   RectI level_region(int32_t l) const;
 
   int32_t levels() const { return levels_; }
+  // The material textures' anisotropy in effect (config's, or auto's choice; 1 without materials).
+  float anisotropy() const { return anisotropy_; }
   // Bytes of GPU memory the renderer holds: level heights and normals, the detail region and
   // its gradients, the index buffer. Set by n and detail_size, never by the world's size.
   size_t gpu_bytes() const;
@@ -142,7 +148,8 @@ class ClipmapRenderer {
   gpu::GlBuffer indices_;
   gpu::GlVertexArray vao_;
   gpu::GlProgram program_, gradient_program_, shadow_program_;
-  gpu::GlTexture materials_;   // RGBA8 2D array, one layer per Material, mipmapped
+  gpu::GlTexture materials_;  // RGBA8 2D array, one layer per Material, mipmapped
+  float anisotropy_ = 1.0f;
   gpu::GlTexture shadow_map_;  // DEPTH32F, compared (sampler2DShadow)
   gpu::GlFramebuffer shadow_fbo_;
   bool change_known_ = false;  // the source answered read_change at least once

@@ -407,6 +407,11 @@ bool DisplayTerrain::may_have_changed(int32_t tx, int32_t ty) const {
 }
 
 const uint16_t* DisplayTerrain::base_tile(int32_t tx, int32_t ty) const {
+  if (!initial_base_) {
+    // Not generated here: what the store kept of the tile's version 0 (or nothing known).
+    const auto kept = store_->initial_coarse(tx, ty);
+    return kept.empty() ? nullptr : kept.data();
+  }
   auto it = base_tiles_.find({tx, ty});
   if (it == base_tiles_.end()) {
     if (base_tiles_.size() >= 64) base_tiles_.clear();
@@ -418,7 +423,7 @@ const uint16_t* DisplayTerrain::base_tile(int32_t tx, int32_t ty) const {
 }
 
 bool DisplayTerrain::read_change(int32_t mip, const RectI& rect, std::span<float> out) const {
-  if (!initial_base_) return false;
+  if (!initial_base_ && !store_->keeps_initial()) return false;
   std::vector<uint16_t> now(out.size());
   read(mip, rect, now);
   const RectI w = display_.params().sample_rect();

@@ -89,7 +89,10 @@ class DisplayTerrain final : public HeightSource {
 
   // The session's initial terrain (the base every tile's version 0 is, where the client can
   // generate it): read_change() measures against it, for the renderer's dug-material layer.
-  // Without one, read_change() answers false and no ground reads as dug.
+  // Without one it measures against what the store kept of each tile's version 0
+  // (ConfirmedStore::keep_initial: ground edited while held, and own stamps on tiles still at
+  // version 0); where neither is known, or the store keeps nothing, ground reads as unchanged
+  // (read_change() answers false when there is no reference at all).
   void set_initial_base(std::shared_ptr<const TileBase> base);
   bool read_change(int32_t mip, const RectI& rect, std::span<float> out) const override;
 

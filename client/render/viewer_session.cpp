@@ -37,6 +37,9 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
       top.push_back({Layer::kCoarse, uint8_t(mips - 1), int32_t(tx), int32_t(ty)});
   }
   v->client_.store().record_changes(true);
+  // Where this program cannot generate the initial terrain (an imported DEM), the store keeps
+  // the version 0 of tiles edited in view: dug ground reads as dug there too.
+  v->client_.store().keep_initial(v->client_.shared_base() == nullptr);
   LOAM_TRY(v->client_.subscribe(top));
   const bool loaded = v->client_.wait_until(
       [&] {
@@ -131,6 +134,7 @@ void ViewerSession::refresh_terrain(const std::vector<DisplayDirty>& dirty) {
 Status ViewerSession::reconnect(const std::string& host, uint16_t port) {
   display_->abandon_unacknowledged();
   LOAM_TRY(client_.reconnect(host, port));
+  client_.store().keep_initial(client_.shared_base() == nullptr);
   display_->set_initial_base(client_.shared_base());
   return {};
 }

@@ -94,6 +94,50 @@ TEST(ViewerEndToEnd, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrect
   EXPECT_TRUE(view.display().on_gpu());
 }
 
+// A session on an imported DEM: the client cannot generate its initial terrain, so the dug
+// layer measures against what the store kept of each tile's version 0. An own crater reads as
+// dug as soon as it shows (its tiles still at version 0) and still once the server confirmed
+// it (the kept copies); ground away from it reads as unchanged.
+TEST(ViewerEndToEnd, OnAnImportedDemACraterDugInViewReadsAsDug) {
+  LOAM_REQUIRE_GL();
+  const std::string dir = temp_data_dir("imported_dug");
+  const std::string png = default_terrain_png(dir);
+  ASSERT_FALSE(::testing::Test::HasFailure());
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir + "/data", {"--dem", png})) << server.log();
+  const render::Camera cam = overview();
+  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
+  ASSERT_TRUE(v.ok()) << v.error().describe();
+  render::ViewerSession& view = **v;
+  ASSERT_EQ(view.client().shared_base(), nullptr) << "the test needs a base the client cannot generate";
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+
+  const WorldParams& w = view.client().welcome().world;
+  const double cx = 1000 / w.meters_per_sample, cy = 760 / w.meters_per_sample;  // samples
+  const QuantizedStamp q = crater_at(w, 1000, 760, 40, 6);
+  const RectI middle{int64_t(cx) - 4, int64_t(cy) - 4, int64_t(cx) + 4, int64_t(cy) + 4};
+  const RectI away{int64_t(cx) + 120, int64_t(cy) - 4, int64_t(cx) + 128, int64_t(cy) + 4};
+  const auto deepest = [&](const RectI& r) {
+    std::vector<float> change(size_t(r.area()));
+    EXPECT_TRUE(view.display().read_change(0, r, change));
+    return *std::min_element(change.begin(), change.end());
+  };
+  EXPECT_EQ(deepest(middle), 0.0f);
+  ASSERT_TRUE(view.deform(q).ok());
+  (void)view.display().sync(view.client());
+  EXPECT_LT(deepest(middle), -3.0f) << "the predicted crater does not read as dug";
+
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  const auto v0 =
+      view.client().store().version({Layer::kCoarse, 0, int32_t(cx / kTileSize), int32_t(cy / kTileSize)});
+  ASSERT_TRUE(v0.has_value());
+  EXPECT_GT(*v0, 0u);
+  EXPECT_GE(view.client().store().initial_tiles_kept(), 1u);
+  EXPECT_LT(deepest(middle), -3.0f) << "the confirmed crater does not read as dug";
+  EXPECT_EQ(deepest(away), 0.0f);
+  EXPECT_EQ(server.terminate(), 0) << server.log();
+}
+
 // The viewer predicts a stamp on the terrain it holds while a bot's raise at the same spot,
 // unseen by the viewer, is sequenced first, and the viewer learns of both in one sync. A
 // flatten does not commute with the raise: the confirmed result differs from the prediction
@@ -207,9 +251,14 @@ TEST(ViewerEndToEnd, TwoViewersAndABotConvergeOnTheServersHashesAndRenderTheSame
   ServerProcess server;
   ASSERT_TRUE(server.start(dir, {"--tick-hz", "60", "--hashes-every", "10"})) << server.log();
   const render::Camera cam = overview();
-  auto a = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer-a"), cam);
+  // This world's initial terrain is not one a client generates, so each viewer's dug layer
+  // follows what it held when the ground changed (docs/rendering.md): the images compare the
+  // terrain, its light and shadows, without materials.
+  render::ViewerOptions oa = small_viewer("viewer-a"), ob = small_viewer("viewer-b");
+  oa.renderer.materials = ob.renderer.materials = false;
+  auto a = render::ViewerSession::connect("127.0.0.1", server.port(), oa, cam);
   ASSERT_TRUE(a.ok()) << a.error().describe();
-  auto b = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer-b"), cam);
+  auto b = render::ViewerSession::connect("127.0.0.1", server.port(), ob, cam);
   ASSERT_TRUE(b.ok()) << b.error().describe();
   client::TerrainClient bot;
   ASSERT_TRUE(bot.connect("127.0.0.1", server.port(), "bot", wire::Role::kBot).ok());

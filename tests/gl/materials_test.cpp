@@ -2,6 +2,7 @@
 // earth (the change layer against the undug terrain) and, under a low sun, the shadow of its
 // rim on its floor; moving the sun moves the shadow. Measured on the rendered pixels, plus
 // goldens of the crater with and without materials and shadows.
+#include <epoxy/gl.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +12,7 @@
 #include "dem/default_terrain.h"
 #include "gl_test_context.h"
 #include "golden_image.h"
+#include "gpu/egl_context.h"
 #include "protocol/stamps/stamp_apply.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/surface.h"
@@ -141,6 +143,41 @@ TEST(MaterialsGolden, ADugCraterUnderALowSunWithAndWithoutMaterialsAndShadows) {
   bare.materials = false;
   bare.shadows = false;
   test::compare_with_golden("materials_off_dug_crater_low_sun", kWidth, kHeight, render(dug, cam, bare));
+}
+
+TEST(Materials, AnisotropyOutsideItsRangeIsRefused) {
+  LOAM_REQUIRE_GL();
+  const WorldHeightSource source(scene().plain);
+  for (float bad : {-1.0f, 0.5f, 16.5f, std::nanf(""), INFINITY}) {
+    RendererConfig cfg;
+    cfg.anisotropy = bad;
+    auto r = ClipmapRenderer::create(source, cfg);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);
+  }
+  for (float good : {0.0f, 1.0f, 16.0f}) {
+    RendererConfig cfg;
+    cfg.anisotropy = good;
+    EXPECT_TRUE(ClipmapRenderer::create(source, cfg).ok()) << good;
+  }
+}
+
+// Auto: a software rasterizer pays for every anisotropic tap (seven times the frame on
+// llvmpipe), a GPU barely does; an explicit value is taken where the driver filters.
+TEST(Materials, AutoAnisotropyIsTrilinearOnASoftwareRasterizerAndEightOnAGpu) {
+  LOAM_REQUIRE_GL();
+  const WorldHeightSource source(scene().plain);
+  const bool has_aniso = epoxy_has_gl_extension("GL_EXT_texture_filter_anisotropic") ||
+                         epoxy_has_gl_extension("GL_ARB_texture_filter_anisotropic");
+  const bool software = gpu::is_software_renderer(reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+  RendererConfig cfg;
+  auto automatic = ClipmapRenderer::create(source, cfg);
+  ASSERT_TRUE(automatic.ok());
+  EXPECT_EQ((*automatic)->anisotropy(), software || !has_aniso ? 1.0f : 8.0f);
+  cfg.anisotropy = 4;
+  auto explicit_four = ClipmapRenderer::create(source, cfg);
+  ASSERT_TRUE(explicit_four.ok());
+  EXPECT_EQ((*explicit_four)->anisotropy(), has_aniso ? 4.0f : 1.0f);
 }
 
 }  // namespace

@@ -29,7 +29,8 @@ void write_rgb_tiff(const fs::path& path, uint32_t w, uint32_t h) {
   };
   const uint16_t ntags = 10;
   const uint32_t bits_at = 8 + 2 + ntags * 12 + 4, data_at = bits_at + 6;
-  b.insert(b.end(), {'I', 'I'});
+  b.push_back('I');  // little-endian (two pushes: GCC 12 -O3 misreads an insert into the empty vector)
+  b.push_back('I');
   u16(42);
   u32(8);
   u16(ntags);

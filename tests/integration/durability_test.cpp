@@ -317,12 +317,8 @@ TEST(Durability, ExportReadsTheSessionWithoutChangingTheDataFolder) {
 // must refuse, naming the parameter, rather than report the hash of another world.
 TEST(Durability, ReplayRefusesADemThatNowImportsAtAnotherScale) {
   const std::string dir = temp_data_dir("dem");
-  const std::string png = dir + "/terrain.png";
-  {
-    auto w = load_default_terrain();
-    ASSERT_TRUE(w.ok());
-    ASSERT_TRUE(export_png16(w->world, w->world.params().sample_rect(), png).ok());
-  }
+  const std::string png = default_terrain_png(dir);
+  ASSERT_FALSE(::testing::Test::HasFailure());
   {
     ServerProcess server;
     ASSERT_TRUE(server.start(dir + "/data", {"--dem", png})) << server.log();

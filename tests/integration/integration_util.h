@@ -8,6 +8,8 @@
 #include <string>
 
 #include "client/net/terrain_client.h"
+#include "dem/default_terrain.h"
+#include "dem/dem_export.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "server/replay.h"
 #include "server/storage.h"
@@ -22,6 +24,18 @@ inline std::string temp_data_dir(const std::string& tag) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir.string();
+}
+
+// The embedded default terrain exported as a 16-bit PNG with its sidecar (same spacing), in
+// `dir`: a DEM for `loam-server serve --dem`, whose initial terrain no client generates.
+inline std::string default_terrain_png(const std::string& dir) {
+  const std::string png = dir + "/terrain.png";
+  auto w = load_default_terrain();
+  EXPECT_TRUE(w.ok());
+  if (w.ok()) {
+    EXPECT_TRUE(export_png16(w->world, w->world.params().sample_rect(), png).ok());
+  }
+  return png;
 }
 
 // A random stamp that validates against the world and changes it: every kind but texture (no

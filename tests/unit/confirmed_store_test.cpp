@@ -191,5 +191,64 @@ TEST(ConfirmedStore, MirrorHoldsOnlyHeldTilesAfterForgetAndAfterEventsOverUnheld
   EXPECT_EQ(*store.version(t00), 6u);
 }
 
+// The dug layer over an imported DEM: the store keeps each held tile's version 0 when it first
+// changes (event, whole region, patch), answers a tile still at version 0 with its own samples,
+// knows nothing of a tile first held past version 0, and lets the copy go with the tile.
+TEST(ConfirmedStore, KeepsTheVersionZeroOfTilesThatChangeWhileHeld) {
+  const WorldParams w = two_by_two();
+  ConfirmedStore store(w);
+  store.keep_initial(true);
+  const TileCoord t00{Layer::kCoarse, 0, 0, 0}, t10{Layer::kCoarse, 0, 1, 0}, t01{Layer::kCoarse, 0, 0, 1},
+      t11{Layer::kCoarse, 0, 1, 1};
+  std::vector<uint16_t> initial(kTileSamples);
+  for (size_t i = 0; i < initial.size(); ++i) initial[i] = uint16_t(1000 + i % 977);
+  for (const TileCoord& c : {t00, t10, t01}) {
+    store.want(c);
+    ASSERT_TRUE(store.replace_coarse(c, 0, initial).ok());
+  }
+  store.want(t11);
+  const std::vector<uint16_t> edited(kTileSamples, 4321);
+  ASSERT_TRUE(store.replace_coarse(t11, 9, edited).ok());  // first held already edited
+
+  const auto same = [&](std::span<const uint16_t> s) {
+    return std::vector<uint16_t>(s.begin(), s.end()) == initial;
+  };
+  EXPECT_TRUE(same(store.initial_coarse(0, 0)));  // still at version 0: its own samples
+  EXPECT_TRUE(store.initial_coarse(1, 1).empty());
+  EXPECT_EQ(store.initial_tiles_kept(), 0u);
+
+  // An event inside (0, 0), a whole region for (1, 0), a patch of (0, 1).
+  wire::DeformEvent e;
+  e.global_seq = 10;
+  e.stamp = bump(w, 100, 100);
+  e.base_versions = {{t00, 0}};
+  ASSERT_EQ(store.on_event(e), EventOutcome::kApplied);
+  ASSERT_TRUE(store.replace_coarse(t10, 11, edited).ok());
+  const std::vector<uint16_t> patch(16, 7);
+  ASSERT_TRUE(store.patch_coarse(t01, {0, 0, 4, 4}, 0, 12, patch).ok());
+  EXPECT_EQ(store.initial_tiles_kept(), 3u);
+  EXPECT_EQ(store.held_bytes(), size_t(4 + 3) * kTileSamples * 2);  // the copies count
+  for (const auto& [tx, ty] : {std::pair{0, 0}, {1, 0}, {0, 1}}) {
+    EXPECT_TRUE(same(store.initial_coarse(tx, ty))) << tx << "," << ty;
+    EXPECT_FALSE(same(store.coarse_samples({Layer::kCoarse, 0, tx, ty}))) << tx << "," << ty;
+  }
+  // A second change keeps the first copy: version 0, not the version before.
+  e.global_seq = 13;
+  e.base_versions = {{t00, 10}};
+  ASSERT_EQ(store.on_event(e), EventOutcome::kApplied);
+  EXPECT_TRUE(same(store.initial_coarse(0, 0)));
+
+  store.forget(t00);
+  EXPECT_TRUE(store.initial_coarse(0, 0).empty());
+  EXPECT_EQ(store.initial_tiles_kept(), 2u);
+
+  // Off (the default): nothing is kept.
+  ConfirmedStore plain(w);
+  plain.want(t00);
+  ASSERT_TRUE(plain.replace_coarse(t00, 0, initial).ok());
+  ASSERT_TRUE(plain.replace_coarse(t00, 3, edited).ok());
+  EXPECT_TRUE(plain.initial_coarse(0, 0).empty());
+}
+
 }  // namespace
 }  // namespace loam::client
