@@ -376,7 +376,9 @@ void ClipmapRenderer::invalidate(const RectI& mip0_rect) {
     Level& level = level_[size_t(l)];
     if (!level.valid) continue;
     const RectI held = level_region(l);
-    const RectI r = in_level_grid(mip0_rect, int64_t(1) << l).intersect(held);
+    // Samples past the world's edge repeat the level's edge sample: an edit reaching it
+    // changes them too (level_samples_reading).
+    const RectI r = level_samples_reading(source_->params(), l, mip0_rect).intersect(held);
     if (r.empty()) continue;
     upload(level, l, r);
     update_normals(l, r);

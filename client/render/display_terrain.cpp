@@ -427,15 +427,15 @@ bool DisplayTerrain::read_change(int32_t mip, const RectI& rect, std::span<float
   std::vector<uint16_t> now(out.size());
   read(mip, rect, now);
   const RectI w = display_.params().sample_rect();
+  const LevelAxis ax(mip, w.x0, w.x1), ay(mip, w.y0, w.y1);
   const double mpu = display_.params().meters_per_unit;
-  const int64_t s = int64_t(1) << mip;
   size_t i = 0;
   int64_t cached_tx = INT64_MIN, cached_ty = INT64_MIN;
   const uint16_t* base = nullptr;  // null: the tile reads as unchanged
   for (int64_t y = rect.y0; y < rect.y1; ++y) {
-    const int64_t gy = std::clamp(y * s, w.y0, w.y1 - 1);
+    const int64_t gy = ay.position(y);
     for (int64_t x = rect.x0; x < rect.x1; ++x, ++i) {
-      const int64_t gx = std::clamp(x * s, w.x0, w.x1 - 1);
+      const int64_t gx = ax.position(x);
       const int64_t tx = floor_div(gx, kTileSize), ty = floor_div(gy, kTileSize);
       if (tx != cached_tx || ty != cached_ty) {
         cached_tx = tx, cached_ty = ty;
@@ -455,15 +455,15 @@ bool DisplayTerrain::read_change(int32_t mip, const RectI& rect, std::span<float
 
 void DisplayTerrain::read(int32_t mip, const RectI& rect, std::span<uint16_t> out) const {
   const RectI w = display_.params().sample_rect();
-  const int64_t s = int64_t(1) << mip;
+  const LevelAxis ax(mip, w.x0, w.x1), ay(mip, w.y0, w.y1);
   // Where samples come from is decided once per mip-0 tile, not per sample.
   int64_t cached_tx = INT64_MIN, cached_ty = INT64_MIN;
   TileSource src;
   size_t i = 0;
   for (int64_t y = rect.y0; y < rect.y1; ++y) {
-    const int64_t gy = std::clamp(y * s, w.y0, w.y1 - 1);
+    const int64_t gy = ay.position(y);
     for (int64_t x = rect.x0; x < rect.x1; ++x) {
-      const int64_t gx = std::clamp(x * s, w.x0, w.x1 - 1);
+      const int64_t gx = ax.position(x);
       const int64_t tx = floor_div(gx, kTileSize), ty = floor_div(gy, kTileSize);
       if (tx != cached_tx || ty != cached_ty) {
         src = source_for(mip, int32_t(tx), int32_t(ty));

@@ -6,6 +6,28 @@
 
 namespace loam::render {
 
+RectI level_samples_reading(const WorldParams& p, int32_t mip, const RectI& rect0) {
+  const RectI w = p.sample_rect();
+  const int64_t s = int64_t(1) << mip;
+  // One axis: the indices [i0, i1) whose positions fall in [a, b).
+  auto axis = [&](int64_t a, int64_t b, int64_t lo, int64_t hi) -> std::pair<int64_t, int64_t> {
+    a = std::max(a, lo), b = std::min(b, hi);
+    if (a >= b) return {0, 0};
+    const int64_t first = ceil_div(lo, s), last = floor_div(hi - 1, s);
+    if (first > last)
+      return a == lo ? std::pair{-kFarSamples, kFarSamples} : std::pair<int64_t, int64_t>{0, 0};
+    int64_t i0 = ceil_div(a, s), i1 = floor_div(b - 1, s) + 1;
+    if (i0 >= i1) return {0, 0};
+    if (i0 == first) i0 = -kFarSamples;
+    if (i1 - 1 == last) i1 = kFarSamples;
+    return {i0, i1};
+  };
+  const auto [x0, x1] = axis(rect0.x0, rect0.x1, w.x0, w.x1);
+  const auto [y0, y1] = axis(rect0.y0, rect0.y1, w.y0, w.y1);
+  if (x0 >= x1 || y0 >= y1) return {};
+  return {x0, y0, x1, y1};
+}
+
 void HeightSource::read_detail(const RectI&, std::span<int8_t> out) const {
   std::fill(out.begin(), out.end(), 0);
 }
@@ -27,28 +49,28 @@ void WorldHeightSource::read(int32_t mip, const RectI& rect, std::span<uint16_t>
     world_.read_coarse(rect, out);
     return;
   }
-  // From the mip's own tiles (World keeps them equal to decimation), not mip-0 samples at a
-  // stride: a level far out would otherwise touch (2^mip)^2 times as many tiles. A mip sample
-  // outside the mip's tile range repeats the range's edge sample, as World's clamp rule gives.
   const WorldParams& p = world_.params();
+  const RectI w = p.sample_rect();
+  const int64_t width = rect.width();
+  const LevelAxis ax(mip, w.x0, w.x1), ay(mip, w.y0, w.y1);
   if (mip >= p.mip_count()) {
-    const int64_t s = int64_t(1) << mip;
     size_t i = 0;
-    for (int64_t y = rect.y0; y < rect.y1; ++y)
-      for (int64_t x = rect.x0; x < rect.x1; ++x) out[i++] = world_.coarse(x * s, y * s);
+    for (int64_t y = rect.y0; y < rect.y1; ++y) {
+      const int64_t gy = ay.position(y);
+      for (int64_t x = rect.x0; x < rect.x1; ++x) out[i++] = world_.coarse(ax.position(x), gy);
+    }
     return;
   }
-  const RectI tiles = p.tile_range(mip);
-  const RectI span{tiles.x0 * kTileSize, tiles.y0 * kTileSize, tiles.x1 * kTileSize, tiles.y1 * kTileSize};
-  const int64_t w = rect.width();
+  // From the mip's own tiles (World keeps them equal to decimation), not mip-0 samples at a
+  // stride: a level far out would otherwise touch (2^mip)^2 times as many tiles.
   for (int64_t y = rect.y0; y < rect.y1; ++y) {
-    const int64_t cy = std::clamp(y, span.y0, span.y1 - 1);
+    const int64_t cy = ay.position(y) >> mip;
     const int32_t ty = int32_t(floor_div(cy, kTileSize));
-    uint16_t* row = out.data() + (y - rect.y0) * w;
+    uint16_t* row = out.data() + (y - rect.y0) * width;
     int32_t held_tx = INT32_MIN;
     const uint16_t* tile = nullptr;
     for (int64_t x = rect.x0; x < rect.x1; ++x) {
-      const int64_t cx = std::clamp(x, span.x0, span.x1 - 1);
+      const int64_t cx = ax.position(x) >> mip;
       const int32_t tx = int32_t(floor_div(cx, kTileSize));
       if (tx != held_tx) {
         tile = world_.coarse_tile(mip, tx, ty).data();
