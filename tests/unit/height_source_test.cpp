@@ -29,13 +29,11 @@ World rough_world(const WorldParams& p, uint32_t seed) {
 }
 
 WorldParams params(int32_t origin_x, int32_t origin_y, int32_t tiles_x, int32_t tiles_y) {
-  WorldParams p;
-  p.meters_per_sample = 2.0;
-  p.origin_tile_x = origin_x;
-  p.origin_tile_y = origin_y;
-  p.tiles_x = tiles_x;
-  p.tiles_y = tiles_y;
-  return p;
+  return WorldParams{.meters_per_sample = 2.0,
+                     .origin_tile_x = origin_x,
+                     .origin_tile_y = origin_y,
+                     .tiles_x = tiles_x,
+                     .tiles_y = tiles_y};
 }
 
 // A level's read rect reaching well past every edge of the world at `mip`.
