@@ -169,12 +169,13 @@ ClientId ReplicationCore::connect(const std::string& peer, CoreTime now) {
   c.address = address_of(peer);
   ++handshakes_;
   const uint32_t from_address = ++handshakes_by_address_[c.address];
-  c.tokens = config_.deform_burst;
-  c.refill = now;
-  c.cost_tokens = double(std::max(config_.stamp_cost_per_second, config_.max_stamp_cost));
-  c.requests = config_.request_burst;
-  c.requests_refill = now;
-  c.credit_time = now;
+  c.deforms = TokenBucket(config_.deforms_per_second, config_.deform_burst, config_.deform_burst, now);
+  const double cost_capacity = double(std::max(config_.stamp_cost_per_second, config_.max_stamp_cost));
+  c.stamp_cost = TokenBucket(double(config_.stamp_cost_per_second), cost_capacity, cost_capacity, now);
+  c.requests = TokenBucket(config_.requests_per_second, config_.request_burst, config_.request_burst, now);
+  // Credit accrues at the budget, up to one second's worth (a short burst after idling).
+  const double budget = double(config_.client_bytes_per_second);
+  c.credit = TokenBucket(budget, budget, 0.0, now);
   ++stats_.connects;
   log_event("connect", {{"client", std::to_string(c.id)}, {"peer", peer}});
   // Connections that have not said Hello have a pool of their own, smaller per address, so
@@ -264,11 +265,7 @@ void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now)
 std::optional<CoreTime> ReplicationCore::reads_paused_until(ClientId id, CoreTime now) const {
   const auto it = clients_.find(id);
   if (it == clients_.end() || !it->second.requests_refused) return std::nullopt;
-  const Client& c = it->second;
-  const double tokens = std::min(config_.request_burst,
-                                 c.requests + seconds(now - c.requests_refill) * config_.requests_per_second);
-  if (tokens >= 1.0) return std::nullopt;
-  return now + after((1.0 - tokens) / config_.requests_per_second);
+  return it->second.requests.holds_at(1.0, now);
 }
 
 bool ReplicationCore::admit_request(Client& c, wire::MessageType type, CoreTime now) {
@@ -281,11 +278,8 @@ bool ReplicationCore::admit_request(Client& c, wire::MessageType type, CoreTime 
     case wire::MessageType::kStatsRequest: break;
     default: return true;  // Hello, Bye, Deform (its own bucket), and what the switch refuses
   }
-  c.requests = std::min(config_.request_burst,
-                        c.requests + seconds(now - c.requests_refill) * config_.requests_per_second);
-  c.requests_refill = now;
-  if (c.requests >= 1.0) {
-    c.requests -= 1.0;
+  c.requests.refill(now);
+  if (c.requests.take(1.0)) {
     c.requests_refused = false;
     return true;
   }
@@ -488,12 +482,9 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
     send(c, ack);
     return;
   }
-  const double elapsed = seconds(now - c.refill);
-  c.tokens = std::min(config_.deform_burst, c.tokens + elapsed * config_.deforms_per_second);
-  c.cost_tokens = std::min(double(std::max(config_.stamp_cost_per_second, config_.max_stamp_cost)),
-                           c.cost_tokens + elapsed * double(config_.stamp_cost_per_second));
-  c.refill = now;
-  if (c.tokens < 1.0) {
+  c.deforms.refill(now);
+  c.stamp_cost.refill(now);
+  if (!c.deforms.holds(1.0)) {
     reject(wire::WireErrorCode::kRateLimited, "deform", "rate limit exceeded");
     return;
   }
@@ -518,15 +509,15 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
                std::to_string(config_.max_stamp_cost) + " per stamp");
     return;
   }
-  if (double(*cost) > c.cost_tokens) {
+  if (!c.stamp_cost.holds(double(*cost))) {
     reject(wire::WireErrorCode::kRateLimited, "stamp.cost",
            "the stamp costs " + std::to_string(*cost) +
                " sample updates, over what is left of this client's " +
                std::to_string(config_.stamp_cost_per_second) + " a second");
     return;
   }
-  c.cost_tokens -= double(*cost);
-  c.tokens -= 1.0;
+  c.stamp_cost.spend(double(*cost));
+  c.deforms.spend(1.0);
   ++c.unacked;
   pending_.push_back({c.id, d.client_seq, d.stamp, *cost, c.resume_key});
   if (!applier_->busy()) prefetch_reach(d.stamp);  // it reads the world's tile table
@@ -770,17 +761,13 @@ void ReplicationCore::stream_regions(CoreTime now, const std::function<uint64_t(
   uint32_t encodes_left = config_.max_encodes_per_tick;
   for (const ClientId id : order) {
     Client& c = clients_.at(id);
-    if (budget > 0) {
-      // Credit accrues at the budget, up to one second's worth (a short burst after idling).
-      c.credit = std::min(budget, c.credit + seconds(now - c.credit_time) * budget);
-    }
-    c.credit_time = now;
+    c.credit.refill(now);
     if (c.tiles.due_count() == 0) continue;
     // A client that does not read gets no more bulk: only what must go.
     const uint64_t queued = unsent ? unsent(id) : 0;
     if (budget > 0 && double(queued) > budget) continue;
     for (const TileCoord& t : c.tiles.due_in_order()) {
-      if (budget > 0 && c.credit <= 0) break;
+      if (budget > 0 && c.credit.level() <= 0) break;
       const RegionNeed need = c.tiles.need(
           t, [&](const TileCoord& tile, uint64_t held) { return history_.can_rebuild(tile, held); });
       Frames frames;
@@ -801,7 +788,7 @@ void ReplicationCore::stream_regions(CoreTime now, const std::function<uint64_t(
       }
       for (const FramePtr& f : frames) {
         send_frame(id, f);
-        c.credit -= double(f->size());
+        c.credit.spend(double(f->size()));
       }
       c.tiles.mark_sent(t, terrain_.world().tile_state(t).version);
       ++stats_.regions_sent;

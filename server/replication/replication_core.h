@@ -40,9 +40,11 @@
 #include "server/metrics.h"
 #include "server/replication/apply_worker.h"
 #include "server/replication/client_tiles.h"
+#include "server/replication/core_time.h"
 #include "server/replication/deform_ledger.h"
 #include "server/replication/region_frames.h"
 #include "server/replication/tile_history.h"
+#include "server/replication/token_bucket.h"
 #include "server/server_config.h"
 #include "server/storage.h"
 #include "server/tile_prefetcher.h"
@@ -50,8 +52,6 @@
 namespace loam::server {
 
 using ClientId = uint32_t;
-using CoreClock = std::chrono::steady_clock;
-using CoreTime = CoreClock::time_point;
 
 struct ServerStats {
   uint64_t connects = 0, disconnects = 0;
@@ -148,17 +148,14 @@ class ReplicationCore {
     uint64_t resume_key = 0;  // Hello's: resent Deforms are recognised by it (deform_ledger.h)
     wire::Role role = wire::Role::kPlayer;
     bool editor = true;
-    double tokens = 0;  // deform token bucket
-    CoreTime refill;
-    double cost_tokens = 0;  // stamp cost bucket (sample updates)
+    TokenBucket deforms;     // Deforms
+    TokenBucket stamp_cost;  // the sample updates of its stamps
     uint32_t unacked = 0;    // deforms accepted into the queue, not yet acknowledged
     uint64_t violations = 0;
-    double requests = 0;  // request token bucket (Subscribe, Unsubscribe, Ping, ...)
-    CoreTime requests_refill;
+    TokenBucket requests;           // Subscribe, Unsubscribe, Ping, ...
     bool requests_refused = false;  // refused since the last one accepted: Error already sent
     ClientTiles tiles;
-    double credit = 0;  // bulk byte budget
-    CoreTime credit_time;
+    TokenBucket credit;  // bulk bytes (spent whole regions at a time: may go below zero)
   };
   struct PendingDeform {
     ClientId client = 0;
