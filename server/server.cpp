@@ -20,6 +20,22 @@ Clock::duration after(double s) {
   return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
 }
 
+// The shell reads the clocks and gives the core their time (core_time.h).
+CoreTime core_time(Clock::time_point t) {
+  return CoreTime(std::chrono::duration_cast<CoreDuration>(t.time_since_epoch()));
+}
+Clock::time_point steady_time(CoreTime t) {
+  return Clock::time_point(std::chrono::duration_cast<Clock::duration>(t.time_since_epoch()));
+}
+UnixMicros wall_now() {
+  return UnixMicros(std::chrono::duration_cast<std::chrono::microseconds>(
+                        std::chrono::system_clock::now().time_since_epoch())
+                        .count());
+}
+double ms_between(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
 }  // namespace
 
 struct Server::Connection {
@@ -44,7 +60,7 @@ struct Server::Connection {
 Server::Server(asio::io_context& io, ServerConfig config, OpenedStorage opened)
     : io_(io),
       config_(config),
-      core_(std::move(config), std::move(opened), Clock::now()),
+      core_(std::move(config), std::move(opened), core_time(Clock::now())),
       acceptor_(io),
       metrics_(io,
                [this] {
@@ -154,7 +170,7 @@ void Server::schedule_stats() {
     if (e) return;
     uint64_t max_queue = 0;
     for (const auto& [id, c] : connections_) max_queue = std::max(max_queue, c->queued_bytes);
-    core_.report_stats(Clock::now(), max_queue);
+    core_.report_stats(core_time(Clock::now()), max_queue);
     schedule_stats();
   });
 }
@@ -178,7 +194,7 @@ void Server::on_accept(tcp::socket socket) {
   const auto remote = c->stream.socket().remote_endpoint(ec);
   const std::string peer = ec ? "?" : remote.address().to_string() + ":" + std::to_string(remote.port());
   // The TLS handshake counts as part of the protocol's: the same pool and the same timer.
-  c->id = core_.connect(peer, Clock::now());
+  c->id = core_.connect(peer, core_time(Clock::now()));
   connections_[c->id] = c;
   arm_timer(c, config_.handshake_timeout_s, true);
   deliver();  // a refusal (server full) is queued here, to leave once the stream is secured
@@ -229,9 +245,9 @@ bool Server::drain(const ConnectionPtr& c) {
     // A client past its request rate (refused once, its bucket still empty) is not decoded
     // further until the bucket refills: reading stops, its socket fills, and the flood waits
     // on its own side instead of costing this thread a decode per dropped request.
-    if (const auto until = core_.reads_paused_until(c->id, now)) {
+    if (const auto until = core_.reads_paused_until(c->id, core_time(now))) {
       paused = true;
-      c->read_pause.expires_at(*until);
+      c->read_pause.expires_at(steady_time(*until));
       c->read_pause.async_wait([this, weak = std::weak_ptr<Connection>(c)](const asio::error_code& e) {
         auto cp = weak.lock();
         if (e || !cp || cp->closed || cp->closing) return;
@@ -245,7 +261,7 @@ bool Server::drain(const ConnectionPtr& c) {
       break;
     }
     if (!next->has_value()) break;
-    core_.receive(c->id, **next, now);
+    core_.receive(c->id, **next, core_time(now), wall_now());
     complete = true;
     deliver();
   }
@@ -364,18 +380,50 @@ void Server::schedule_tick() {
   });
 }
 
+// The core's tick, its phases timed here (the core reads no clock) and its wait for the apply
+// owned here: up to --apply-wait-ms from the end of the commit.
 void Server::tick() {
   const auto t0 = Clock::now();
-  core_.tick(
-      t0,
-      [this](ClientId id) -> uint64_t {
-        const auto it = connections_.find(id);
-        return it == connections_.end() ? 0 : it->second->queued_bytes;
-      },
-      // The acks go out now (a write starts at once), before the tick applies and streams.
-      [this] { deliver(); });
+  const auto apply_wait = std::chrono::microseconds(int64_t(std::max(0.0, config_.apply_wait_ms) * 1000.0));
+  ReplicationCore::TickTimes times;
+  auto mark = t0;
+  const auto lap = [&mark] {
+    const auto t = Clock::now();
+    return ms_between(std::exchange(mark, t), t);
+  };
+  Clock::time_point deadline = t0 + apply_wait;
+  double log_ms = 0;
+  bool applied_phase = false;
+  TickHooks hooks;
+  hooks.unsent = [this](ClientId id) -> uint64_t {
+    const auto it = connections_.find(id);
+    return it == connections_.end() ? 0 : it->second->queued_bytes;
+  };
+  // The acks go out now (a write starts at once), before the tick applies and streams.
+  hooks.acks_ready = [this] { deliver(); };
+  hooks.wait_for_apply = [&deadline](ApplyWorker& w) { return w.wait_until(deadline); };
+  hooks.phase_done = [&](TickPhase phase) {
+    switch (phase) {
+      case TickPhase::kLogged: log_ms = lap(); break;
+      case TickPhase::kSynced: times.sync_ms = lap(); break;
+      case TickPhase::kCommitted:
+        times.commit_ms = log_ms + times.sync_ms + lap();
+        deadline = mark + apply_wait;
+        break;
+      case TickPhase::kApplied:
+        times.apply_wait_ms = lap();
+        applied_phase = true;
+        break;
+      case TickPhase::kStreamed: times.stream_ms = lap(); break;
+      case TickPhase::kPersisted: times.snapshot_ms = lap(); break;
+      case TickPhase::kTrimmed: times.trim_ms = lap(); break;
+    }
+  };
+  const bool streamed = run_tick(core_, core_time(t0), wall_now(), hooks);
+  times.world_busy = applied_phase && !streamed;
   deliver();
-  core_.record_tick_ms(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  times.total_ms = ms_between(t0, Clock::now());
+  core_.record_tick(times);
   if (core_.failed()) shutdown("log append failed");
 }
 
@@ -389,7 +437,7 @@ void Server::shutdown(const std::string& reason) {
   stats_timer_.cancel();
   signals_.cancel();
   reload_signal_.cancel();
-  core_.shutdown(reason, Clock::now());
+  core_.shutdown(reason, core_time(Clock::now()), wall_now());
   deliver();
 }
 

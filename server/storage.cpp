@@ -358,13 +358,13 @@ Storage::~Storage() {
   if (pending_ && pending_->worker.joinable()) pending_->worker.join();
 }
 
-Status Storage::roll_segment(const TerrainState& terrain, uint64_t tick) {
+Status Storage::roll_segment(const TerrainState& terrain, uint64_t tick, uint64_t created_unix_us) {
   LOAM_TRY(writer_->sync());
   const uint32_t next = writer_->header().segment_index + 1;
   log::SegmentHeader h;
   h.world = terrain.world().params();
   h.initial = initial_;
-  h.created_unix_us = now_unix_us();
+  h.created_unix_us = created_unix_us;
   h.segment_index = next;
   h.base_seq = terrain.last_seq();
   h.base_snapshot_id = terrain.last_seq();
@@ -380,18 +380,18 @@ Status Storage::roll_segment(const TerrainState& terrain, uint64_t tick) {
 
 Result<SnapshotOutcome> Storage::snapshot(TerrainState& terrain, uint64_t tick, bool reuse_existing) {
   if (reuse_existing) {
-    LOAM_TRY(roll_segment(terrain, tick));
+    LOAM_TRY(roll_segment(terrain, tick, now_unix_us()));
     SnapshotOutcome out;
     out.write.path = (fs::path(data_dir_) / "snapshots" / snapshot_dir_name(terrain.last_seq())).string();
     out.write.last_seq = terrain.last_seq();
     last_snapshot_seq_ = terrain.last_seq();
     return out;
   }
-  LOAM_TRY(begin_snapshot(terrain, tick));
+  LOAM_TRY(begin_snapshot(terrain, tick, now_unix_us()));
   return *poll_snapshot(terrain, true);
 }
 
-Status Storage::begin_snapshot(TerrainState& terrain, uint64_t tick) {
+Status Storage::begin_snapshot(TerrainState& terrain, uint64_t tick, uint64_t created_unix_us) {
   if (pending_) return make_error(ErrorCode::kInvalidArgument, data_dir_, "a snapshot is being written");
   LOAM_TRY(writer_->sync());
   const uint32_t next = writer_->header().segment_index + 1;
@@ -399,7 +399,7 @@ Status Storage::begin_snapshot(TerrainState& terrain, uint64_t tick) {
                                         SnapshotSession{terrain.limits(), tick});
   // The records after this sequence go to the segment that continues the snapshot. Should the
   // snapshot fail, recovery reads on through it from the previous one.
-  LOAM_TRY(roll_segment(terrain, tick));
+  LOAM_TRY(roll_segment(terrain, tick, created_unix_us));
   last_snapshot_seq_ = terrain.last_seq();
   pending_ = std::make_unique<PendingSnapshot>(std::move(job));
   PendingSnapshot* p = pending_.get();

@@ -99,7 +99,9 @@ class Storage {
   // snapshot once written (nullopt while it is being written; `wait`: block until it is) and
   // applies retention. A failed write leaves the previous snapshots and the whole log in place.
   // One at a time.
-  Status begin_snapshot(TerrainState& terrain, uint64_t tick);
+  // `created_unix_us`: the wall time the next segment records as its creation (the caller's
+  // clock: the replication core reads none).
+  Status begin_snapshot(TerrainState& terrain, uint64_t tick, uint64_t created_unix_us);
   bool snapshot_in_flight() const { return pending_ != nullptr; }
   std::optional<Result<SnapshotOutcome>> poll_snapshot(TerrainState& terrain, bool wait);
   uint64_t last_snapshot_seq() const { return last_snapshot_seq_; }
@@ -122,7 +124,7 @@ class Storage {
   Storage() = default;
   std::string segment_path_of(uint32_t index) const;
   // Syncs the log and starts segment `next` continuing from the terrain's last sequence.
-  Status roll_segment(const TerrainState& terrain, uint64_t tick);
+  Status roll_segment(const TerrainState& terrain, uint64_t tick, uint64_t created_unix_us);
   void apply_retention(SnapshotOutcome& out);
   struct PendingSnapshot {
     explicit PendingSnapshot(SnapshotJobHandle j) : job(std::move(j)) {}

@@ -212,7 +212,7 @@ void ReplicationCore::timed_out(ClientId id, bool in_handshake) {
   }
 }
 
-void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now) {
+void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now, UnixMicros wall) {
   const auto it = clients_.find(id);
   if (it == clients_.end()) return;
   Client& c = it->second;
@@ -231,13 +231,10 @@ void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now)
       }
       on_hello(c, std::get<wire::Hello>(m));
       return;
-    case wire::MessageType::kPing: {
+    case wire::MessageType::kPing:
       // The wall clock: Pong's server time is for the client's clock-offset estimate.
-      const auto wall = std::chrono::system_clock::now().time_since_epoch();
-      send(c, wire::Pong{std::get<wire::Ping>(m).client_time_us,
-                         uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(wall).count())});
+      send(c, wire::Pong{std::get<wire::Ping>(m).client_time_us, wall});
       return;
-    }
     case wire::MessageType::kBye: close(id, "client said bye: " + std::get<wire::Bye>(m).text); return;
     case wire::MessageType::kSubscribe:
     case wire::MessageType::kUnsubscribe: receive_subscription(c, m); return;
@@ -574,9 +571,8 @@ void ReplicationCore::acknowledge(const PendingDeform& p, std::optional<uint64_t
   send(c, ack);
 }
 
-void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>& unsent,
-                           const std::function<void()>& acks_ready) {
-  if (stopping_ || failed_) return;
+bool ReplicationCore::begin_tick(CoreTime now) {
+  if (stopping_ || failed_) return false;
   ++tick_;
   // This tick's stamps, in order, up to the tick's cost budget (at least one): the rest wait,
   // and all wait while a tick's worth is already sequenced and waiting for the apply worker.
@@ -585,32 +581,86 @@ void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>
   while (n < pending_.size() && to_apply_cost_ < config_.tick_stamp_cost &&
          (n == 0 || spent + pending_[n].cost <= config_.tick_stamp_cost))
     spent += pending_[n++].cost;
-  std::vector<PendingDeform> batch(std::make_move_iterator(pending_.begin()),
-                                   std::make_move_iterator(pending_.begin() + ptrdiff_t(n)));
+  committing_.assign(std::make_move_iterator(pending_.begin()),
+                     std::make_move_iterator(pending_.begin() + ptrdiff_t(n)));
   pending_.erase(pending_.begin(), pending_.begin() + ptrdiff_t(n));
-  last_batch_ = batch.size();
-  // Where the tick's time went, for a tick_overrun line (wall clock: `now` is fixed).
-  using Wall = std::chrono::steady_clock;
-  const auto ms_since = [](Wall::time_point t) {
-    return std::chrono::duration<double, std::milli>(Wall::now() - t).count();
-  };
-  const auto t_start = Wall::now();
-  const WorldCounters before = world_counters_;
-  sync_ms_ = 0;
+  last_batch_ = committing_.size();
+  tick_start_counters_ = world_counters_;
+  tick_base_tiles_read_ = tick_edited_tiles_loaded_ = 0;
   if (!storage_.writable()) try_resume_storage(now);
-  if (!batch.empty()) commit_batch(std::move(batch), now, acks_ready);
-  if (failed_) return;
-  const double commit_ms = ms_since(t_start);
-  auto t = Wall::now();
-  const bool world_free =
-      advance_apply(std::chrono::microseconds(int64_t(std::max(0.0, config_.apply_wait_ms) * 1000.0)));
-  const double apply_wait_ms = ms_since(t);
-  if (!world_free) {
-    // The apply goes on: what needs its result waits for a later tick.
-    last_phases_ = TickPhases{sync_ms_, commit_ms, apply_wait_ms, 0, 0, 0, true};
-    return;
+  if (committing_.empty() || !storage_.writable()) return true;
+  // 1. Sequence and log the whole tick (commit() syncs it once: the durability point).
+  uint64_t seq = sequenced_seq_;
+  for (const PendingDeform& p : committing_) {
+    const Status st = storage_.append({++seq, tick_, p.client, p.stamp});
+    if (!st.ok()) {  // a broken invariant (sequence or tick), not the disk
+      log_event("fatal", {{"error", st.error().describe()}});
+      failed_ = true;
+      committing_.clear();
+      shutdown("log append failed", now, 0);
+      return false;
+    }
   }
-  t = Wall::now();
+  return true;
+}
+
+void ReplicationCore::refuse(const std::vector<PendingDeform>& batch) {
+  for (const PendingDeform& p : batch) {
+    ++stats_.deforms_rejected;
+    ++stats_.deforms_rejected_by[wire::to_string(wire::WireErrorCode::kIo)];
+    acknowledge(p, std::nullopt);
+  }
+}
+
+bool ReplicationCore::commit(CoreTime now) {
+  if (committing_.empty() || failed_) return false;
+  const std::vector<PendingDeform> batch = std::exchange(committing_, {});
+  if (!storage_.writable()) {
+    refuse(batch);
+    return false;
+  }
+  if (const Status st = storage_.sync(); !st.ok()) {
+    // A full disk or an I/O error: nothing of this tick is durable (the writer cut the file
+    // back), so nothing of it is applied or acknowledged. The server keeps serving reads and
+    // hashes, refuses edits, and retries the log with a growing interval.
+    log_event("storage_unavailable",
+              {{"error", st.error().describe()}, {"refused", std::to_string(batch.size())}});
+    ++stats_.storage_failures;
+    resume_backoff_s_ = kResumeBackoffMinS;
+    next_resume_try_ = now + after(resume_backoff_s_);
+    refuse(batch);
+    return false;
+  }
+  // 2. Acknowledge: durable and sequenced is what an ack promises, so the acks leave now,
+  // before the tick's stamps are applied (a costly one delays only the events and regions).
+  for (const PendingDeform& p : batch) {
+    ++stats_.deforms_accepted;
+    acknowledge(p, ++sequenced_seq_);
+    to_apply_.push_back({sequenced_seq_, p.client, p.stamp});
+    to_apply_cost_ += p.cost;
+  }
+  return true;
+}
+
+bool ReplicationCore::advance_apply() {
+  while (true) {
+    if (applier_->busy()) {
+      auto done = applier_->take();
+      if (!done) return false;
+      publish(std::move(*done));
+    }
+    if (to_apply_.empty()) return true;
+    applier_->start(std::exchange(to_apply_, {}));
+    to_apply_cost_ = 0;
+  }
+}
+
+void ReplicationCore::finish_applying() {
+  while (!advance_apply()) applier_->wait();
+}
+
+void ReplicationCore::stream(CoreTime now, const std::function<uint64_t(ClientId)>& unsent) {
+  if (stopping_ || failed_) return;
   run_deferred_subscriptions();
   frames_.adopt_best();
   stream_regions(now, unsent);
@@ -622,95 +672,50 @@ void ReplicationCore::tick(CoreTime now, const std::function<uint64_t(ClientId)>
     }
     if (prefetch_ && !later.empty()) prefetch_->prefetch(later);
   }
-  const double stream_ms = ms_since(t);
-  t = Wall::now();
-  maybe_snapshot(now, false);
-  const double snapshot_ms = ms_since(t);
-  t = Wall::now();
+}
+
+void ReplicationCore::persist(CoreTime now, UnixMicros wall) {
+  if (stopping_ || failed_) return;
+  maybe_snapshot(now, wall, false);
+}
+
+void ReplicationCore::trim() {
+  if (stopping_ || failed_) return;
   // Clean base tiles read this tick (subscriptions, stamps' neighbourhoods) back under budget;
   // nothing holds a span into them between ticks.
   terrain_.mutable_world().trim_base_cache();
   refresh_world_counters();
-  last_phases_ = TickPhases{sync_ms_,
-                            commit_ms,
-                            apply_wait_ms,
-                            stream_ms,
-                            snapshot_ms,
-                            ms_since(t),
-                            false,
-                            world_counters_.base_tiles_generated - before.base_tiles_generated,
-                            world_counters_.edited_tiles_loaded - before.edited_tiles_loaded};
+  tick_base_tiles_read_ = world_counters_.base_tiles_generated - tick_start_counters_.base_tiles_generated;
+  tick_edited_tiles_loaded_ = world_counters_.edited_tiles_loaded - tick_start_counters_.edited_tiles_loaded;
 }
 
-bool ReplicationCore::advance_apply(std::chrono::microseconds wait) {
-  const auto deadline = std::chrono::steady_clock::now() + wait;
-  while (true) {
-    if (applier_->busy()) {
-      const auto left =
-          std::max(std::chrono::steady_clock::duration::zero(), deadline - std::chrono::steady_clock::now());
-      auto done = applier_->take(std::chrono::duration_cast<std::chrono::microseconds>(left));
-      if (!done) return false;
-      publish(std::move(*done));
-    }
-    if (to_apply_.empty()) return true;
-    applier_->start(std::exchange(to_apply_, {}));
-    to_apply_cost_ = 0;
-  }
-}
-
-void ReplicationCore::finish_applying() {
-  while (!advance_apply(std::chrono::hours(1))) {
-  }
-}
-
-void ReplicationCore::commit_batch(std::vector<PendingDeform> batch, CoreTime now,
-                                   const std::function<void()>& acks_ready) {
-  const auto refuse_all = [&] {
-    for (const PendingDeform& p : batch) {
-      ++stats_.deforms_rejected;
-      ++stats_.deforms_rejected_by[wire::to_string(wire::WireErrorCode::kIo)];
-      acknowledge(p, std::nullopt);
-    }
+bool run_tick(ReplicationCore& core, CoreTime now, UnixMicros wall, const TickHooks& hooks) {
+  const auto done = [&](TickPhase p) {
+    if (hooks.phase_done) hooks.phase_done(p);
   };
-  if (!storage_.writable()) {
-    refuse_all();
-    return;
+  if (!core.begin_tick(now)) return false;
+  done(TickPhase::kLogged);
+  const bool acks = core.commit(now);
+  done(TickPhase::kSynced);
+  if (core.failed()) return false;
+  if (acks && hooks.acks_ready) hooks.acks_ready();
+  done(TickPhase::kCommitted);
+  bool world_free = core.advance_apply();
+  while (!world_free) {
+    ApplyWorker* worker = core.applying();
+    if (worker == nullptr || !hooks.wait_for_apply || !hooks.wait_for_apply(*worker)) break;
+    world_free = core.advance_apply();
   }
-  // 1. Sequence and log the whole tick, then one sync: the durability point.
-  uint64_t seq = sequenced_seq_;
-  for (const PendingDeform& p : batch) {
-    const Status st = storage_.append({++seq, tick_, p.client, p.stamp});
-    if (!st.ok()) {  // a broken invariant (sequence or tick), not the disk
-      log_event("fatal", {{"error", st.error().describe()}});
-      failed_ = true;
-      shutdown("log append failed", now);
-      return;
-    }
-  }
-  const auto sync_start = std::chrono::steady_clock::now();
-  const Status synced = storage_.sync();
-  sync_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - sync_start).count();
-  if (const Status& st = synced; !st.ok()) {
-    // A full disk or an I/O error: nothing of this tick is durable (the writer cut the file
-    // back), so nothing of it is applied or acknowledged. The server keeps serving reads and
-    // hashes, refuses edits, and retries the log with a growing interval.
-    log_event("storage_unavailable",
-              {{"error", st.error().describe()}, {"refused", std::to_string(batch.size())}});
-    ++stats_.storage_failures;
-    resume_backoff_s_ = kResumeBackoffMinS;
-    next_resume_try_ = now + after(resume_backoff_s_);
-    refuse_all();
-    return;
-  }
-  // 2. Acknowledge: durable and sequenced is what an ack promises, so the acks leave now,
-  // before the tick's stamps are applied (a costly one delays only the events and regions).
-  for (const PendingDeform& p : batch) {
-    ++stats_.deforms_accepted;
-    acknowledge(p, ++sequenced_seq_);
-    to_apply_.push_back({sequenced_seq_, p.client, p.stamp});
-    to_apply_cost_ += p.cost;
-  }
-  if (acks_ready) acks_ready();
+  done(TickPhase::kApplied);
+  // The apply goes on: what needs its result waits for a later tick.
+  if (!world_free) return false;
+  core.stream(now, hooks.unsent);
+  done(TickPhase::kStreamed);
+  core.persist(now, wall);
+  done(TickPhase::kPersisted);
+  core.trim();
+  done(TickPhase::kTrimmed);
+  return true;
 }
 
 // 3. Applied (on the worker, in order): the history, the events (one encoding for every
@@ -832,7 +837,7 @@ void ReplicationCore::try_resume_storage(CoreTime now) {
   log_event("storage_resumed", {{"seq", std::to_string(sequenced_seq_)}});
 }
 
-void ReplicationCore::maybe_snapshot(CoreTime now, bool force) {
+void ReplicationCore::maybe_snapshot(CoreTime now, UnixMicros wall, bool force) {
   // A snapshot reads and adopts into the world, at the applied sequence: only while no apply
   // runs and nothing sequenced waits for one (the log's next segment starts after it).
   if (applier_->busy() || !to_apply_.empty()) return;
@@ -857,11 +862,11 @@ void ReplicationCore::maybe_snapshot(CoreTime now, bool force) {
   // Nothing new since the last snapshot (or since the initial terrain, which segment 0's
   // header already describes): a snapshot would add nothing.
   if (!due || since == 0 || terrain_.last_seq() == 0) return;
-  snapshot_started_ = CoreClock::now();  // for the log line only
+  snapshot_started_ = now;  // for the log line only
   last_snapshot_time_ = now;
   // The tick thread copies what changed and starts the next segment; the encoding and writing
   // run on the storage's worker, so acks and events do not wait for them.
-  const Status begun = storage_.begin_snapshot(terrain_, tick_);
+  const Status begun = storage_.begin_snapshot(terrain_, tick_, wall);
   if (!begun.ok()) {
     snapshot_done(Result<SnapshotOutcome>(begun.error()), now);
     return;
@@ -897,16 +902,16 @@ void ReplicationCore::snapshot_done(const Result<SnapshotOutcome>& done, CoreTim
        {"snapshots_removed", std::to_string(done->prune.snapshots_removed)},
        {"tile_files_removed", std::to_string(done->prune.tile_files_removed)},
        {"segments_removed", std::to_string(done->segments_removed)},
-       {"ms", std::to_string(
-                  std::chrono::duration<double, std::milli>(CoreClock::now() - snapshot_started_).count())}});
+       // From the tick that began it to the one that adopted it (0: written within one call).
+       {"ms", std::to_string(std::chrono::duration<double, std::milli>(now - snapshot_started_).count())}});
 }
 
-void ReplicationCore::record_tick_ms(double ms) {
+void ReplicationCore::record_tick(const TickTimes& p) {
+  const double ms = p.total_ms;
   tick_ms_.push_back(ms);
   ticks_.add(ms);
   if (ms > 1000.0 / config_.tick_hz) {
     ++stats_.tick_overruns;
-    const TickPhases& p = last_phases_;
     log_event("tick_overrun", {{"tick", std::to_string(tick_)},
                                {"ms", fmt_ms(ms)},
                                {"stamps", std::to_string(last_batch_)},
@@ -917,8 +922,8 @@ void ReplicationCore::record_tick_ms(double ms) {
                                {"stream_ms", fmt_ms(p.stream_ms)},
                                {"snapshot_ms", fmt_ms(p.snapshot_ms)},
                                {"trim_ms", fmt_ms(p.trim_ms)},
-                               {"base_tiles_read", std::to_string(p.base_tiles_read)},
-                               {"edited_tiles_loaded", std::to_string(p.edited_tiles_loaded)}});
+                               {"base_tiles_read", std::to_string(tick_base_tiles_read_)},
+                               {"edited_tiles_loaded", std::to_string(tick_edited_tiles_loaded_)}});
   }
 }
 
@@ -1064,7 +1069,7 @@ void ReplicationCore::warn_if_tokens_file_exposed() {
   }
 }
 
-void ReplicationCore::shutdown(const std::string& reason, CoreTime now) {
+void ReplicationCore::shutdown(const std::string& reason, CoreTime now, UnixMicros wall) {
   if (stopping_) return;
   stopping_ = true;
   log_event("shutdown", {{"reason", reason}});
@@ -1076,7 +1081,7 @@ void ReplicationCore::shutdown(const std::string& reason, CoreTime now) {
     if (storage_.writable()) {
       if (const Status st = storage_.sync(); !st.ok()) log_event("fatal", {{"error", st.error().describe()}});
     }
-    maybe_snapshot(now, true);
+    maybe_snapshot(now, wall, true);
   }
   std::vector<ClientId> all;
   for (const auto& [id, c] : clients_) all.push_back(id);

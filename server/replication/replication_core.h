@@ -8,10 +8,10 @@
 //    limits (token bucket) and the per-client cap on unacknowledged deforms;
 //  - the per-tick commit pipeline: sequence the tick's stamps, log them with one sync (the
 //    durability point), acknowledge (an ack means durable and sequenced; the transport sends
-//    acks at once), apply on the apply worker in sequence order (apply_worker.h), and once
-//    applied fan out DeformEvents (one encoding for all). A tick waits a few milliseconds for
-//    the apply; past that, what needs the applied world (events, regions, hashes, snapshots)
-//    waits for a later tick while acks, pings and handshakes go on;
+//    acks at once), apply on the apply worker in sequence order (server/apply_worker.h), and
+//    once applied fan out DeformEvents (one encoding for all). The transport waits a few
+//    milliseconds for the apply; past that, what needs the applied world (events, regions,
+//    hashes, snapshots) waits for a later tick while acks, pings and handshakes go on;
 //  - replication planning per client and tile (server/replication/client_tiles.h): the event
 //    alone, or a region due (patch or whole tile);
 //  - bulk streaming: due regions leave under each client's byte budget, coarsest mip first and
@@ -21,6 +21,10 @@
 //    patches for a client behind are deltas against what it holds (tile_history.h), and
 //    tiles sent to many are re-encoded in the best mode on a worker thread;
 //  - TileHashes, snapshots, storage back-off after a failed sync, and stats.
+//
+// Time is given, never read (core_time.h): every call that needs the time takes it, the
+// transport owns every wait (the tick's wait for its apply included: the core only says what it
+// waits for, applying()), and it times the tick's phases (run_tick).
 //
 // Call it from one thread (the transport's I/O thread); stamps are applied, and best-mode
 // re-encodes run, on workers of their own.
@@ -37,8 +41,8 @@
 
 #include "protocol/wire/messages.h"
 #include "server/access_tokens.h"
+#include "server/apply_worker.h"
 #include "server/metrics.h"
-#include "server/replication/apply_worker.h"
 #include "server/replication/client_tiles.h"
 #include "server/replication/core_time.h"
 #include "server/replication/deform_ledger.h"
@@ -81,7 +85,8 @@ class ReplicationCore {
   // A new connection. The client must say Hello before the handshake timeout (the transport's
   // timer calls timed_out).
   ClientId connect(const std::string& peer, CoreTime now);
-  void receive(ClientId id, const wire::Message& m, CoreTime now);
+  // `wall`: the wall clock's time, for Pong.
+  void receive(ClientId id, const wire::Message& m, CoreTime now, UnixMicros wall);
   // The transport could not decode the client's stream: Error, Bye, close.
   void stream_error(ClientId id, const Error& e);
   // A handshake or idle timer fired.
@@ -94,19 +99,39 @@ class ReplicationCore {
   // decoding its frames until then, so a flood costs the flooder, not this thread.
   std::optional<CoreTime> reads_paused_until(ClientId id, CoreTime now) const;
 
-  // One tick at `now`. `unsent(id)`: bytes queued for the client and not yet written (bulk
-  // waits while it is over the client's one-second budget: a client that does not read gets
-  // no more regions, only what must go).
-  // `acks_ready`, when given, is called once the tick's stamps are durable and sequenced and
-  // their acks are in the output, before any is applied: the transport sends them then, so no
-  // client's ack waits for another's heavy stamp, nor for the tick's streaming.
-  void tick(CoreTime now, const std::function<uint64_t(ClientId)>& unsent,
-            const std::function<void()>& acks_ready = {});
+  // One tick, in phases the transport calls in this order, all at the tick's time `now`
+  // (run_tick below is that order):
+  // 1. Counts the tick, retries the storage after a failed sync, and sequences and logs the
+  //    tick's stamps (up to its cost budget). False when stopping or failed: no tick.
+  bool begin_tick(CoreTime now);
+  // 2. One sync (the durability point), then the stamps' acks in the output, and their apply
+  //    queued. True when acks of a committed batch are ready: the transport sends them then, so
+  //    no client's ack waits for another's heavy stamp, nor for the tick's streaming.
+  bool commit(CoreTime now);
+  // 3. Publishes what the apply worker finished (events, history, plans) and starts what is
+  //    sequenced. True once the world is free; while false, the tick waits on applying() (up to
+  //    the transport's apply wait) and calls this again, or goes on without the apply.
+  bool advance_apply();
+  ApplyWorker* applying() { return applier_->busy() ? applier_.get() : nullptr; }
+  // 4. With the world free: deferred subscriptions, best-mode encodes adopted, regions under
+  //    each client's budget, TileHashes. `unsent(id)`: bytes queued for the client and not yet
+  //    written (bulk waits while it is over the client's one-second budget: a client that does
+  //    not read gets no more regions, only what must go).
+  void stream(CoreTime now, const std::function<uint64_t(ClientId)>& unsent);
+  // 5. A snapshot due (its new log segment records `wall`), or adopted once written.
+  void persist(CoreTime now, UnixMicros wall);
+  // 6. Clean base tiles read this tick back under the cache budget.
+  void trim();
+  // Where the transport measured the tick's time to go (stats; overruns are logged with it).
+  struct TickTimes {
+    double total_ms = 0, sync_ms = 0, commit_ms = 0, apply_wait_ms = 0, stream_ms = 0, snapshot_ms = 0,
+           trim_ms = 0;
+    bool world_busy = false;  // the apply outlasted the tick's wait: no streaming this tick
+  };
+  void record_tick(const TickTimes& times);
   // Graceful stop: make the log durable, write a snapshot, Bye to every client.
-  void shutdown(const std::string& reason, CoreTime now);
+  void shutdown(const std::string& reason, CoreTime now, UnixMicros wall);
   bool stopping() const { return stopping_; }
-  // How long the transport measured the last tick to take (stats; overruns are logged).
-  void record_tick_ms(double ms);
   void reload_tokens();
   void warn_if_tokens_file_exposed();
   // The periodic stats line (the transport's timer).
@@ -184,10 +209,8 @@ class ReplicationCore {
   wire::Stats stats_message(uint32_t request_id, CoreTime now) const;
   bool valid_tile(const TileCoord& t) const;
 
-  void commit_batch(std::vector<PendingDeform> batch, CoreTime now, const std::function<void()>& acks_ready);
-  // Starts applying what is sequenced when the worker is free; waits up to `wait` for the
-  // apply in flight and publishes it (events, history, plans). True when the world is free.
-  bool advance_apply(std::chrono::microseconds wait);
+  // Refuses a batch the storage cannot take: nothing of it is logged or applied.
+  void refuse(const std::vector<PendingDeform>& batch);
   void publish(std::vector<ApplyWorker::Output> applied);
   // Subscribe and Unsubscribe read the world's tile versions: while an apply runs they wait
   // here, in order, for the world to be free.
@@ -202,7 +225,7 @@ class ReplicationCore {
   void snapshot_done(const Result<SnapshotOutcome>& done, CoreTime now);
   // Queues the base tiles an admitted stamp will read, at every mip under its reach.
   void prefetch_reach(const QuantizedStamp& q);
-  void maybe_snapshot(CoreTime now, bool force);
+  void maybe_snapshot(CoreTime now, UnixMicros wall, bool force);
   void try_resume_storage(CoreTime now);
 
   ServerConfig config_;
@@ -251,20 +274,29 @@ class ReplicationCore {
   double resume_backoff_s_ = kResumeBackoffMinS;
   CoreTime next_resume_try_{};
   size_t stream_cursor_ = 0;  // bulk turns rotate so no client always goes first
-  size_t last_batch_ = 0;     // stamps in the last tick
-  double sync_ms_ = 0;        // the last tick's log sync
-  // Where the last tick's time went (logged when it overran its period): committing (the log
-  // sync within it), streaming regions and hashes, the snapshot's start or adoption, the trim;
-  // and the tiles it had to read from the base or reload from the snapshot store.
-  struct TickPhases {
-    double sync_ms = 0, commit_ms = 0, apply_wait_ms = 0, stream_ms = 0, snapshot_ms = 0, trim_ms = 0;
-    bool world_busy = false;  // the apply outlasted the tick's wait: no streaming this tick
-    uint64_t base_tiles_read = 0, edited_tiles_loaded = 0;
-  };
-  TickPhases last_phases_;
+  // The tick being committed: logged by begin_tick, synced and acknowledged by commit.
+  std::vector<PendingDeform> committing_;
+  size_t last_batch_ = 0;  // stamps in the last tick
+  // The world's counters when the tick began, and the tiles the last tick had to read from the
+  // base or reload from the snapshot store (logged with an overrun).
+  WorldCounters tick_start_counters_;
+  uint64_t tick_base_tiles_read_ = 0, tick_edited_tiles_loaded_ = 0;
   std::vector<double> tick_ms_;  // since the last stats line
   TickHistogram ticks_;          // every tick since start, for /metrics
   double last_p50_ms_ = 0, last_p99_ms_ = 0;
 };
+
+// The phases of one tick in order, for the transport and for tests. The caller owns the clock:
+// `wait_for_apply(worker)` is its wait on the apply in flight (true once it has finished, false
+// to go on without it), and `phase_done(phase)` is called as each phase ends (to time them).
+enum class TickPhase { kLogged, kSynced, kCommitted, kApplied, kStreamed, kPersisted, kTrimmed };
+struct TickHooks {
+  std::function<uint64_t(ClientId)> unsent;  // bytes queued for a client (none: 0)
+  std::function<void()> acks_ready;          // the tick's acks are in the output
+  std::function<bool(ApplyWorker&)> wait_for_apply;
+  std::function<void(TickPhase)> phase_done;
+};
+// False when the apply outlasted the wait: the tick did not stream (nor persist, nor trim).
+bool run_tick(ReplicationCore& core, CoreTime now, UnixMicros wall, const TickHooks& hooks);
 
 }  // namespace loam::server

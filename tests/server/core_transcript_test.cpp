@@ -129,7 +129,7 @@ class Transcript {
     auto frame = wire::encode_frame(m, wire::kAbsoluteMaxFrameBytes);
     ASSERT_TRUE(frame.ok());
     core_->mutable_stats().bytes_in += frame->size();
-    core_->receive(id, m, now_);
+    core_->receive(id, m, now_, kWall);
     collect();
   }
   ClientId join(const std::string& name, const std::string& peer, const char* token, uint64_t key = 0,
@@ -161,14 +161,19 @@ class Transcript {
     now_ += dt;
     core_->finish_background_encodes();  // best-mode encodes adopted at a known point
     lines_.push_back("tick " + std::to_string(core_->tick_count() + 1));
-    core_->tick(
-        now_, [&](ClientId id) { return unsent_.contains(id) ? unsent_.at(id) : uint64_t(0); },
-        [&] {
-          lines_.push_back(" acks_ready");
-          collect();
-        });
+    TickHooks hooks;
+    hooks.unsent = [&](ClientId id) { return unsent_.contains(id) ? unsent_.at(id) : uint64_t(0); };
+    hooks.acks_ready = [&] {
+      lines_.push_back(" acks_ready");
+      collect();
+    };
+    hooks.wait_for_apply = [](ApplyWorker& w) {
+      w.wait();
+      return true;
+    };
+    run_tick(*core_, now_, kWall, hooks);
     collect();
-    core_->record_tick_ms(tick_ms);
+    core_->record_tick({.total_ms = tick_ms});
     std::string due;
     for (ClientId id = 1; id < 64; ++id) {
       if (const ClientTiles* t = core_->tiles_of(id))
@@ -234,6 +239,7 @@ class Transcript {
   }
 
  private:
+  static constexpr UnixMicros kWall = 1'700'000'000'000'000;  // Pong's (zeroed before hashing)
   std::filesystem::path dir_;
   CoreTime now_ = CoreTime{} + 1000s;
   std::unique_ptr<ReplicationCore> core_;
@@ -397,7 +403,7 @@ std::vector<std::string> run_script() {
   }
 
   s.step("shutdown");
-  s.core().shutdown("script over", s.now() + 1s);
+  s.core().shutdown("script over", s.now() + 1s, 1'700'000'001'000'000);
   s.collect();
 
   s.step("log records");

@@ -44,8 +44,9 @@ class CoreHarness {
     config.snapshot_every_stamps = 0;
     config.snapshot_interval_s = 0;
     // A tick waits for its stamps' apply (events in the same tick): deterministic tests. The
-    // tests of the apply running past a tick set their own.
+    // tests of the apply running past a tick set an apply wait of 0: the tick never waits.
     if (config.apply_wait_ms == ServerConfig{}.apply_wait_ms) config.apply_wait_ms = 60000;
+    wait_for_apply_ = config.apply_wait_ms > 0;
     auto opened = open_storage(config.data_dir, "", config.stamp_limits, {}, 0, terrain);
     EXPECT_TRUE(opened.ok()) << (opened.ok() ? "" : opened.error().describe());
     core_ = std::make_unique<ReplicationCore>(config, std::move(*opened), now_);
@@ -63,18 +64,18 @@ class CoreHarness {
     wire::Hello h;
     h.client_name = name;
     h.requested_role = role;
-    core_->receive(id, h, now_);
+    core_->receive(id, h, now_, kWall);
     collect();
     return id;
   }
   void send(ClientId id, const wire::Message& m) {
-    core_->receive(id, m, now_);
+    core_->receive(id, m, now_, kWall);
     collect();
   }
   // One tick after `dt`; the transport reports nothing unsent (clients read at once).
   void tick(CoreClock::duration dt = 33333us) {
     now_ += dt;
-    core_->tick(now_, [](ClientId) { return uint64_t(0); });
+    run_tick(*core_, now_, kWall, hooks());
     collect();
   }
   // One tick, with what the core hands the transport when the tick's acks are ready (before
@@ -86,18 +87,18 @@ class CoreHarness {
   EarlyOutput tick_with_early_acks(CoreClock::duration dt = 33333us) {
     EarlyOutput early;
     now_ += dt;
-    core_->tick(
-        now_, [](ClientId) { return uint64_t(0); },
-        [&] {
-          early.applied_seq = core_->terrain().last_seq();
-          for (const auto& [id, frame] : core_->take_output().frames) {
-            wire::FrameAssembler a(wire::kAbsoluteMaxFrameBytes);
-            a.feed(*frame);
-            auto m = a.next_message();
-            ASSERT_TRUE(m.ok() && m->has_value());
-            early.acks.messages.push_back(std::move(**m));
-          }
-        });
+    TickHooks with_acks = hooks();
+    with_acks.acks_ready = [&] {
+      early.applied_seq = core_->terrain().last_seq();
+      for (const auto& [id, frame] : core_->take_output().frames) {
+        wire::FrameAssembler a(wire::kAbsoluteMaxFrameBytes);
+        a.feed(*frame);
+        auto m = a.next_message();
+        ASSERT_TRUE(m.ok() && m->has_value());
+        early.acks.messages.push_back(std::move(**m));
+      }
+    };
+    run_tick(*core_, now_, kWall, with_acks);
     collect();
     return early;
   }
@@ -164,7 +165,21 @@ class CoreHarness {
     }
   }
 
+  // The tick's wait for its apply, as the transport would (without its deadline).
+  TickHooks hooks() {
+    TickHooks k;
+    k.unsent = [](ClientId) { return uint64_t(0); };
+    k.wait_for_apply = [this](ApplyWorker& w) {
+      if (!wait_for_apply_) return false;
+      w.wait();
+      return true;
+    };
+    return k;
+  }
+
+  static constexpr UnixMicros kWall = 1'700'000'000'000'000;
   static inline int counter_ = 0;
+  bool wait_for_apply_ = true;
   std::filesystem::path dir_;
   CoreTime now_ = CoreTime{} + 1000s;
   std::unique_ptr<ReplicationCore> core_;
@@ -264,6 +279,47 @@ TEST(ReplicationCore, AStampStillApplyingHoldsNoAckOfTheNextTickAndEventsFollowI
     ASSERT_EQ(events.size(), 1u) << "client " << id;
     EXPECT_EQ(events[0].global_seq, 2u);
   }
+}
+
+// The core reads no clock and never blocks: a tick whose apply is still running says what it
+// waits for (applying()), streams nothing, and the caller's wait decides when it goes on.
+TEST(ReplicationCore, ATickWaitingForItsApplyNamesTheWorkerAndStreamsOnlyOnceTheCallerHasWaited) {
+  ServerConfig config;
+  config.apply_wait_ms = 0;
+  config.max_stamp_cost = config.stamp_cost_per_second = 1ull << 40;
+  CoreHarness h(config);
+  const auto [a, b] = h.two_players_in_sync();
+  // A detail shockwave over much of the detail area, 256 steps: far longer than a tick.
+  const WorldParams& w = h.core().terrain().world().params();
+  const RectI d = w.detail_sample_rect();
+  StampParams heavy;
+  heavy.kind = StampKind::kShockwave;
+  heavy.layer = Layer::kDetail;
+  heavy.center_x = double(d.x0 + d.x1) / 2 * w.detail_meters_per_sample();
+  heavy.center_y = double(d.y0 + d.y1) / 2 * w.detail_meters_per_sample();
+  heavy.radius = 400 * w.detail_meters_per_sample();
+  heavy.intensity = 0.5, heavy.speed = 0.5, heavy.damping = 0.01, heavy.steps = 256;
+  auto q = validate_stamp(heavy, w, h.core().terrain().limits());
+  ASSERT_TRUE(q.ok()) << q.error().describe();
+  h.send(a, wire::Deform{1, *q});
+  TickHooks hooks;
+  ApplyWorker* waited_on = nullptr;
+  hooks.wait_for_apply = [&](ApplyWorker& worker) {
+    waited_on = &worker;
+    return false;  // the caller's deadline has passed: go on without the apply
+  };
+  const bool streamed = run_tick(h.core(), h.now() + 33ms, 0, hooks);
+  // The tick streams exactly when it did not have to wait (a worker far quicker than usual).
+  EXPECT_EQ(streamed, waited_on == nullptr);
+  if (waited_on != nullptr) {
+    EXPECT_EQ(waited_on, h.core().applying());
+    EXPECT_EQ(h.core().published_seq(), 0u);
+    waited_on->wait();
+  }
+  EXPECT_TRUE(h.core().advance_apply());
+  EXPECT_EQ(h.core().applying(), nullptr);
+  EXPECT_EQ(h.core().published_seq(), 1u);
+  EXPECT_EQ(h.core().sequenced_seq(), 1u);
 }
 
 TEST(ReplicationCore, ShockwaveMipsTravelAsPatchesOverTheHeldVersion) {

@@ -3,6 +3,9 @@
 // answering pings, handshakes and acks while a costly stamp runs; what needs the applied
 // result (events, regions, hashes, snapshots) waits for the job to finish.
 //
+// The core never waits on it with a deadline: it takes a finished job or says it is waiting
+// (ReplicationCore::applying()), and the transport, which owns the clock, waits here up to its
+// apply wait (wait_until). Only shutdown and tests wait without a deadline (wait).
 // While a job runs the worker owns the TerrainState's world: the owner touches it only while
 // busy() is false (it reads its parameters and textures, which never change, at any time).
 // Either backend runs here: the GPU backend makes its context current for each call.
@@ -46,9 +49,14 @@ class ApplyWorker {
   bool busy() const { return busy_; }
   // Starts applying `job` (consecutive sequences after the terrain's last); requires !busy().
   void start(std::vector<Input> job);
-  // The job's outputs once it has finished, waiting up to `wait`; nullopt while it runs (or
-  // when no job was started).
-  std::optional<std::vector<Output>> take(std::chrono::microseconds wait);
+  // The job's outputs once it has finished; nullopt while it runs (or when no job was started).
+  // Never blocks.
+  std::optional<std::vector<Output>> take();
+  // Blocks until the job started has finished (at once when none runs).
+  void wait();
+  // Blocks until the job has finished or `deadline` has passed; true when it has finished (or
+  // none runs). The transport's apply wait.
+  bool wait_until(std::chrono::steady_clock::time_point deadline);
 
  private:
   std::vector<Output> run(const std::vector<Input>& job);

@@ -1,4 +1,4 @@
-#include "server/replication/apply_worker.h"
+#include "server/apply_worker.h"
 
 #include "protocol/stamps/stamp_apply.h"
 
@@ -27,13 +27,24 @@ void ApplyWorker::start(std::vector<Input> job) {
   wake_.notify_one();
 }
 
-std::optional<std::vector<ApplyWorker::Output>> ApplyWorker::take(std::chrono::microseconds wait) {
+std::optional<std::vector<ApplyWorker::Output>> ApplyWorker::take() {
   if (!busy_) return std::nullopt;
-  std::unique_lock lock(mutex_);
-  if (!done_) done_cv_.wait_for(lock, wait, [&] { return done_.has_value(); });
+  std::lock_guard lock(mutex_);
   if (!done_) return std::nullopt;
   busy_ = false;
   return std::exchange(done_, std::nullopt);
+}
+
+void ApplyWorker::wait() {
+  if (!busy_) return;
+  std::unique_lock lock(mutex_);
+  done_cv_.wait(lock, [&] { return done_.has_value(); });
+}
+
+bool ApplyWorker::wait_until(std::chrono::steady_clock::time_point deadline) {
+  if (!busy_) return true;
+  std::unique_lock lock(mutex_);
+  return done_cv_.wait_until(lock, deadline, [&] { return done_.has_value(); });
 }
 
 std::vector<ApplyWorker::Output> ApplyWorker::run(const std::vector<Input>& job) {
