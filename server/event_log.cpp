@@ -42,6 +42,10 @@ void flush_suppressed_log_lines() {
 }
 
 void log_event(const char* event, std::initializer_list<Field> fields) {
+  log_event(event, std::span<const Field>(fields.begin(), fields.size()));
+}
+
+void log_event(const char* event, std::span<const Field> fields) {
   uint64_t suppressed = 0;
   if (std::find(kLimitedKinds.begin(), kLimitedKinds.end(), std::string_view(event)) != kLimitedKinds.end()) {
     std::lock_guard lock(limit_mutex);

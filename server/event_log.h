@@ -6,6 +6,7 @@
 #pragma once
 
 #include <initializer_list>
+#include <span>
 #include <string>
 #include <utility>
 
@@ -13,6 +14,8 @@ namespace loam::server {
 
 using Field = std::pair<const char*, std::string>;
 void log_event(const char* event, std::initializer_list<Field> fields = {});
+// The same with fields gathered at run time (the stats line, from the counters table).
+void log_event(const char* event, std::span<const Field> fields);
 // One `log_suppressed kind=… lines=…` line per kind with lines dropped since its last line.
 void flush_suppressed_log_lines();
 

@@ -7,6 +7,10 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
+#include <vector>
+
+#include "server/counters.h"
 
 namespace loam::server {
 
@@ -19,33 +23,28 @@ struct TickHistogram {
   void add(double ms);
 };
 
+// Every number the server reports (counters.h: one field per row), gathered at one moment.
 struct MetricsSnapshot {
-  uint64_t sessions = 0, handshakes = 0;  // clients in session; connections before Hello
-  uint64_t connects = 0, disconnects = 0;
-  uint64_t tls_handshake_failures = 0;  // connections closed before their TLS handshake completed
-  uint64_t sequence = 0;                // the last stamp's global sequence
-  uint64_t deforms_accepted = 0;
-  std::map<std::string, uint64_t> deforms_rejected;  // by reason (wire error code name)
-  uint64_t requests_refused = 0, violations = 0;
-  uint64_t bytes_in = 0, bytes_out = 0;
-  uint64_t events_sent = 0, regions_sent = 0, partial_regions_sent = 0;
-  uint64_t region_encodes = 0, region_cache_hits = 0, region_deltas = 0, region_best_upgrades = 0;
-  uint64_t region_cache_bytes = 0, history_bytes = 0;
-  // The world: samples of edited tiles, clean base tiles cached, base tiles generated so far.
-  uint64_t edited_tile_bytes = 0, base_cache_bytes = 0, base_tiles_generated = 0;
-  // Edited tiles no snapshot holds yet (not evictable), and edited tiles read back from the store.
-  uint64_t unpersisted_tile_bytes = 0, edited_tiles_loaded = 0;
-  uint64_t snapshots = 0, snapshot_bytes_written = 0;  // since start
-  // Base tiles made ahead by the prefetcher: queued, answered from it, made on the tick thread.
-  uint64_t prefetch_queued = 0, prefetch_hits = 0, prefetch_inline = 0;
-  uint64_t snapshot_store_bytes = 0, snapshot_live_bytes = 0;  // the tiles files the newest snapshot names
-  uint64_t pending_deforms = 0, pending_stamp_cost = 0;        // waiting for a tick
-  uint64_t max_queue_bytes = 0;                                // the largest client send queue
-  uint64_t tick_overruns = 0, storage_failures = 0;
-  uint64_t snapshot_sequence = 0;
+#define LOAM_X(name, source, line, metric, type, help, wire) uint64_t name = 0;
+  LOAM_SERVER_COUNTERS(LOAM_X)
+#undef LOAM_X
+  std::map<std::string, uint64_t> deforms_rejected_by;  // by reason (wire error code name)
   TickHistogram ticks;
 };
 
+// The /metrics text: every row of counters.h with a metric name, in the table's order, then the
+// tick histogram.
 std::string prometheus_text(const MetricsSnapshot& m);
+
+// The periodic `stats` log line's fields: the rows of counters.h with a line position, in that
+// order, and `extra` (fields that are not counters: tick percentiles, the storage's state) at
+// the positions they name.
+struct StatsLineExtra {
+  int line = 0;
+  const char* key = "";
+  std::string value;
+};
+std::vector<std::pair<const char*, std::string>> stats_line_fields(const MetricsSnapshot& m,
+                                                                   const std::vector<StatsLineExtra>& extra);
 
 }  // namespace loam::server

@@ -60,13 +60,14 @@ struct Server::Connection {
 Server::Server(asio::io_context& io, ServerConfig config, OpenedStorage opened)
     : io_(io),
       config_(config),
-      core_(std::move(config), std::move(opened), core_time(Clock::now())),
+      core_(std::move(config), std::move(opened), core_time(Clock::now()), &counters_),
       acceptor_(io),
       metrics_(io,
                [this] {
-                 uint64_t max_queue = 0;
-                 for (const auto& [id, c] : connections_) max_queue = std::max(max_queue, c->queued_bytes);
-                 return prometheus_text(core_.metrics(max_queue));
+                 counters_.max_queue_bytes = 0;
+                 for (const auto& [id, c] : connections_)
+                   counters_.max_queue_bytes = std::max(counters_.max_queue_bytes, c->queued_bytes);
+                 return prometheus_text(core_.metrics());
                }),
       tick_timer_(io),
       stats_timer_(io),
@@ -168,9 +169,10 @@ void Server::schedule_stats() {
   stats_timer_.expires_after(after(config_.stats_interval_s));
   stats_timer_.async_wait([this](const asio::error_code& e) {
     if (e) return;
-    uint64_t max_queue = 0;
-    for (const auto& [id, c] : connections_) max_queue = std::max(max_queue, c->queued_bytes);
-    core_.report_stats(core_time(Clock::now()), max_queue);
+    counters_.max_queue_bytes = 0;
+    for (const auto& [id, c] : connections_)
+      counters_.max_queue_bytes = std::max(counters_.max_queue_bytes, c->queued_bytes);
+    core_.report_stats(core_time(Clock::now()));
     schedule_stats();
   });
 }
@@ -201,7 +203,7 @@ void Server::on_accept(tcp::socket socket) {
   c->stream.async_handshake(asio::ssl::stream_base::server, [this, c, peer](const asio::error_code& e) {
     if (c->closed) return;
     if (e) {
-      ++core_.mutable_stats().tls_handshake_failures;
+      ++counters_.tls_handshake_failures;
       log_event("tls_handshake_failed",
                 {{"client", std::to_string(c->id)}, {"peer", peer}, {"error", e.message()}});
       finish_close(c, "TLS handshake failed: " + e.message());
@@ -232,7 +234,7 @@ void Server::read(const ConnectionPtr& c) {
       finish_close(c, ec == asio::error::eof ? "peer closed" : "read error: " + ec.message());
       return;
     }
-    core_.mutable_stats().bytes_in += n;
+    counters_.bytes_in += n;
     c->assembler.feed(std::span(c->read_buffer.data(), n));
     if (drain(c)) read(c);
   });
@@ -322,7 +324,7 @@ void Server::flush(const ConnectionPtr& c) {
       finish_close(c, "write error: " + ec.message());
       return;
     }
-    core_.mutable_stats().bytes_out += n;
+    counters_.bytes_out += n;
     for (size_t i = 0; i < count; ++i) {
       c->queued_bytes -= c->out.front()->size();
       c->out.pop_front();

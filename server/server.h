@@ -70,6 +70,7 @@ class Server {
 
   asio::io_context& io_;
   ServerConfig config_;
+  TransportCounters counters_;  // bytes in and out, TLS failures, the largest queue: the core reads them
   ReplicationCore core_;
   std::shared_ptr<asio::ssl::context> tls_;  // --tls-cert/--tls-key; null: plain TCP
   asio::ip::tcp::acceptor acceptor_;

@@ -49,12 +49,14 @@ FramePtr encode(const wire::Message& m) {
 
 }  // namespace
 
-ReplicationCore::ReplicationCore(ServerConfig config, OpenedStorage opened, CoreTime now)
+ReplicationCore::ReplicationCore(ServerConfig config, OpenedStorage opened, CoreTime now,
+                                 const TransportCounters* transport)
     : config_(std::move(config)),
       storage_(std::move(opened.storage)),
       terrain_(std::move(opened.terrain)),
       frames_(config_.region_cache_bytes, config_.best_after_uses),
       history_(config_.history_changes_per_tile, config_.history_tiles, config_.history_bytes),
+      transport_(transport ? transport : &no_transport_),
       started_(now),
       last_snapshot_time_(now) {
   // Ticks continue the log's: its writer refuses a tick that goes backwards, and a restarted
@@ -927,28 +929,30 @@ void ReplicationCore::record_tick(const TickTimes& p) {
   }
 }
 
-MetricsSnapshot ReplicationCore::metrics(uint64_t max_queue_bytes) const {
+MetricsSnapshot ReplicationCore::metrics() const {
   MetricsSnapshot m;
+  // The counters (counters.h): the core's own and the transport's, as they stand.
+#define LOAM_COUNTER_COPY_core(name) m.name = stats_.name;
+#define LOAM_COUNTER_COPY_transport(name) m.name = transport_->name;
+#define LOAM_COUNTER_COPY_state(name)
+#define LOAM_X(name, source, line, metric, type, help, wire) LOAM_COUNTER_COPY_##source(name)
+  LOAM_SERVER_COUNTERS(LOAM_X)
+#undef LOAM_X
+#undef LOAM_COUNTER_COPY_core
+#undef LOAM_COUNTER_COPY_transport
+#undef LOAM_COUNTER_COPY_state
+  m.deforms_rejected_by = stats_.deforms_rejected_by;
+  // The rows read from the core's state.
   m.sessions = sessions_;
   m.handshakes = handshakes_;
-  m.connects = stats_.connects;
-  m.disconnects = stats_.disconnects;
-  m.tls_handshake_failures = stats_.tls_handshake_failures;
-  m.sequence = published_seq_;
-  m.deforms_accepted = stats_.deforms_accepted;
-  m.deforms_rejected = stats_.deforms_rejected_by;
-  m.requests_refused = stats_.requests_refused;
-  m.violations = stats_.violations;
-  m.bytes_in = stats_.bytes_in;
-  m.bytes_out = stats_.bytes_out;
-  m.events_sent = stats_.events_sent;
-  m.regions_sent = stats_.regions_sent;
-  m.partial_regions_sent = stats_.partial_regions_sent;
+  m.clients = clients_.size();
+  m.seq = published_seq_;
   const RegionFrameCounters& rc = frames_.counters();
   m.region_encodes = rc.encodes;
   m.region_cache_hits = rc.hits;
   m.region_deltas = rc.delta_encodes;
   m.region_best_upgrades = rc.best_upgrades;
+  m.region_best_bytes_saved = rc.best_bytes_saved;
   m.region_cache_bytes = rc.bytes_held;
   m.history_bytes = history_.bytes();
   m.edited_tile_bytes = world_counters_.edited_bytes;
@@ -956,77 +960,52 @@ MetricsSnapshot ReplicationCore::metrics(uint64_t max_queue_bytes) const {
   m.base_tiles_generated = world_counters_.base_tiles_generated;
   m.unpersisted_tile_bytes = world_counters_.unpersisted_bytes;
   m.edited_tiles_loaded = world_counters_.edited_tiles_loaded;
-  m.snapshots = stats_.snapshots;
   if (prefetch_) {
     const PrefetchingBase::Stats ps = prefetch_->stats();
     m.prefetch_queued = ps.queued;
     m.prefetch_hits = ps.ready_hits;
     m.prefetch_inline = ps.made_inline;
   }
-  m.snapshot_bytes_written = stats_.snapshot_bytes_written;
   m.snapshot_store_bytes = storage_.store().file_bytes();
   m.snapshot_live_bytes = storage_.store().live_bytes();
   m.pending_deforms = pending_.size();
   for (const PendingDeform& p : pending_) m.pending_stamp_cost += p.cost;
-  m.max_queue_bytes = max_queue_bytes;
-  m.tick_overruns = stats_.tick_overruns;
-  m.storage_failures = stats_.storage_failures;
   m.snapshot_sequence = storage_.last_snapshot_seq();
   m.ticks = ticks_;
   return m;
 }
 
-void ReplicationCore::report_stats(CoreTime, uint64_t max_queue_bytes) {
+void ReplicationCore::report_stats(CoreTime) {
   flush_suppressed_log_lines();
   std::vector<double> t = std::move(tick_ms_);
   tick_ms_.clear();
   std::sort(t.begin(), t.end());
   last_p50_ms_ = percentile(t, 0.5);
   last_p99_ms_ = percentile(t, 0.99);
-  const RegionFrameCounters& rc = frames_.counters();
-  log_event("stats", {{"clients", std::to_string(clients_.size())},
-                      {"seq", std::to_string(published_seq_)},
-                      {"deforms_accepted", std::to_string(stats_.deforms_accepted)},
-                      {"deforms_rejected", std::to_string(stats_.deforms_rejected)},
-                      {"violations", std::to_string(stats_.violations)},
-                      {"requests_refused", std::to_string(stats_.requests_refused)},
-                      {"deforms_resent", std::to_string(stats_.deforms_resent)},
-                      {"bytes_in", std::to_string(stats_.bytes_in)},
-                      {"bytes_out", std::to_string(stats_.bytes_out)},
-                      {"events_sent", std::to_string(stats_.events_sent)},
-                      {"regions_sent", std::to_string(stats_.regions_sent)},
-                      {"partial_regions_sent", std::to_string(stats_.partial_regions_sent)},
-                      {"region_encodes", std::to_string(rc.encodes)},
-                      {"region_cache_hits", std::to_string(rc.hits)},
-                      {"region_deltas", std::to_string(rc.delta_encodes)},
-                      {"region_best_upgrades", std::to_string(rc.best_upgrades)},
-                      {"region_best_bytes_saved", std::to_string(rc.best_bytes_saved)},
-                      {"history_bytes", std::to_string(history_.bytes())},
-                      {"edited_tile_bytes", std::to_string(world_counters_.edited_bytes)},
-                      {"base_cache_bytes", std::to_string(world_counters_.base_cache_bytes)},
-                      {"base_tiles_generated", std::to_string(world_counters_.base_tiles_generated)},
-                      {"unpersisted_tile_bytes", std::to_string(world_counters_.unpersisted_bytes)},
-                      {"edited_tiles_loaded", std::to_string(world_counters_.edited_tiles_loaded)},
-                      {"prefetch_hits", std::to_string(prefetch_ ? prefetch_->stats().ready_hits : 0)},
-                      {"prefetch_inline", std::to_string(prefetch_ ? prefetch_->stats().made_inline : 0)},
-                      {"max_queue_bytes", std::to_string(max_queue_bytes)},
-                      {"tick_p50_ms", std::to_string(last_p50_ms_)},
-                      {"tick_p99_ms", std::to_string(last_p99_ms_)},
-                      {"storage", storage_.writable() ? "ok" : "refusing edits"},
-                      {"storage_failures", std::to_string(stats_.storage_failures)}});
+  // The counters from the table; the tick percentiles and the storage's state between them.
+  const auto fields =
+      stats_line_fields(metrics(), {{27, "tick_p50_ms", std::to_string(last_p50_ms_)},
+                                    {28, "tick_p99_ms", std::to_string(last_p99_ms_)},
+                                    {29, "storage", storage_.writable() ? "ok" : "refusing edits"}});
+  log_event("stats", fields);
 }
 
+namespace {
+
+// wire::Stats with a field that takes the table's rows that are not sent (wire `none`).
+struct StatsFields : wire::Stats {
+  uint64_t none = 0;
+};
+
+}  // namespace
+
 wire::Stats ReplicationCore::stats_message(uint32_t request_id, CoreTime now) const {
-  wire::Stats st;
+  const MetricsSnapshot m = metrics();
+  StatsFields st;
+#define LOAM_X(name, source, line, metric, type, help, wire) st.wire = decltype(st.wire)(m.name);
+  LOAM_SERVER_COUNTERS(LOAM_X)
+#undef LOAM_X
   st.request_id = request_id;
-  st.clients = uint32_t(clients_.size());
-  st.global_sequence = published_seq_;
-  st.deforms_accepted = stats_.deforms_accepted;
-  st.deforms_rejected = stats_.deforms_rejected;
-  st.violations = stats_.violations;
-  st.bytes_in = stats_.bytes_in;
-  st.bytes_out = stats_.bytes_out;
-  st.tick_overruns = stats_.tick_overruns;
   // Without a completed stats period yet, report the ticks so far.
   double p50 = last_p50_ms_, p99 = last_p99_ms_;
   if (p50 == 0 && !tick_ms_.empty()) {
@@ -1038,10 +1017,6 @@ wire::Stats ReplicationCore::stats_message(uint32_t request_id, CoreTime now) co
   st.tick_p50_us = uint32_t(p50 * 1000.0);
   st.tick_p99_us = uint32_t(p99 * 1000.0);
   st.uptime_ms = uint64_t(std::chrono::duration_cast<std::chrono::milliseconds>(now - started_).count());
-  st.region_encodes = frames_.counters().encodes;
-  st.region_cache_hits = frames_.counters().hits;
-  st.events_sent = stats_.events_sent;
-  st.regions_sent = stats_.regions_sent;
   st.client_bytes_per_second = config_.client_bytes_per_second;
   return st;
 }

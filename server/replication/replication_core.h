@@ -42,6 +42,7 @@
 #include "protocol/wire/messages.h"
 #include "server/access_tokens.h"
 #include "server/apply_worker.h"
+#include "server/counters.h"
 #include "server/metrics.h"
 #include "server/replication/client_tiles.h"
 #include "server/replication/core_time.h"
@@ -57,21 +58,6 @@ namespace loam::server {
 
 using ClientId = uint32_t;
 
-struct ServerStats {
-  uint64_t connects = 0, disconnects = 0;
-  uint64_t tls_handshake_failures = 0;  // counted by the transport
-  uint64_t deforms_accepted = 0, deforms_rejected = 0;
-  uint64_t violations = 0;        // every Error sent for a client's fault
-  uint64_t requests_refused = 0;  // requests over a client's rate, dropped
-  uint64_t deforms_resent = 0;    // Deforms seen again after a reconnect: answered, not applied
-  std::map<std::string, uint64_t> deforms_rejected_by;  // by reason (wire error code name)
-  uint64_t bytes_in = 0, bytes_out = 0;
-  uint64_t regions_sent = 0, partial_regions_sent = 0, events_sent = 0;
-  uint64_t tick_overruns = 0;
-  uint64_t storage_failures = 0;  // syncs that failed (a full disk): edits refused until resumed
-  uint64_t snapshots = 0, snapshot_bytes_written = 0;
-};
-
 // What the transport must do after a call into the core.
 struct CoreOutput {
   std::vector<std::pair<ClientId, FramePtr>> frames;     // write, in this order per client
@@ -80,7 +66,10 @@ struct CoreOutput {
 
 class ReplicationCore {
  public:
-  ReplicationCore(ServerConfig config, OpenedStorage storage, CoreTime now);
+  // `transport`: the counters the transport keeps (bytes, TLS failures, its largest queue),
+  // read when reporting; null: none.
+  ReplicationCore(ServerConfig config, OpenedStorage storage, CoreTime now,
+                  const TransportCounters* transport = nullptr);
 
   // A new connection. The client must say Hello before the handshake timeout (the transport's
   // timer calls timed_out).
@@ -135,15 +124,14 @@ class ReplicationCore {
   void reload_tokens();
   void warn_if_tokens_file_exposed();
   // The periodic stats line (the transport's timer).
-  void report_stats(CoreTime now, uint64_t max_queue_bytes);
+  void report_stats(CoreTime now);
 
   CoreOutput take_output() { return std::exchange(out_, {}); }
   const ServerStats& stats() const { return stats_; }
-  ServerStats& mutable_stats() { return stats_; }  // the transport counts bytes in and out
   const RegionFrameCounters& region_counters() const { return frames_.counters(); }
   const TileHistory& tile_history() const { return history_; }
-  // Everything /metrics reports (metrics.h); the transport adds its largest send queue.
-  MetricsSnapshot metrics(uint64_t max_queue_bytes) const;
+  // Every number the server reports (counters.h), now: /metrics, the stats line and Stats.
+  MetricsSnapshot metrics() const;
   // Waits for the best-mode re-encodes running off the tick thread and adopts them (tests).
   void finish_background_encodes() { frames_.finish_best(); }
   bool failed() const { return failed_; }
@@ -263,6 +251,8 @@ class ReplicationCore {
   bool failed_ = false;
   CoreOutput out_;
   ServerStats stats_;
+  TransportCounters no_transport_;
+  const TransportCounters* transport_;
   CoreTime started_;
   CoreTime last_snapshot_time_;
   // A failed snapshot is retried after a growing interval (a full disk).

@@ -103,7 +103,7 @@ class Transcript {
     auto id = opened->terrain.textures().add(16, 16, ramp);
     EXPECT_TRUE(id.ok());
     texture_id_ = *id;
-    core_ = std::make_unique<ReplicationCore>(config, std::move(*opened), now_);
+    core_ = std::make_unique<ReplicationCore>(config, std::move(*opened), now_, &counters_);
   }
   ~Transcript() {
     core_.reset();
@@ -115,6 +115,15 @@ class Transcript {
   uint64_t texture_id() const { return texture_id_; }
   std::string data_dir() const { return dir_.string(); }
   std::vector<std::string>& lines() { return lines_; }
+  // As the transport reports: its largest send queue, then the stats line or the metrics.
+  void report_stats(uint64_t max_queue_bytes) {
+    counters_.max_queue_bytes = max_queue_bytes;
+    core_->report_stats(now_);
+  }
+  std::string metrics_text(uint64_t max_queue_bytes) {
+    counters_.max_queue_bytes = max_queue_bytes;
+    return prometheus_text(core_->metrics());
+  }
 
   void step(const std::string& what) { lines_.push_back("# " + what); }
 
@@ -128,7 +137,7 @@ class Transcript {
   void send(ClientId id, const wire::Message& m) {
     auto frame = wire::encode_frame(m, wire::kAbsoluteMaxFrameBytes);
     ASSERT_TRUE(frame.ok());
-    core_->mutable_stats().bytes_in += frame->size();
+    counters_.bytes_in += frame->size();
     core_->receive(id, m, now_, kWall);
     collect();
   }
@@ -230,7 +239,7 @@ class Transcript {
         pong->server_time_us = 0;
         bytes = *wire::encode_frame(**m, wire::kAbsoluteMaxFrameBytes);
       }
-      core_->mutable_stats().bytes_out += frame->size();
+      counters_.bytes_out += frame->size();
       lines_.push_back("  c" + std::to_string(id) + " " + wire::to_string(wire::message_type(**m)) + " " +
                        std::to_string(frame->size()) + " " + hex64(fnv1a(bytes)));
     }
@@ -241,6 +250,7 @@ class Transcript {
  private:
   static constexpr UnixMicros kWall = 1'700'000'000'000'000;  // Pong's (zeroed before hashing)
   std::filesystem::path dir_;
+  TransportCounters counters_;  // what the transport would count: the frames' bytes
   CoreTime now_ = CoreTime{} + 1000s;
   std::unique_ptr<ReplicationCore> core_;
   uint64_t texture_id_ = 0;
@@ -360,7 +370,7 @@ std::vector<std::string> run_script() {
   s.tick(tick, 3.0);
   s.set_unsent(b, 0);
   for (int i = 0; i < 6; ++i) s.tick(250ms, 3.0 + i * 0.5);
-  s.core().report_stats(s.now(), 4096);
+  s.report_stats(4096);
 
   s.step("reconnect: alice's link drops with a Deform waiting; she resends on a new connection");
   s.send(a, wire::Deform{++seq, s.stamp(StampKind::kCrater, 700, 400, 15)});
@@ -388,7 +398,7 @@ std::vector<std::string> run_script() {
   s.tick(tick, 4.0);
   for (int i = 0; i < 12; ++i) s.tick(1s, 4.0);  // snapshots by count and by interval
   s.send(h, wire::StatsRequest{10});
-  s.core().report_stats(s.now(), 0);
+  s.report_stats(0);
 
   s.step("faults: a bad stream, an idle timeout, a token reload");
   s.stream_error(b);
@@ -398,7 +408,7 @@ std::vector<std::string> run_script() {
 
   s.step("metrics");
   {
-    std::istringstream text(prometheus_text(s.core().metrics(777)));
+    std::istringstream text(s.metrics_text(777));
     for (std::string line; std::getline(text, line);) s.lines().push_back("  " + line);
   }
 
