@@ -22,6 +22,11 @@
 //    tiles sent to many are re-encoded in the best mode on a worker thread;
 //  - TileHashes, snapshots, storage back-off after a failed sync, and stats.
 //
+// Its parts, one file each: admission (core_admission.cpp), the commit pipeline
+// (core_commit.cpp), streaming (core_streaming.cpp), snapshots and storage
+// (core_snapshots.cpp), reporting (core_reporting.cpp); replication_core.cpp holds the clients,
+// the output, the dispatch of messages and shutdown.
+//
 // Time is given, never read (core_time.h): every call that needs the time takes it, the
 // transport owns every wait (the tick's wait for its apply included: the core only says what it
 // waits for, applying()), and it times the tick's phases (run_tick).

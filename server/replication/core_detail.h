@@ -1,0 +1,25 @@
+// Helpers shared by the files of ReplicationCore (replication_core.cpp and core_*.cpp):
+// frame encoding and the time arithmetic on the time the core is given. Private to them.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "protocol/wire/framing.h"
+#include "server/replication/core_time.h"
+#include "server/replication/region_frames.h"
+
+namespace loam::server::core_detail {
+
+inline double seconds(CoreDuration d) { return std::chrono::duration<double>(d).count(); }
+inline CoreDuration after(double s) {
+  return std::chrono::duration_cast<CoreDuration>(std::chrono::duration<double>(s));
+}
+
+// One message as a frame shared by every client it goes to; null (logged) when it cannot be
+// encoded.
+FramePtr encode(const wire::Message& m);
+
+}  // namespace loam::server::core_detail
