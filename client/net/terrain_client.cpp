@@ -83,6 +83,7 @@ Status TerrainClient::reconnect(const std::string& host, uint16_t port) {
   if (!store_) return make_error(ErrorCode::kInvalidArgument, "reconnect", "never connected");
   connection_ = std::make_unique<Connection>();
   assemblers_.clear();  // a region cut off mid-transfer is requested again below
+  behind_.clear();
   LOAM_TRY(handshake(host, port));
   std::vector<TileCoord> tiles = store_->wanted();
   return subscribe(tiles);
@@ -136,6 +137,7 @@ Status TerrainClient::unsubscribe(const std::vector<TileCoord>& tiles) {
   wire::Unsubscribe u;
   for (const TileCoord& c : tiles) {
     store_->forget(c);
+    behind_.erase(c);
     assemblers_.erase(c);
     u.tiles.push_back(c);
     if (u.tiles.size() == wire::kMaxSubscribeEntries) {
@@ -263,14 +265,30 @@ Status TerrainClient::handle(wire::Message& m) {
     }
     case wire::MessageType::kTileHashes: {
       ++tile_hash_messages_;
-      const auto bad = store_->check_hashes(std::get<wire::TileHashes>(m));
-      if (!bad.empty()) {
-        // Repair: ask for the tiles again as if we held nothing.
-        wire::Subscribe sub;
-        for (const TileCoord& c : bad) sub.entries.push_back({c, false, 0});
-        return connection_->send(sub);
+      const auto& hashes = std::get<wire::TileHashes>(m);
+      wire::Subscribe sub;
+      // Held at the server's version with other samples: corrupt. Ask for the tile again as if
+      // we held nothing.
+      for (const TileCoord& c : store_->check_hashes(hashes)) sub.entries.push_back({c, false, 0});
+      // Held at an older version: a region may still be on its way (the server streams under a
+      // byte budget), but still behind at the same version one round later, nothing came for
+      // it: a change was lost. Claim the version held, so the server sends what changed since.
+      for (const wire::TileHashEntry& e : hashes.entries) {
+        const auto held = store_->version(e.tile);
+        if (!held || *held >= e.version) {
+          behind_.erase(e.tile);
+          continue;
+        }
+        const auto [it, first] = behind_.try_emplace(e.tile, *held);
+        if (first || it->second != *held) {
+          it->second = *held;
+          continue;
+        }
+        sub.entries.push_back({e.tile, true, *held});
+        behind_.erase(it);
       }
-      return {};
+      if (sub.entries.empty()) return {};
+      return connection_->send(sub);
     }
     case wire::MessageType::kStampImageResponse: return on_stamp_image(std::get<wire::StampImageResponse>(m));
     case wire::MessageType::kError: errors_.push_back(std::get<wire::ErrorMsg>(m)); return {};

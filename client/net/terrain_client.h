@@ -1,8 +1,10 @@
 // TerrainClient: a connection plus the confirmed store — what tests, bots and the viewer
 // use. pump() handles incoming messages in order: Welcome state, regions (reassembled from
 // chunks, decoded with the region codec and checked), events (applied or buffered by the
-// store), acks (remembered by the client's own sequence), hashes (mismatches re-request the
-// tile), Bye/Error (recorded). Waiting is always for a condition with a timeout, never a sleep.
+// store), acks (remembered by the client's own sequence), hashes (a tile held at the hashed
+// version with another hash is re-requested whole; one still behind the hashed version a round
+// later is re-requested from the version held: docs/protocol.md, "TileHashes"), Bye/Error
+// (recorded). Waiting is always for a condition with a timeout, never a sleep.
 #pragma once
 
 #include <chrono>
@@ -144,6 +146,8 @@ class TerrainClient {
   uint64_t last_seen_seq_ = 0;
   uint64_t last_event_seq_ = 0;
   size_t tile_hash_messages_ = 0;
+  // Tiles a TileHashes round found behind the server's version, with the version held then.
+  std::map<TileCoord, uint64_t> behind_;
   BaseProvider base_provider_;
   transport::TlsClientOptions tls_;
   std::shared_ptr<const TileBase> base_;

@@ -33,13 +33,53 @@ struct Chunk {
   size_t written = 0;
 };
 
+// Where a direction's byte stream is in its frames (6-byte header: u32 payload length, u16
+// type), to cut one whole frame out of it.
+struct FrameCursor {
+  uint8_t header[6] = {};
+  size_t have = 0;    // header bytes seen of the current frame
+  uint64_t left = 0;  // payload bytes still to come of the current frame
+  bool drop = false;  // the current frame is being cut out
+};
+
 struct Direction {
   int from = -1, to = -1;
   std::deque<Chunk> queue;
   int64_t last_due_ns = 0;  // dues never go backwards: order is kept
   bool from_closed = false;
   bool upstream = false;  // client -> server
+  FrameCursor frames;
 };
+
+// The bytes of `in` that go on, without the frame of type `drop_type` when one is asked for
+// (drop_type is then cleared and `dropped` counted).
+std::vector<uint8_t> cut_frames(FrameCursor& f, const uint8_t* in, size_t n, std::atomic<uint16_t>& drop_type,
+                                std::atomic<uint64_t>& dropped) {
+  std::vector<uint8_t> out;
+  out.reserve(n);
+  size_t i = 0;
+  while (i < n) {
+    if (f.left == 0) {  // in a header
+      f.header[f.have++] = in[i++];
+      if (f.have < 6) continue;
+      const uint64_t length = uint64_t(f.header[0]) | uint64_t(f.header[1]) << 8 |
+                              uint64_t(f.header[2]) << 16 | uint64_t(f.header[3]) << 24;
+      const uint16_t type = uint16_t(f.header[4] | f.header[5] << 8);
+      uint16_t want = type;
+      f.drop = type != 0 && drop_type.compare_exchange_strong(want, 0);
+      if (f.drop) ++dropped;
+      if (!f.drop) out.insert(out.end(), f.header, f.header + 6);
+      f.left = length;
+      f.have = 0;
+      continue;
+    }
+    const size_t take = size_t(std::min<uint64_t>(f.left, n - i));
+    if (!f.drop) out.insert(out.end(), in + i, in + i + take);
+    i += take;
+    f.left -= take;
+  }
+  return out;
+}
 
 struct Link {
   int client = -1, server = -1;
@@ -183,7 +223,10 @@ void FaultProxy::run() {
       }
       const int64_t due = std::max(now_ns() + draw_delay_ns(), d->last_due_ns);
       d->last_due_ns = due;
-      d->queue.push_back({due, std::vector<uint8_t>(buf.begin(), buf.begin() + n), 0});
+      std::vector<uint8_t> bytes = d->upstream
+                                       ? std::vector<uint8_t>(buf.begin(), buf.begin() + n)
+                                       : cut_frames(d->frames, buf.data(), size_t(n), drop_type_, dropped_);
+      if (!bytes.empty()) d->queue.push_back({due, std::move(bytes), 0});
       if (d->upstream) {
         std::lock_guard lock(sent_mutex_);
         const size_t keep = std::min(size_t(n), kSentKept - std::min(kSentKept, sent_.size()));
