@@ -140,10 +140,14 @@ int main(int argc, char** argv) {
   view_cmd->add_option("--n", vo.renderer.n, "Vertices per clipmap level side (2^k - 1)")
       ->capture_default_str()
       ->check(cli::IntRange(7, 1023));
-  view_cmd->add_option("--view-distance", vo.renderer.view_distance, "Meters")
+  vo.renderer.view_distance = 0;  // auto: the world's (render/start_view.h)
+  view_cmd
+      ->add_option("--view-distance", vo.renderer.view_distance,
+                   "Meters the clipmap reaches (0: 4 km, or 2.5 start-orbit radii on coarse worlds)")
       ->capture_default_str()
-      ->check(cli::FiniteRange(0, 1e7, Bound::kOpen));
+      ->check(cli::FiniteRange(0, 1e7));
   view_cmd->add_flag("!--no-vsync", vo.vsync, "Render as fast as possible");
+  view_cmd->add_flag("!--no-hud", vo.hud, "Window: start with the HUD hidden (F1 shows it)");
   client::add_token_options(view_cmd, token_src);
   client::add_tls_options(view_cmd, vo.tls);
 #endif

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
 #include <vector>
 
 namespace loam::render {
@@ -83,6 +84,17 @@ void WorldHeightSource::read(int32_t mip, const RectI& rect, std::span<uint16_t>
 
 void WorldHeightSource::read_detail(const RectI& rect, std::span<int8_t> out) const {
   world_.read_detail(rect, out);
+}
+
+double ground_height(const HeightSource& source, double x, double y) {
+  const WorldParams& p = source.params();
+  const double sx = x / p.meters_per_sample, sy = y / p.meters_per_sample;
+  const int64_t x0 = int64_t(std::floor(sx)), y0 = int64_t(std::floor(sy));
+  uint16_t q[4];
+  source.read(0, {x0, y0, x0 + 2, y0 + 2}, q);
+  const double fx = sx - double(x0), fy = sy - double(y0);
+  const double v = (q[0] * (1 - fx) + q[1] * fx) * (1 - fy) + (q[2] * (1 - fx) + q[3] * fx) * fy;
+  return p.height_offset + v * p.meters_per_unit;
 }
 
 }  // namespace loam::render

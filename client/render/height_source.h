@@ -55,6 +55,10 @@ class HeightSource {
   virtual bool read_change(int32_t mip, const RectI& rect, std::span<float> out) const;
 };
 
+// The ground's height (m) at world point (x, y) (m): bilinear between mip-0 samples, as the
+// finest level draws it (past the world's edge, its edge samples).
+double ground_height(const HeightSource& source, double x, double y);
+
 class WorldHeightSource final : public HeightSource {
  public:
   // `initial`, when given, is the terrain before the session's edits (same params): changes

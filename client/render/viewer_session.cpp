@@ -5,19 +5,10 @@
 #include <vector>
 
 #include "client/render/display_gpu_stamper.h"
+#include "client/render/start_view.h"
 #include "dem/refined_default.h"
 
 namespace loam::render {
-
-Camera overview_camera(const WorldParams& world) {
-  const RectI r = world.sample_rect();
-  const double mps = world.meters_per_sample;
-  const double cx = 0.5 * double(r.x0 + r.x1) * mps, cy = 0.5 * double(r.y0 + r.y1) * mps;
-  const double span = double(std::max(r.width(), r.height())) * mps;
-  Camera c = look_at(cx, cy + 0.45 * span, 0.25 * span, cx, cy, 0.0);
-  c.far_m = 3.0 * span;
-  return c;
-}
 
 Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string& host, uint16_t port,
                                                               const ViewerOptions& options,
@@ -64,7 +55,9 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   (void)v->display_->sync(v->client_);                      // takes in the coarsest tiles
   v->snapshots_ = std::make_unique<query::SnapshotBuilder>(world);
   v->refresh_terrain({});
-  auto renderer = ClipmapRenderer::create(*v->display_, options.renderer);
+  RendererConfig rc = options.renderer;
+  if (!(rc.view_distance > 0)) rc.view_distance = view_scale(world).view_distance_m;  // auto: the world's
+  auto renderer = ClipmapRenderer::create(*v->display_, rc);
   if (!renderer) return renderer.error();
   v->renderer_ = std::move(*renderer);
   InterestConfig ic = options.interest;
@@ -72,7 +65,9 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   ic.levels = v->renderer_->levels();
   ic.pad = ClipmapRenderer::kLevelPad;
   v->interest_ = std::make_unique<ClipmapInterest>(world, ic);
-  LOAM_TRY(v->follow(initial.value_or(overview_camera(world))));
+  const HeightSource& ground = *v->display_;
+  LOAM_TRY(v->follow(initial.value_or(
+      orbit_view(view_scale(world), 0.0, [&](double x, double y) { return ground_height(ground, x, y); }))));
   return v;
 }
 

@@ -57,13 +57,12 @@ struct LevelCoverage {
   double longest_wait_s = 0;  // how long the level lacking tiles longest has lacked them
 };
 
-// A camera south of the world's centre, high enough to see most of it, looking at the centre.
-Camera overview_camera(const WorldParams& world);
-
 class ViewerSession {
  public:
   // Connects, subscribes to the coarsest mip and waits for it (it sets the material range),
-  // then creates the renderer and subscribes what `camera` needs (default: overview_camera).
+  // then creates the renderer and subscribes what `camera` needs (a renderer view distance of 0 takes the world's,
+  // start_view.h) (default: the start view, start_view.h: the
+  // orbit's eye east of the world's centre, over the coarsest tiles' ground).
   static Result<std::unique_ptr<ViewerSession>> connect(const std::string& host, uint16_t port,
                                                         const ViewerOptions& options,
                                                         std::optional<Camera> camera = std::nullopt);

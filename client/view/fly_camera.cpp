@@ -43,14 +43,6 @@ render::Camera FlyCamera::camera(double fov_y_degrees, double far_m) const {
   return c;
 }
 
-render::Camera orbit_camera(double cx, double cy, double radius, double height, double period, double t,
-                            const std::function<double(double, double)>& ground) {
-  const double a = 2.0 * std::numbers::pi * t / period;
-  const double x = cx + radius * std::cos(a), y = cy + radius * std::sin(a);
-  const double gz = ground ? ground(x, y) : 0.0, tz = ground ? ground(cx, cy) : 0.0;
-  return render::look_at(x, y, std::max(gz, tz) + height, cx, cy, tz);
-}
-
 render::Camera flight_camera(double cx, double cy, double radius, double height, double speed, double t,
                              const std::function<double(double, double)>& ground) {
   const double a = speed * t / radius, ahead = 600.0 / radius;

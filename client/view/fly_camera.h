@@ -1,5 +1,6 @@
 // The viewer's camera: a free-flying position with yaw and pitch, moved by keys and turned by
-// the mouse, kept a little above the ground; and a scripted orbit for the headless viewer.
+// the mouse, kept a little above the ground; and a scripted flight for the headless viewer (its orbit is
+// render/start_view.h's).
 // Pure logic (no GL, no window): input and time go in, a render::Camera comes out.
 // World frame as everywhere: x east, y along +gy (south), z up, meters; yaw 0 looks along +x
 // and grows toward +y (a right turn seen from above), pitch > 0 looks up.
@@ -44,11 +45,6 @@ class FlyCamera {
   double x_ = 0, y_ = 0, z_ = 100, yaw_ = 0, pitch_ = -0.3, speed_ = 40.0;
 };
 
-// The headless viewer's path: a circle of `radius` around (cx, cy) at `height` above the
-// ground under the camera, looking at the centre's ground; `t` seconds in, one turn per
-// `period` seconds.
-render::Camera orbit_camera(double cx, double cy, double radius, double height, double period, double t,
-                            const std::function<double(double, double)>& ground);
 // The headless viewer's flight: along a circle of `radius` around (cx, cy) at `speed` m/s,
 // `height` above the ground under the camera, looking ahead along the path (at the ground
 // 600 m ahead): what a fast flyer sees, with new terrain coming into every level.

@@ -153,7 +153,8 @@ bool draw_tool_panel(StampTool& tool, std::span<const wire::StampImageListEntry>
     }
   }
   float radius = float(tool.radius_m);
-  if (ImGui::SliderFloat("radius m", &radius, 0.5f, 500.0f, "%.1f", ImGuiSliderFlags_Logarithmic)) {
+  if (ImGui::SliderFloat("radius m", &radius, float(tool.min_radius_m), float(tool.max_radius_m), "%.1f",
+                         ImGuiSliderFlags_Logarithmic)) {
     tool.radius_m = double(radius);
     changed = true;
   }

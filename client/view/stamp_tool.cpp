@@ -73,7 +73,7 @@ void StampTool::set_kind(StampKind k) {
 }
 
 void StampTool::grow(double factor) {
-  const double r = std::clamp(radius_m * factor, 0.5, 500.0);
+  const double r = std::clamp(radius_m * factor, min_radius_m, std::max(min_radius_m, max_radius_m));
   const bool scales = kind == StampKind::kCrater || kind == StampKind::kGaussian ||
                       kind == StampKind::kTexture || kind == StampKind::kShockwave;
   if (scales && radius_m > 0) intensity *= r / radius_m;

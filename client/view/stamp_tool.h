@@ -21,6 +21,9 @@ struct StampTool {
   Layer layer = Layer::kCoarse;
   BlendMode blend = BlendMode::kAdd;
   double radius_m = 8.0;
+  // The range grow() keeps the radius in; the viewer sets it from the world's spacing
+  // (view_scale: half a sample to 500 samples).
+  double min_radius_m = 0.5, max_radius_m = 500.0;
   // Meters, signed (crater and footprint: depth; gaussian and texture: height; shockwave: the
   // initial displacement); flatten: strength 0..1.
   double intensity = 2.0;
@@ -41,7 +44,7 @@ struct StampTool {
   // The stamp for a click on the terrain at (x, y), whose ground is at height `z` meters
   // (flatten levels toward it).
   StampParams at(double x, double y, double z);
-  // Radius x factor, clamped to 0.5 .. 500 m; heights of kinds that scale with the radius
+  // Radius x factor, clamped to min_radius_m .. max_radius_m; heights of kinds that scale with the radius
   // (crater, gaussian, texture, shockwave) scale with it, so a preset keeps its proportions.
   void grow(double factor);
   void set_radius(double meters) { grow(meters / radius_m); }

@@ -4,9 +4,6 @@
 // After epoxy: GLFW must not pull in a second set of GL declarations.
 #define GLFW_INCLUDE_NONE
 #include <GLFW/glfw3.h>
-#include <backends/imgui_impl_glfw.h>
-#include <backends/imgui_impl_opengl3.h>
-#include <imgui.h>
 
 #include <algorithm>
 #include <chrono>
@@ -25,6 +22,7 @@
 #include "client/view/stamp_previews.h"
 #include "client/view/stamp_tool.h"
 #include "client/view/tile_states.h"
+#include "client/view/viewer_window.h"
 #include "client/view/walker.h"
 #include "gpu/egl_context.h"
 #include "gpu/glfw_context.h"
@@ -38,18 +36,6 @@ using Clock = std::chrono::steady_clock;
 
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-// Ground height (meters) under a point of the displayed terrain: bilinear between samples.
-double ground_at(const render::HeightSource& src, double x, double y) {
-  const WorldParams& p = src.params();
-  const double sx = x / p.meters_per_sample, sy = y / p.meters_per_sample;
-  const int64_t x0 = int64_t(std::floor(sx)), y0 = int64_t(std::floor(sy));
-  uint16_t q[4];
-  src.read(0, {x0, y0, x0 + 2, y0 + 2}, q);
-  const double fx = sx - double(x0), fy = sy - double(y0);
-  const double v = (q[0] * (1 - fx) + q[1] * fx) * (1 - fy) + (q[2] * (1 - fx) + q[3] * fx) * fy;
-  return p.height_offset + v * p.meters_per_unit;
 }
 
 // Sends the tool's stamp for a click at a terrain point; false when the stamp is not valid here
@@ -89,6 +75,20 @@ void print_stats(double t, const render::ViewerSession& s, const render::FrameSt
       double(v.gpu_terrain_bytes) / (1 << 20), v.gpu_pages_resident, double(v.cpu_terrain_bytes) / (1 << 20),
       v.rtt_ms, v.bytes_in_per_s / 1024.0, v.server_tick_p99_us / 1000.0);
   std::fflush(stdout);
+}
+
+// What the last frame showed: the share of its pixels that are terrain (depth not the
+// background's), read from the framebuffer. Tests and the main job's smoke run check it.
+void print_coverage(const char* where, double fraction) {
+  std::printf("viewer %s: terrain covers %.1f%% of the view\n", where, 100.0 * fraction);
+  std::fflush(stdout);
+}
+
+double terrain_fraction(const std::vector<float>& depth) {
+  if (depth.empty()) return 0.0;
+  const auto n =
+      std::count_if(depth.begin(), depth.end(), [](float d) { return d != render::kBackgroundDepth; });
+  return double(n) / double(depth.size());
 }
 
 int exit_code(const render::ViewerSession& s) {
@@ -145,14 +145,11 @@ int run_headless(const ViewerAppOptions& o) {
   }
   std::printf("viewer (headless): %s, %dx%d, %d levels, joined as client %u\n", ctx->renderer().c_str(),
               o.width, o.height, s.renderer().levels(), s.client().welcome().client_id);
-  const WorldParams& w = s.client().welcome().world;
-  const RectI r = w.sample_rect();
-  const double mps = w.meters_per_sample;
-  const double cx = 0.5 * double(r.x0 + r.x1) * mps, cy = 0.5 * double(r.y0 + r.y1) * mps;
-  // Around the centre; on a world of tens of kilometres, a low orbit of 1.5 km (what a player
-  // sees), not the whole world from afar.
-  const double radius = std::min(0.3 * double(std::min(r.width(), r.height())) * mps, 1500.0);
-  auto ground = [&](double x, double y) { return ground_at(s.display(), x, y); };
+  // The start view: an orbit around the world's centre sized for the world (on a world of tens
+  // of kilometres, a low orbit of 1.5 km: what a player sees, not the whole world from afar).
+  const render::ViewScale scale = render::view_scale(s.client().welcome().world);
+  const double cx = scale.focus_x, cy = scale.focus_y;
+  const render::GroundFn ground = display_ground(s);
   StampTool tool;
   const double seconds = o.seconds > 0 ? o.seconds : 30.0;
   const auto t0 = Clock::now();
@@ -203,8 +200,7 @@ int run_headless(const ViewerAppOptions& o) {
       cam = flight_camera(cx, cy, flight_radius, 120.0, o.fly_mps, t, ground);
       cam.far_m = 8000.0;
     } else {
-      cam = orbit_camera(cx, cy, radius, 0.12 * radius, 90.0, t, ground);
-      cam.far_m = 6.0 * radius;
+      cam = render::orbit_view(scale, 2.0 * std::numbers::pi * t / 90.0, ground);
     }
     if (const Status st = s.update(cam, std::chrono::milliseconds(5)); !st.ok() && !reconnect(s, o, st))
       return 1;
@@ -248,6 +244,7 @@ int run_headless(const ViewerAppOptions& o) {
     std::fprintf(stderr, "loam-client view: %s\n", st.error().describe().c_str());
   }
   print_stats(seconds_since(t0), s, f, frame_ms);
+  print_coverage("headless", terrain_fraction(target->read_depth()));
   if (walker) {
     std::printf("viewer walker: feet at %.2f, %.2f, %.2f m, ground %.2f m, %s\n", walker->feet.x,
                 walker->feet.y, walker->feet.z,
@@ -271,21 +268,6 @@ void on_scroll(GLFWwindow* window, double, double dy) {
   static_cast<WindowState*>(glfwGetWindowUserPointer(window))->scroll += dy;
 }
 
-// The minimap's input from the session: the levels' regions in mip-0 samples, the camera.
-MinimapInput minimap_input(render::ViewerSession& s, const render::Camera& cam, double aspect,
-                           const TileStates& tiles) {
-  MinimapInput in;
-  in.world = s.client().welcome().world;
-  for (int32_t l = 0; l < s.renderer().levels(); ++l) {
-    const RectI r = s.renderer().level_region(l);
-    in.level_regions.push_back({r.x0 << l, r.y0 << l, r.x1 << l, r.y1 << l});
-  }
-  in.camera = cam;
-  in.aspect = aspect;
-  in.tiles = &tiles.tiles();
-  return in;
-}
-
 int run_window(const ViewerAppOptions& o) {
   auto window = gpu::GlfwContext::create(
       {.width = o.width, .height = o.height, .title = "Loam viewer", .vsync = o.vsync, .visible = true});
@@ -304,22 +286,24 @@ int run_window(const ViewerAppOptions& o) {
     return 1;
   }
   render::ViewerSession& s = **session;
-  IMGUI_CHECKVERSION();
-  ImGui::CreateContext();
-  ImGui::GetIO().IniFilename = nullptr;
-  ImGui_ImplGlfw_InitForOpenGL(win, true);
-  ImGui_ImplOpenGL3_Init("#version 450 core");
-  const render::Camera start = render::overview_camera(s.client().welcome().world);
-  FlyCamera fly = FlyCamera::looking_at(start.x, start.y, start.z, start.x + start.fx, start.y + start.fy,
-                                        start.z + start.fz);
-  fly.set_speed(std::max(10.0, 0.05 * start.z));
+  HudOverlay overlay(win);
+  // The start view of this world: the terrain around its centre, the speed and tool sizes
+  // that suit its size and spacing.
+  const render::ViewScale scale = render::view_scale(s.client().welcome().world);
+  FlyCamera fly = window_start(s, scale);
   StampTool tool;
   tool.select(Tool::kCrater);
+  scale_tool(tool, scale);
+  std::printf(
+      "viewer (window): %s, %dx%d, %d levels, joined as client %u; camera at %.0f, %.0f, %.0f m, "
+      "speed %.0f m/s, stamp radius %.1f m (%.1f .. %.0f)\n",
+      window->renderer().c_str(), o.width, o.height, s.renderer().levels(), s.client().welcome().client_id,
+      fly.x(), fly.y(), fly.z(), fly.speed(), tool.radius_m, tool.min_radius_m, tool.max_radius_m);
   TileStates tiles;
   StampPreviews previews;
   double next_tiles = 0;
-  auto ground = [&](double x, double y) { return ground_at(s.display(), x, y); };
-  bool hud = true, was_left = false, was_f1 = false, was_f12 = false, was_g = false, was_space = false;
+  const render::GroundFn ground = display_ground(s);
+  bool hud = o.hud, was_left = false, was_f1 = false, was_f12 = false, was_g = false, was_space = false;
   std::optional<Walker> walker;
   bool walking = o.walk;
   int shots = 0;
@@ -328,20 +312,19 @@ int run_window(const ViewerAppOptions& o) {
   auto last = Clock::now();
   const auto t0 = last;
   render::FrameStats f;
-  double frame_ms = 0;
+  double frame_ms = 0, terrain = 0;
   int code = 0;
   for (bool final = false; !final && !window->should_close();) {
     final = o.seconds > 0 && seconds_since(t0) >= o.seconds;  // draw this frame, then stop
     gpu::GlfwContext::poll_events();
     const double dt = std::min(0.1, seconds_since(last));
     last = Clock::now();
-    ImGuiIO& io = ImGui::GetIO();
     double mx = 0, my = 0;
     glfwGetCursorPos(win, &mx, &my);
     FlyInput in;
     WalkerInput walk_in;
     bool shoot = false;
-    if (!io.WantCaptureKeyboard) {
+    if (!(hud && overlay.wants_keyboard())) {
       auto key = [&](int k) { return glfwGetKey(win, k) == GLFW_PRESS ? 1.0 : 0.0; };
       in.forward = key(GLFW_KEY_W) - key(GLFW_KEY_S);
       in.right = key(GLFW_KEY_D) - key(GLFW_KEY_A);
@@ -372,7 +355,7 @@ int run_window(const ViewerAppOptions& o) {
                              float(rc.sun_elevation_degrees + lift));
       }
     }
-    const bool over_hud = io.WantCaptureMouse;
+    const bool over_hud = hud && overlay.wants_mouse();
     if (!over_hud && glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) {
       in.turn_x = mx - last_x;
       in.turn_y = my - last_y;
@@ -381,13 +364,15 @@ int run_window(const ViewerAppOptions& o) {
     if (!over_hud && state.scroll != 0) tool.grow(std::pow(1.15, state.scroll));
     state.scroll = 0;
     if (walking) {
-      // Walk: the keys move the walker, the mouse turns the view; the eye rides on the walker.
+      // Walk: the keys move the walker, the mouse turns the view; the eye rides on the walker,
+      // which starts under the eye (on the world's rim when the eye flew past the edge).
       walk_in.forward = in.forward;
       walk_in.right = in.right;
       walk_in.run = in.fast;
       walk_in.yaw = fly.yaw();
-      if (!walker && query::height_at(s.terrain(), fly.x(), fly.y()))
-        walker = place_walker(s.terrain(), fly.x(), fly.y());
+      const auto spawn = render::walker_spawn(s.client().welcome().world, fly.x(), fly.y());
+      if (!walker && query::height_at(s.terrain(), spawn[0], spawn[1]))
+        walker = place_walker(s.terrain(), spawn[0], spawn[1]);
       if (walker) {
         // At 60 Hz through the frame's time: a jump is taken on the first step only.
         for (double left = dt; left > 1e-9; left -= 1.0 / 60.0) {
@@ -403,19 +388,19 @@ int run_window(const ViewerAppOptions& o) {
     int w = 0, h = 0;
     glfwGetFramebufferSize(win, &w, &h);
     if (w <= 0 || h <= 0) continue;  // minimised
-    render::Camera cam = fly.camera(60.0, 4.0 * o.renderer.view_distance);
-    if (walking) cam.near_m = 0.1;
-    if (const Status st = s.update(cam); !st.ok() && !reconnect(s, o, st)) {
+    const render::Camera cam = window_camera(fly, s.renderer().config(), scale, walking);
+    // A timed run's last frame shows the settled view: every tile it needs, every own stamp
+    // confirmed (what a screenshot of it is compared on).
+    if (final) (void)s.wait_settled(cam, std::chrono::seconds(20));
+    const Status st = s.update(cam);
+    if (!st.ok() && !reconnect(s, o, st)) {
       code = 1;
       break;
     }
     const auto f0 = Clock::now();
-    glBindFramebuffer(GL_FRAMEBUFFER, 0);
-    glViewport(0, 0, w, h);
-    glClearColor(0.50f, 0.60f, 0.75f, 1.0f);
-    render::clear_depth_reversed();
-    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    begin_window_frame(w, h);
     f = s.render(cam, w, h);
+    if (final) terrain = window_terrain_fraction(w, h);
     // A click deforms the terrain under the cursor (window coordinates scale to the framebuffer).
     const bool left = !over_hud && glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS;
     if (left && !was_left) {
@@ -429,11 +414,8 @@ int run_window(const ViewerAppOptions& o) {
     }
     was_left = left;
     if (hud) {
-      ImGui_ImplOpenGL3_NewFrame();
-      ImGui_ImplGlfw_NewFrame();
-      ImGui::NewFrame();
       // The cache view's tile states four times a second (they are sets of thousands of tiles).
-      if (const double now = seconds_since(t0); now >= next_tiles) {
+      if (const double now = seconds_since(t0); now >= next_tiles || final) {
         next_tiles = now + 0.25;
         const client::ConfirmedStore& store = s.client().store();
         tiles.update(store.wanted(), store.held(), store.tiles_behind(), now);
@@ -448,33 +430,20 @@ int run_window(const ViewerAppOptions& o) {
       status.speed_mps = fly.speed();
       status.walking = walking;
       status.session = s.stats();
-      draw_status_panel(status);
-      draw_minimap_panel(layout_minimap(minimap_input(s, cam, double(w) / double(h), tiles), 240.0f),
-                         tiles.counts());
-      draw_tool_panel(tool, s.client().stamp_images(), previews);
-      ImGui::Render();
-      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+      overlay.draw(status, layout_minimap(minimap_input(s, cam, double(w) / double(h), tiles), 240.0f),
+                   tiles.counts(), tool, s.client().stamp_images(), previews);
     }
     // F12, or the last frame of a timed run: the window's picture, HUD included.
     if (shoot || final) {
-      std::vector<uint8_t> rgba(size_t(w) * size_t(h) * 4), flipped(rgba.size());
-      glPixelStorei(GL_PACK_ALIGNMENT, 1);
-      glReadBuffer(GL_BACK);
-      glReadPixels(0, 0, w, h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
-      const size_t row = size_t(w) * 4;
-      for (int y = 0; y < h; ++y)
-        std::copy_n(rgba.begin() + ptrdiff_t(size_t(h - 1 - y) * row), row,
-                    flipped.begin() + ptrdiff_t(size_t(y) * row));
       const std::string file = shoot ? numbered(o.screenshot, ++shots) : o.screenshot;
-      if (render::write_png(file, w, h, flipped).ok()) std::printf("viewer: screenshot %s\n", file.c_str());
+      if (render::write_png(file, w, h, read_window_rgba(w, h)).ok())
+        std::printf("viewer: screenshot %s\n", file.c_str());
     }
     window->swap_buffers();
     frame_ms = seconds_since(f0) * 1000.0;
   }
-  ImGui_ImplOpenGL3_Shutdown();
-  ImGui_ImplGlfw_Shutdown();
-  ImGui::DestroyContext();
   print_stats(seconds_since(t0), s, f, frame_ms);
+  if (o.seconds > 0) print_coverage("window", terrain);
   return code != 0 ? code : exit_code(s);
 }
 

@@ -33,6 +33,7 @@ struct ViewerAppOptions {
   bool walk = false;                      // start in walk mode (window: G toggles; headless: walk the centre)
   double dig_under_s = 0;  // headless walk: dig a crater under the walker at this time (0: never)
   bool vsync = true;
+  bool hud = true;  // window: start with the HUD shown (F1 toggles)
 };
 
 // Runs the viewer; returns the process exit code (0, or 1 when it could not start or the
