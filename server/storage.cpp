@@ -117,75 +117,38 @@ struct StorageOpener {
     }
   }
 
-  static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path,
-                                    const StampLimits& limits, const std::vector<std::string>& stamp_images,
-                                    int dem_band, const std::string& terrain_kind, bool read_only) {
-    LOAM_TRY(validate_limits(limits));
-    if (read_only) {
-      if (list_segments(data_dir).empty())
-        return make_error(ErrorCode::kNotFound, data_dir, "no session log here");
-    }
-    std::error_code ec;
-    fs::create_directories(fs::path(data_dir) / "log", ec);
-    if (ec) return make_error(ErrorCode::kIo, data_dir, "cannot create the data folder: " + ec.message());
-    RecoveryReport report;
-    if (!read_only) report.partial_snapshots_removed = remove_partial_snapshots(data_dir);
-    Storage storage;
-    storage.data_dir_ = data_dir;
-    storage.store_ = SnapshotStore::open(data_dir);
-    std::vector<std::string> segments = list_segments(data_dir);
+  // A folder without a log: a new session on the initial terrain, its segment 0 written.
+  static Result<OpenedStorage> open_fresh(Storage storage, const std::string& data_dir,
+                                          const std::string& dem_path, const StampLimits& limits,
+                                          const std::vector<std::string>& stamp_images, int dem_band,
+                                          const std::string& terrain_kind, bool read_only,
+                                          RecoveryReport& report) {
+    log::InitialTerrain initial;
+    auto world = load_initial_terrain(dem_path, &initial, dem_band, terrain_kind);
+    if (!world) return world.error();
+    if (initial.import_params == kPackImportParams && !read_only)
+      LOAM_TRY(keep_pack_in_session(dem_path, data_dir));
+    TerrainState terrain(std::move(*world), 0, limits);
+    LOAM_TRY(register_images(terrain, data_dir, stamp_images, report));
+    log::SegmentHeader h;
+    h.world = terrain.world().params();
+    h.initial = initial;
+    h.created_unix_us = now_unix_us();
+    h.segment_index = 0;
+    h.base_world_hash = initial.world_hash;
+    h.limits = limits;
+    auto writer = log::LogWriter::create(segment_path(data_dir, 0), h);
+    if (!writer) return writer.error();
+    storage.writer_.emplace(std::move(*writer));
+    storage.initial_ = initial;
+    return OpenedStorage{std::move(storage), std::move(terrain), report};
+  }
 
-    if (segments.empty()) {
-      if (!list_snapshots(data_dir).empty()) {
-        return make_error(ErrorCode::kCorrupt, data_dir,
-                          "snapshots without a log: refusing to guess the session");
-      }
-      log::InitialTerrain initial;
-      auto world = load_initial_terrain(dem_path, &initial, dem_band, terrain_kind);
-      if (!world) return world.error();
-      if (initial.import_params == kPackImportParams && !read_only)
-        LOAM_TRY(keep_pack_in_session(dem_path, data_dir));
-      TerrainState terrain(std::move(*world), 0, limits);
-      LOAM_TRY(register_images(terrain, data_dir, stamp_images, report));
-      log::SegmentHeader h;
-      h.world = terrain.world().params();
-      h.initial = initial;
-      h.created_unix_us = now_unix_us();
-      h.segment_index = 0;
-      h.base_world_hash = initial.world_hash;
-      h.limits = limits;
-      auto writer = log::LogWriter::create(segment_path(data_dir, 0), h);
-      if (!writer) return writer.error();
-      storage.writer_.emplace(std::move(*writer));
-      storage.initial_ = initial;
-      return OpenedStorage{std::move(storage), std::move(terrain), report};
-    }
-
-    report.fresh = false;
-    auto recovered = [&]() -> Result<log::Recovery> {
-      if (!read_only) return recover_last(segments, report);
-      // Read-only: a damaged tail is left as it is; the records before it count.
-      auto scan = log::read_segment(segments.back());
-      if (!scan) return scan.error();
-      log::Recovery r;
-      if (scan->tail_error) report.damage = "not repaired (read-only): " + scan->tail_error->describe();
-      r.scan = std::move(*scan);
-      return r;
-    }();
-    if (!recovered) return recovered.error();
-    if (recovered->removed_bytes > 0) {
-      report.truncated_bytes = recovered->removed_bytes;
-      report.damage += recovered->damage + " (truncated " + std::to_string(recovered->removed_bytes) +
-                       " bytes at offset " + std::to_string(recovered->truncated_at) + " of " +
-                       segments.back() + ")";
-    }
-    const uint64_t log_last = recovered->scan.last_seq();
-
-    // The session's initial terrain (every segment's header repeats it): a snapshot's base may
-    // be the tile pack it names.
-    log::InitialTerrain last_initial;
-    if (auto h = read_segment_header(segments.back())) last_initial = h->header.initial;
-    // Newest valid snapshot that the log reaches, and the segment that continues it.
+  // The newest valid snapshot the log reaches, and the index of the segment that continues it
+  // (0 and none: replay from the initial terrain). Snapshots passed over are reported.
+  static std::pair<std::optional<LoadedSnapshot>, size_t> newest_snapshot(
+      Storage& storage, const std::string& data_dir, const std::vector<std::string>& segments,
+      uint64_t log_last, const log::InitialTerrain& last_initial, RecoveryReport& report) {
     std::optional<LoadedSnapshot> snap;
     size_t start = 0;
     for (const std::string& path : list_snapshots(data_dir)) {
@@ -223,14 +186,12 @@ struct StorageOpener {
       snap.emplace(std::move(*loaded));
       break;
     }
-    const std::vector<std::string> needed(segments.begin() + ptrdiff_t(start), segments.end());
-    auto scans = log::read_log(needed);
-    if (!scans) return scans.error();
-    if (read_only && scans->back().tail_error) {
-      // read_log left the tail unrepaired; the records before it are what a restart replays.
-      scans->back().tail = log::TailState::kClean;
-    }
-    // Older segments are not needed; their damage is reported so an operator can archive them.
+    return {std::move(snap), start};
+  }
+
+  // Older segments are not needed; their damage is reported so an operator can archive them.
+  static void report_older_damage(const std::vector<std::string>& segments, size_t start,
+                                  RecoveryReport& report) {
     for (size_t i = 0; i < start; ++i) {
       auto scan = log::read_segment(segments[i]);
       if (!scan) {
@@ -239,33 +200,15 @@ struct StorageOpener {
         report.older_damage.push_back(segments[i] + ": " + scan->tail_error->describe());
       }
     }
-    report.segments = needed.size();
-    report.segments_skipped = start;
-    const log::SegmentHeader& first = scans->front().header.header;
-    const log::InitialTerrain initial = first.initial;
+  }
 
-    uint64_t base = 0;
-    std::optional<World> world;
-    if (snap) {
-      base = snap->manifest.last_seq;
-      report.snapshot_path = snap->path;
-      report.snapshot_seq = base;
-      world.emplace(std::move(snap->world));
-    } else {
-      auto initial_world = load_described_terrain(initial, first.world, data_dir);
-      if (!initial_world) return initial_world.error();
-      world.emplace(std::move(*initial_world));
-    }
-    TerrainState terrain(std::move(*world), base, limits);
-    if (snap) {
-      for (const StampTexture& t : snap->textures) {
-        auto id = terrain.textures().add(t.width, t.height, t.samples);
-        if (!id) return id.error();
-      }
-    }
-    LOAM_TRY(register_images(terrain, data_dir, stamp_images, report, read_only));
-    for (size_t i = 0; i < scans->size(); ++i) {
-      const log::SegmentScan& scan = (*scans)[i];
+  // Every logged stamp after `base`, in sequence, under the limits its segment recorded; a gap
+  // or a stamp that fails to apply stops the recovery.
+  static Status replay_records(TerrainState& terrain, const std::vector<log::SegmentScan>& scans,
+                               const std::vector<std::string>& needed, uint64_t base,
+                               const StampLimits& limits, RecoveryReport& report) {
+    for (size_t i = 0; i < scans.size(); ++i) {
+      const log::SegmentScan& scan = scans[i];
       // What a logged stamp means is what it meant when it was accepted.
       terrain.set_limits(scan.header.header.has_limits ? scan.header.header.limits : limits);
       for (const log::LogRecord& r : scan.records) {
@@ -286,15 +229,16 @@ struct StorageOpener {
         if (report.replayed_records % 256 == 0) terrain.mutable_world().trim_base_cache();
       }
     }
-    report.last_seq = terrain.last_seq();
-    const log::SegmentScan& last = scans->back();
-    report.last_tick = std::max(last.last_tick, snap && snap->manifest.has_session ? snap->manifest.tick : 0);
-    if (last.header.header.has_limits) report.recorded_limits = last.header.header.limits;
-    storage.initial_ = initial;
-    storage.last_snapshot_seq_ = snap ? base : 0;
-    if (read_only) return OpenedStorage{std::move(storage), std::move(terrain), report};
-    terrain.set_limits(limits);
+    return {};
+  }
 
+  // The writer that continues the log: the last segment appended to when it records these
+  // limits, segment 0 rewritten when nothing was stamped yet, else a new segment (after a
+  // snapshot) that records them.
+  static Result<OpenedStorage> continue_log(Storage storage, TerrainState terrain,
+                                            const std::vector<std::string>& segments,
+                                            const log::SegmentScan& last, const StampLimits& limits,
+                                            bool snapshot_reusable, RecoveryReport& report) {
     if (last.header.header.has_limits && last.header.header.limits == limits &&
         last.header.header.format_version == log::kLogFormatVersion) {
       auto writer = log::LogWriter::open_append(segments.back());
@@ -322,10 +266,123 @@ struct StorageOpener {
     auto writer = log::LogWriter::open_append(segments.back());
     if (!writer) return writer.error();
     storage.writer_.emplace(std::move(*writer));
-    auto rolled =
-        storage.snapshot(terrain, report.last_tick, /*reuse_existing=*/snap && base == terrain.last_seq());
+    auto rolled = storage.snapshot(terrain, report.last_tick, /*reuse_existing=*/snapshot_reusable);
     if (!rolled) return rolled.error();
     return OpenedStorage{std::move(storage), std::move(terrain), report};
+  }
+
+  // The last segment recovered (read-only: its damaged tail left as it is, the records before it
+  // counting); the log's last sequence.
+  static Result<uint64_t> recover_tail(std::vector<std::string>& segments, bool read_only,
+                                       RecoveryReport& report) {
+    auto recovered = [&]() -> Result<log::Recovery> {
+      if (!read_only) return recover_last(segments, report);
+      auto scan = log::read_segment(segments.back());
+      if (!scan) return scan.error();
+      log::Recovery r;
+      if (scan->tail_error) report.damage = "not repaired (read-only): " + scan->tail_error->describe();
+      r.scan = std::move(*scan);
+      return r;
+    }();
+    if (!recovered) return recovered.error();
+    if (recovered->removed_bytes > 0) {
+      report.truncated_bytes = recovered->removed_bytes;
+      report.damage += recovered->damage + " (truncated " + std::to_string(recovered->removed_bytes) +
+                       " bytes at offset " + std::to_string(recovered->truncated_at) + " of " +
+                       segments.back() + ")";
+    }
+    return recovered->scan.last_seq();
+  }
+
+  // The world replay starts from: the snapshot's (with its images), else the initial terrain the
+  // first needed segment describes.
+  static Result<TerrainState> starting_terrain(std::optional<LoadedSnapshot>& snap,
+                                               const log::SegmentHeader& first, const std::string& data_dir,
+                                               const StampLimits& limits, RecoveryReport& report) {
+    if (!snap) {
+      auto initial_world = load_described_terrain(first.initial, first.world, data_dir);
+      if (!initial_world) return initial_world.error();
+      return TerrainState(std::move(*initial_world), 0, limits);
+    }
+    const uint64_t base = snap->manifest.last_seq;
+    report.snapshot_path = snap->path;
+    report.snapshot_seq = base;
+    TerrainState terrain(std::move(snap->world), base, limits);
+    for (const StampTexture& t : snap->textures) {
+      auto id = terrain.textures().add(t.width, t.height, t.samples);
+      if (!id) return id.error();
+    }
+    return terrain;
+  }
+
+  static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path,
+                                    const StampLimits& limits, const std::vector<std::string>& stamp_images,
+                                    int dem_band, const std::string& terrain_kind, bool read_only) {
+    LOAM_TRY(validate_limits(limits));
+    if (read_only) {
+      if (list_segments(data_dir).empty())
+        return make_error(ErrorCode::kNotFound, data_dir, "no session log here");
+    }
+    std::error_code ec;
+    fs::create_directories(fs::path(data_dir) / "log", ec);
+    if (ec) return make_error(ErrorCode::kIo, data_dir, "cannot create the data folder: " + ec.message());
+    RecoveryReport report;
+    if (!read_only) report.partial_snapshots_removed = remove_partial_snapshots(data_dir);
+    Storage storage;
+    storage.data_dir_ = data_dir;
+    storage.store_ = SnapshotStore::open(data_dir);
+    std::vector<std::string> segments = list_segments(data_dir);
+
+    if (segments.empty()) {
+      if (!list_snapshots(data_dir).empty()) {
+        return make_error(ErrorCode::kCorrupt, data_dir,
+                          "snapshots without a log: refusing to guess the session");
+      }
+      return open_fresh(std::move(storage), data_dir, dem_path, limits, stamp_images, dem_band, terrain_kind,
+                        read_only, report);
+    }
+
+    report.fresh = false;
+    auto log_last = recover_tail(segments, read_only, report);
+    if (!log_last) return log_last.error();
+
+    // The session's initial terrain (every segment's header repeats it): a snapshot's base may
+    // be the tile pack it names.
+    log::InitialTerrain last_initial;
+    if (auto h = read_segment_header(segments.back())) last_initial = h->header.initial;
+    // Newest valid snapshot that the log reaches, and the segment that continues it.
+    auto [snap, start] = newest_snapshot(storage, data_dir, segments, *log_last, last_initial, report);
+    const std::vector<std::string> needed(segments.begin() + ptrdiff_t(start), segments.end());
+    auto scans = log::read_log(needed);
+    if (!scans) return scans.error();
+    if (read_only && scans->back().tail_error) {
+      // read_log left the tail unrepaired; the records before it are what a restart replays.
+      scans->back().tail = log::TailState::kClean;
+    }
+    report_older_damage(segments, start, report);
+    report.segments = needed.size();
+    report.segments_skipped = start;
+    const log::SegmentHeader& first = scans->front().header.header;
+    const log::InitialTerrain initial = first.initial;
+
+    const uint64_t base = snap ? snap->manifest.last_seq : 0;
+    auto started = starting_terrain(snap, first, data_dir, limits, report);
+    if (!started) return started.error();
+    TerrainState terrain = std::move(*started);
+    LOAM_TRY(register_images(terrain, data_dir, stamp_images, report, read_only));
+    LOAM_TRY(replay_records(terrain, *scans, needed, base, limits, report));
+    report.last_seq = terrain.last_seq();
+    const log::SegmentScan& last = scans->back();
+    report.last_tick = std::max(last.last_tick, snap && snap->manifest.has_session ? snap->manifest.tick : 0);
+    if (last.header.header.has_limits) report.recorded_limits = last.header.header.limits;
+    storage.initial_ = initial;
+    storage.last_snapshot_seq_ = snap ? base : 0;
+    if (read_only) return OpenedStorage{std::move(storage), std::move(terrain), report};
+    terrain.set_limits(limits);
+
+    const bool snapshot_reusable = snap && base == terrain.last_seq();
+    return continue_log(std::move(storage), std::move(terrain), segments, last, limits, snapshot_reusable,
+                        report);
   }
 };
 
