@@ -502,25 +502,146 @@ SnapshotJobHandle SnapshotStore::begin(const World& world, uint64_t last_seq, ui
   return SnapshotJobHandle(std::move(job));
 }
 
-Status SnapshotStore::run(SnapshotJobHandle& handle) {
-  SnapshotJob& job = *handle.job_;
-  SnapshotWrite& report = job.report;
-  const std::string dir = snapshot_tiles_dir(job.data_dir);
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) return make_error(ErrorCode::kIo, dir, "cannot create: " + ec.message());
-  const std::string path = (fs::path(dir) / snapshot_tiles_file_name(job.file)).string();
-  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return io_error(path, "cannot create");
-  // Files read for compaction, opened here: the owner's descriptors are not shared.
-  std::map<uint64_t, int> readers;
-  const auto read_record = [&](const StoredTile& e) -> Result<std::vector<uint8_t>> {
-    auto it = readers.find(e.file);
-    if (it == readers.end()) {
-      const std::string rp = (fs::path(dir) / snapshot_tiles_file_name(e.file)).string();
+namespace {
+
+// The tiles file of a snapshot job, written on the storage's worker in phases: the header, the
+// changed tiles, the new images, the compaction of sparse older files, and the trailer (record
+// count and checksum), fsynced. Records go out in 4 MiB writes under a running checksum; every
+// record written is indexed in the job.
+class TilesFileWriter {
+ public:
+  TilesFileWriter(SnapshotJob& job, std::string dir, std::string path, int fd)
+      : job_(job), report_(job.report), dir_(std::move(dir)), path_(std::move(path)), fd_(fd) {
+    XXH3_64bits_reset(sum_);
+  }
+  TilesFileWriter(const TilesFileWriter&) = delete;
+  TilesFileWriter& operator=(const TilesFileWriter&) = delete;
+  ~TilesFileWriter() { XXH3_freeState(sum_); }
+
+  // Every phase in order; the file stays open (close() after, whatever happened).
+  Status write() {
+    write_header();
+    LOAM_TRY(write_changed());
+    LOAM_TRY(write_images());
+    LOAM_TRY(compact());
+    return write_trailer();
+  }
+  // Closes the files read for compaction and the tiles file; an error when the close fails.
+  Status close() {
+    for (const auto& [n, rfd] : readers_) ::close(rfd);
+    if (::close(fd_) != 0) return io_error(path_, "close failed");
+    return {};
+  }
+  uint64_t bytes() const { return offset_; }
+
+ private:
+  void write_header() {
+    buf_.resize(8);
+    std::memcpy(buf_.data(), kTilesMagic, 8);
+    append_le<uint32_t>(buf_, kTilesFormat);
+    append_le<uint32_t>(buf_, 0);
+  }
+
+  Status write_changed() {
+    for (const SnapshotJob::Changed& ch : job_.changed) {
+      StoredTile e = ch.entry;
+      const size_t before = buf_.size() + size_t(offset_);
+      if (e.kind == kKindCoarse) {
+        auto enc = encode_region(RegionEncoding::kFast, ch.coarse, kTileSize, kTileSize);
+        if (!enc) return enc.error();
+        LOAM_TRY(add(e, *enc));
+        report_.tile_raw_bytes += kTileSamples * sizeof(uint16_t);
+      } else {
+        if (ch.detail.empty()) {
+          e.size = 0;  // all zero: the index alone records its version
+          e.file = 0;
+          job_.index[TileCoord{Layer::kDetail, 0, e.tx, e.ty}] = e;
+        } else {
+          auto enc = encode_region(RegionEncoding::kFast, ch.detail, kTileSize, kTileSize);
+          if (!enc) return enc.error();
+          LOAM_TRY(add(e, *enc));
+        }
+        report_.tile_raw_bytes += kTileSamples;
+      }
+      report_.tile_bytes += buf_.size() + size_t(offset_) - before;
+      ++report_.tiles_written;
+    }
+    return {};
+  }
+
+  Status write_images() {
+    for (const StampTexture& t : job_.new_images) {
+      std::vector<uint8_t> raw(t.samples.size() * 2);
+      for (size_t i = 0; i < t.samples.size(); ++i) store_le<uint16_t>(raw.data() + i * 2, t.samples[i]);
+      LOAM_TRY(add(StoredTile{kKindImage, 0, t.width, t.height, 0, t.id, 0, 0, 0, 0}, raw));
+      ++report_.images_written;
+    }
+    return {};
+  }
+
+  // Compaction: live records of files at most half live move here, whole files at a time,
+  // within a budget that keeps the whole write (tiles, moves, the index and the manifest)
+  // within twice the changed tiles' bytes.
+  Status compact() {
+    std::map<uint64_t, uint64_t> live;
+    for (const auto& [c, e] : job_.index)
+      if (e.file != job_.file && !(e.kind == kKindDetail && e.size == 0))
+        live[e.file] += kRecordHeaderSize + e.size;
+    for (const auto& [id, e] : job_.images)
+      if (e.file != job_.file) live[e.file] += kRecordHeaderSize + e.size;
+    std::vector<std::pair<double, uint64_t>> sparse;  // live fraction, file
+    for (const auto& [n, l] : live) {
+      const auto f = job_.file_sizes.find(n);
+      if (f != job_.file_sizes.end() && f->second > 0 && 2 * l <= f->second)
+        sparse.push_back({double(l) / double(f->second), n});
+    }
+    std::sort(sparse.begin(), sparse.end());
+    const uint64_t index_size =
+        kIndexHeaderSize + job_.index.size() * kIndexEntrySize + job_.images.size() * kIndexImageSize + 8;
+    const uint64_t overhead = index_size + 4096;
+    uint64_t budget = report_.tile_bytes > overhead ? report_.tile_bytes - overhead : 0;
+    for (const auto& [fraction, n] : sparse) {
+      if (live[n] > budget) continue;
+      budget -= live[n];
+      std::vector<StoredTile> moving;
+      for (const auto& [c, e] : job_.index)
+        if (e.file == n && !(e.kind == kKindDetail && e.size == 0)) moving.push_back(e);
+      for (const auto& [id, e] : job_.images)
+        if (e.file == n) moving.push_back(e);
+      std::sort(moving.begin(), moving.end(),
+                [](const StoredTile& a, const StoredTile& b) { return a.offset < b.offset; });
+      for (const StoredTile& e : moving) {
+        auto payload = read_record(e);
+        if (!payload) return payload.error();
+        LOAM_TRY(add(e, *payload));
+        report_.moved_bytes += kRecordHeaderSize + e.size;
+        ++report_.records_moved;
+      }
+    }
+    return {};
+  }
+
+  Status write_trailer() {
+    LOAM_TRY(flush());
+    append_le<uint64_t>(buf_, records_);
+    XXH3_64bits_update(sum_, buf_.data(), buf_.size());
+    append_le<uint64_t>(buf_, XXH3_64bits_digest(sum_));
+    LOAM_TRY(write_exact(fd_, buf_, path_));
+    offset_ += buf_.size();
+    buf_.clear();
+    if (::fsync(fd_) != 0) return io_error(path_, "fsync failed");
+    return {};
+  }
+
+  // A record of a file read for compaction (opened here: the owner's descriptors are not
+  // shared), checked against its index entry.
+  Result<std::vector<uint8_t>> read_record(const StoredTile& e) {
+    auto it = readers_.find(e.file);
+    if (it == readers_.end()) {
+      const std::string rp = (fs::path(dir_) / snapshot_tiles_file_name(e.file)).string();
       const int rfd = ::open(rp.c_str(), O_RDONLY | O_CLOEXEC);
       if (rfd < 0) return io_error(rp, "cannot open");
-      it = readers.emplace(e.file, rfd).first;
+      it = readers_.emplace(e.file, rfd).first;
     }
     std::vector<uint8_t> rec(kRecordHeaderSize + e.size);
     LOAM_TRY(pread_exact(it->second, e.offset, rec, snapshot_tiles_file_name(e.file)));
@@ -530,122 +651,49 @@ Status SnapshotStore::run(SnapshotJobHandle& handle) {
                         "the record at offset " + std::to_string(e.offset) + " is not " + describe_entry(e));
     rec.erase(rec.begin(), rec.begin() + ptrdiff_t(kRecordHeaderSize));
     return rec;
-  };
-  uint64_t offset = 0, records = 0;
-  XXH3_state_t* sum = XXH3_createState();
-  XXH3_64bits_reset(sum);
-  std::vector<uint8_t> buf;
-  const auto flush = [&]() -> Status {
-    XXH3_64bits_update(sum, buf.data(), buf.size());
-    LOAM_TRY(write_exact(fd, buf, path));
-    offset += buf.size();
-    buf.clear();
-    return {};
-  };
-  const Status body = [&]() -> Status {
-    buf.resize(8);
-    std::memcpy(buf.data(), kTilesMagic, 8);
-    append_le<uint32_t>(buf, kTilesFormat);
-    append_le<uint32_t>(buf, 0);
-    const auto add = [&](StoredTile e, std::span<const uint8_t> payload) -> Status {
-      e.file = job.file;
-      e.offset = offset + buf.size();
-      e.size = uint32_t(payload.size());
-      put_record_header(buf, e.kind, e.mip, e.tx, e.ty, e.version, e.hash, e.size);
-      buf.insert(buf.end(), payload.begin(), payload.end());
-      ++records;
-      if (e.kind == kKindImage) {
-        job.images[e.hash] = e;
-      } else {
-        job.index[TileCoord{Layer(e.kind), e.mip, e.tx, e.ty}] = e;
-      }
-      if (buf.size() >= (size_t(4) << 20)) LOAM_TRY(flush());
-      return {};
-    };
-    for (const SnapshotJob::Changed& ch : job.changed) {
-      StoredTile e = ch.entry;
-      const size_t before = buf.size() + size_t(offset);
-      if (e.kind == kKindCoarse) {
-        auto enc = encode_region(RegionEncoding::kFast, ch.coarse, kTileSize, kTileSize);
-        if (!enc) return enc.error();
-        LOAM_TRY(add(e, *enc));
-        report.tile_raw_bytes += kTileSamples * sizeof(uint16_t);
-      } else {
-        if (ch.detail.empty()) {
-          e.size = 0;  // all zero: the index alone records its version
-          e.file = 0;
-          job.index[TileCoord{Layer::kDetail, 0, e.tx, e.ty}] = e;
-        } else {
-          auto enc = encode_region(RegionEncoding::kFast, ch.detail, kTileSize, kTileSize);
-          if (!enc) return enc.error();
-          LOAM_TRY(add(e, *enc));
-        }
-        report.tile_raw_bytes += kTileSamples;
-      }
-      report.tile_bytes += buf.size() + size_t(offset) - before;
-      ++report.tiles_written;
-    }
-    for (const StampTexture& t : job.new_images) {
-      std::vector<uint8_t> raw(t.samples.size() * 2);
-      for (size_t i = 0; i < t.samples.size(); ++i) store_le<uint16_t>(raw.data() + i * 2, t.samples[i]);
-      LOAM_TRY(add(StoredTile{kKindImage, 0, t.width, t.height, 0, t.id, 0, 0, 0, 0}, raw));
-      ++report.images_written;
-    }
-    // Compaction: live records of files at most half live move here, whole files at a time,
-    // within a budget that keeps the whole write (tiles, moves, the index and the manifest)
-    // within twice the changed tiles' bytes.
-    std::map<uint64_t, uint64_t> live;
-    for (const auto& [c, e] : job.index)
-      if (e.file != job.file && !(e.kind == kKindDetail && e.size == 0))
-        live[e.file] += kRecordHeaderSize + e.size;
-    for (const auto& [id, e] : job.images)
-      if (e.file != job.file) live[e.file] += kRecordHeaderSize + e.size;
-    std::vector<std::pair<double, uint64_t>> sparse;  // live fraction, file
-    for (const auto& [n, l] : live) {
-      const auto f = job.file_sizes.find(n);
-      if (f != job.file_sizes.end() && f->second > 0 && 2 * l <= f->second)
-        sparse.push_back({double(l) / double(f->second), n});
-    }
-    std::sort(sparse.begin(), sparse.end());
-    const uint64_t index_size =
-        kIndexHeaderSize + job.index.size() * kIndexEntrySize + job.images.size() * kIndexImageSize + 8;
-    const uint64_t overhead = index_size + 4096;
-    uint64_t budget = report.tile_bytes > overhead ? report.tile_bytes - overhead : 0;
-    for (const auto& [fraction, n] : sparse) {
-      if (live[n] > budget) continue;
-      budget -= live[n];
-      std::vector<StoredTile> moving;
-      for (const auto& [c, e] : job.index)
-        if (e.file == n && !(e.kind == kKindDetail && e.size == 0)) moving.push_back(e);
-      for (const auto& [id, e] : job.images)
-        if (e.file == n) moving.push_back(e);
-      std::sort(moving.begin(), moving.end(),
-                [](const StoredTile& a, const StoredTile& b) { return a.offset < b.offset; });
-      for (const StoredTile& e : moving) {
-        auto payload = read_record(e);
-        if (!payload) return payload.error();
-        LOAM_TRY(add(e, *payload));
-        report.moved_bytes += kRecordHeaderSize + e.size;
-        ++report.records_moved;
-      }
-    }
-    LOAM_TRY(flush());
-    append_le<uint64_t>(buf, records);
-    XXH3_64bits_update(sum, buf.data(), buf.size());
-    append_le<uint64_t>(buf, XXH3_64bits_digest(sum));
-    LOAM_TRY(write_exact(fd, buf, path));
-    offset += buf.size();
-    buf.clear();
-    if (::fsync(fd) != 0) return io_error(path, "fsync failed");
-    return {};
-  }();
-  XXH3_freeState(sum);
-  for (const auto& [n, rfd] : readers) ::close(rfd);
-  if (::close(fd) != 0 && body.ok()) return io_error(path, "close failed");
-  LOAM_TRY(body);
-  job.tiles_file_bytes = offset;
+  }
 
-  // The index and the manifest, published together.
+  Status add(StoredTile e, std::span<const uint8_t> payload) {
+    e.file = job_.file;
+    e.offset = offset_ + buf_.size();
+    e.size = uint32_t(payload.size());
+    put_record_header(buf_, e.kind, e.mip, e.tx, e.ty, e.version, e.hash, e.size);
+    buf_.insert(buf_.end(), payload.begin(), payload.end());
+    ++records_;
+    if (e.kind == kKindImage) {
+      job_.images[e.hash] = e;
+    } else {
+      job_.index[TileCoord{Layer(e.kind), e.mip, e.tx, e.ty}] = e;
+    }
+    if (buf_.size() >= (size_t(4) << 20)) LOAM_TRY(flush());
+    return {};
+  }
+
+  Status flush() {
+    XXH3_64bits_update(sum_, buf_.data(), buf_.size());
+    LOAM_TRY(write_exact(fd_, buf_, path_));
+    offset_ += buf_.size();
+    buf_.clear();
+    return {};
+  }
+
+  SnapshotJob& job_;
+  SnapshotWrite& report_;
+  std::string dir_, path_;
+  int fd_;
+  std::map<uint64_t, int> readers_;
+  uint64_t offset_ = 0, records_ = 0;
+  XXH3_state_t* sum_ = XXH3_createState();
+  std::vector<uint8_t> buf_;
+};
+
+// The index and the manifest of a written job, published together (write-then-rename).
+struct Published {
+  std::string path;
+  size_t index_bytes = 0, index_entries = 0, manifest_bytes = 0;
+};
+Result<Published> publish_index_and_manifest(SnapshotJob& job, const std::string& dir) {
+  SnapshotWrite& report = job.report;
   std::vector<StoredTile> entries;
   entries.reserve(job.index.size());
   for (const auto& [c, e] : job.index) entries.push_back(e);
@@ -678,11 +726,34 @@ Status SnapshotStore::run(SnapshotJobHandle& handle) {
        {"manifest.json", std::span(reinterpret_cast<const uint8_t*>(text.data()), text.size())}});
   if (!published) return published.error();
   LOAM_TRY(fsync_path(dir));
+  return Published{*published, index_bin.size(), entries.size(), text.size()};
+}
+
+}  // namespace
+
+Status SnapshotStore::run(SnapshotJobHandle& handle) {
+  SnapshotJob& job = *handle.job_;
+  const std::string dir = snapshot_tiles_dir(job.data_dir);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return make_error(ErrorCode::kIo, dir, "cannot create: " + ec.message());
+  const std::string path = (fs::path(dir) / snapshot_tiles_file_name(job.file)).string();
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return io_error(path, "cannot create");
+  TilesFileWriter tiles(job, dir, path, fd);
+  const Status body = tiles.write();
+  const Status closed = tiles.close();
+  if (!closed.ok() && body.ok()) return closed;
+  LOAM_TRY(body);
+  job.tiles_file_bytes = tiles.bytes();
+  auto published = publish_index_and_manifest(job, dir);
+  if (!published) return published.error();
   handle.done_ = true;  // in place: the tiles file is the snapshot's now
-  report.path = *published;
-  report.index_bytes = index_bin.size();
-  report.index_entries = entries.size();
-  report.written_bytes = job.tiles_file_bytes + index_bin.size() + text.size();
+  SnapshotWrite& report = job.report;
+  report.path = published->path;
+  report.index_bytes = published->index_bytes;
+  report.index_entries = published->index_entries;
+  report.written_bytes = job.tiles_file_bytes + published->index_bytes + published->manifest_bytes;
   return {};
 }
 
