@@ -149,6 +149,7 @@ Status Server::start() {
                            "network in clear (docs/configuration.md, --tls-cert)"}});
   }
   core_.warn_if_tokens_file_exposed();
+  deliver();
   accept();
   next_tick_ = Clock::now();
   schedule_tick();
@@ -160,6 +161,7 @@ void Server::wait_for_reload() {
   reload_signal_.async_wait([this](const asio::error_code& e, int) {
     if (e) return;  // cancelled at shutdown
     core_.reload_tokens();
+    deliver();
     wait_for_reload();
   });
 }
@@ -172,7 +174,9 @@ void Server::schedule_stats() {
     counters_.max_queue_bytes = 0;
     for (const auto& [id, c] : connections_)
       counters_.max_queue_bytes = std::max(counters_.max_queue_bytes, c->queued_bytes);
+    flush_suppressed_log_lines();  // before the stats line, as the period's summary
     core_.report_stats(core_time(Clock::now()));
+    deliver();
     schedule_stats();
   });
 }
@@ -275,8 +279,13 @@ bool Server::drain(const ConnectionPtr& c) {
   return !paused && !c->closed && !c->closing;
 }
 
+void Server::write_core_log(const std::vector<CoreLogLine>& lines) {
+  for (const CoreLogLine& l : lines) log_event(l.event, l.fields);
+}
+
 void Server::deliver() {
   CoreOutput out = core_.take_output();
+  write_core_log(out.log);
   // Queue everything first, then write: a tick's acks, events and regions for a client leave
   // in one gathered write, one wake-up of the client instead of one each.
   std::vector<ConnectionPtr> touched;
@@ -304,6 +313,7 @@ void Server::queue(const ConnectionPtr& c, FramePtr frame) {
     c->out.clear();
     c->queued_bytes = 0;
     core_.disconnected(c->id, "send queue full (client not reading)");
+    write_core_log(core_.take_log());
     finish_close(c, "");
   }
 }
@@ -360,7 +370,10 @@ void Server::finish_close(const ConnectionPtr& c, const std::string& reason) {
   if (c->closed) return;
   c->closed = true;
   c->closing = true;
-  if (!reason.empty()) core_.disconnected(c->id, reason);
+  if (!reason.empty()) {
+    core_.disconnected(c->id, reason);
+    write_core_log(core_.take_log());
+  }
   c->stream.close();
   c->timer.cancel();
   c->linger.cancel();
@@ -426,6 +439,7 @@ void Server::tick() {
   deliver();
   times.total_ms = ms_between(t0, Clock::now());
   core_.record_tick(times);
+  write_core_log(core_.take_log());
   if (core_.failed()) shutdown("log append failed");
 }
 

@@ -58,6 +58,8 @@ class Server {
   bool drain(const ConnectionPtr& c);
   // Queues the core's output: frames to their connections, then closes.
   void deliver();
+  // Writes the core's log lines (the core reads no clock; a line's time is the writer's).
+  void write_core_log(const std::vector<CoreLogLine>& lines);
   void queue(const ConnectionPtr& c, FramePtr frame);
   void flush(const ConnectionPtr& c);
   void close_after_flush(const ConnectionPtr& c);

@@ -4,7 +4,6 @@
 #include <algorithm>
 
 #include "protocol/stamps/stamp_apply.h"
-#include "server/event_log.h"
 #include "server/replication/core_detail.h"
 #include "server/replication/replication_core.h"
 
@@ -39,7 +38,7 @@ ClientId ReplicationCore::connect(const std::string& peer, CoreTime now) {
   const double budget = double(config_.client_bytes_per_second);
   c.credit = TokenBucket(budget, budget, 0.0, now);
   ++stats_.connects;
-  log_event("connect", {{"client", std::to_string(c.id)}, {"peer", peer}});
+  note("connect", {{"client", std::to_string(c.id)}, {"peer", peer}});
   // Connections that have not said Hello have a pool of their own, smaller per address, so
   // that nobody can hold the session slots (--max-clients) without a token.
   if (handshakes_ > config_.max_handshakes || from_address > config_.max_handshakes_per_address) {
@@ -108,9 +107,9 @@ bool ReplicationCore::admit_request(Client& c, wire::MessageType type, CoreTime 
 
 void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
   if (h.version_major != wire::kProtocolMajor) {
-    log_event("reject", {{"client", std::to_string(c.id)},
-                         {"reason", "version"},
-                         {"peer_major", std::to_string(h.version_major)}});
+    note("reject", {{"client", std::to_string(c.id)},
+                    {"reason", "version"},
+                    {"peer_major", std::to_string(h.version_major)}});
     ++stats_.violations;
     send(c, wire::version_mismatch(h.version_major, h.version_minor));
     send(c, wire::Bye{wire::ByeReason::kVersionMismatch, "protocol major version mismatch"});
@@ -163,8 +162,7 @@ void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
   // samples are edits at version 0 over a fill: those must travel).
   w.base_identity = terrain_.world().initial_is_base() ? terrain_.world().base().identity() : 0;
   send(c, w);
-  log_event("hello",
-            {{"client", std::to_string(c.id)}, {"name", c.name}, {"role", wire::to_string(granted)}});
+  note("hello", {{"client", std::to_string(c.id)}, {"name", c.name}, {"role", wire::to_string(granted)}});
 }
 
 void ReplicationCore::prefetch_reach(const QuantizedStamp& q) {
@@ -201,11 +199,11 @@ void ReplicationCore::on_deform(Client& c, const wire::Deform& d, CoreTime now) 
     ack.field = field.substr(0, wire::kMaxFieldNameBytes);
     if (c.resume_key != 0) ledger_.answered(c.resume_key, ack);
     send(c, ack);
-    log_event("deform_rejected", {{"client", std::to_string(c.id)},
-                                  {"client_seq", std::to_string(d.client_seq)},
-                                  {"code", wire::to_string(code)},
-                                  {"field", field},
-                                  {"why", why}});
+    note("deform_rejected", {{"client", std::to_string(c.id)},
+                             {"client_seq", std::to_string(d.client_seq)},
+                             {"code", wire::to_string(code)},
+                             {"field", field},
+                             {"why", why}});
   };
   if (!c.editor) {
     reject(wire::WireErrorCode::kUnauthorized, "role", "viewers cannot deform");

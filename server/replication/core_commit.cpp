@@ -2,7 +2,6 @@
 // (the durability point), their acks, the apply on the worker in sequence order, and once
 // applied the history and the events fanned out (one encoding for all). run_tick is the order
 // of a tick's phases.
-#include "server/event_log.h"
 #include "server/replication/core_detail.h"
 #include "server/replication/replication_core.h"
 
@@ -56,7 +55,7 @@ bool ReplicationCore::begin_tick(CoreTime now) {
   for (const PendingDeform& p : committing_) {
     const Status st = storage_.append({++seq, tick_, p.client, p.stamp});
     if (!st.ok()) {  // a broken invariant (sequence or tick), not the disk
-      log_event("fatal", {{"error", st.error().describe()}});
+      note("fatal", {{"error", st.error().describe()}});
       failed_ = true;
       committing_.clear();
       shutdown("log append failed", now, 0);
@@ -85,8 +84,8 @@ bool ReplicationCore::commit(CoreTime now) {
     // A full disk or an I/O error: nothing of this tick is durable (the writer cut the file
     // back), so nothing of it is applied or acknowledged. The server keeps serving reads and
     // hashes, refuses edits, and retries the log with a growing interval.
-    log_event("storage_unavailable",
-              {{"error", st.error().describe()}, {"refused", std::to_string(batch.size())}});
+    note("storage_unavailable",
+         {{"error", st.error().describe()}, {"refused", std::to_string(batch.size())}});
     ++stats_.storage_failures;
     resume_backoff_s_ = kResumeBackoffMinS;
     next_resume_try_ = now + after(resume_backoff_s_);
@@ -156,10 +155,9 @@ void ReplicationCore::publish(std::vector<ApplyWorker::Output> applied) {
   for (ApplyWorker::Output& o : applied) {
     published_seq_ = o.seq;
     for (const Error& e : o.backend_failures)
-      log_event("backend_error",
-                {{"seq", std::to_string(o.seq)}, {"error", e.describe()}, {"fallback", "cpu"}});
+      note("backend_error", {{"seq", std::to_string(o.seq)}, {"error", e.describe()}, {"fallback", "cpu"}});
     if (!o.applied) {
-      log_event("apply_error", {{"seq", std::to_string(o.seq)}, {"error", o.applied.error().describe()}});
+      note("apply_error", {{"seq", std::to_string(o.seq)}, {"error", o.applied.error().describe()}});
       continue;
     }
     const AppliedStamp& a = *o.applied;
@@ -171,7 +169,7 @@ void ReplicationCore::publish(std::vector<ApplyWorker::Output> applied) {
     ev.contact = a.contact;
     ev.base_versions = a.base_versions;
     if (ev.base_versions.size() > wire::kMaxEventTiles) ev.base_versions.clear();  // regions only
-    FramePtr frame = encode(ev);
+    FramePtr frame = encode(ev, out_);
     if (!frame) ev.base_versions.clear();  // no event then: the plan sends regions
     for (auto& [id, c] : clients_) {
       if (c.state != Client::State::kReady) continue;

@@ -11,6 +11,10 @@
 #include "server/replication/core_time.h"
 #include "server/replication/region_frames.h"
 
+namespace loam::server {
+struct CoreOutput;
+}  // namespace loam::server
+
 namespace loam::server::core_detail {
 
 inline double seconds(CoreDuration d) { return std::chrono::duration<double>(d).count(); }
@@ -18,8 +22,8 @@ inline CoreDuration after(double s) {
   return std::chrono::duration_cast<CoreDuration>(std::chrono::duration<double>(s));
 }
 
-// One message as a frame shared by every client it goes to; null (logged) when it cannot be
-// encoded.
-FramePtr encode(const wire::Message& m);
+// One message as a frame shared by every client it goes to; null when it cannot be encoded
+// (the error goes to `out`'s log).
+FramePtr encode(const wire::Message& m, CoreOutput& out);
 
 }  // namespace loam::server::core_detail

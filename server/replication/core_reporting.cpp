@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "server/event_log.h"
 #include "server/replication/core_detail.h"
 #include "server/replication/replication_core.h"
 
@@ -34,18 +33,18 @@ void ReplicationCore::record_tick(const TickTimes& p) {
   ticks_.add(ms);
   if (ms > 1000.0 / config_.tick_hz) {
     ++stats_.tick_overruns;
-    log_event("tick_overrun", {{"tick", std::to_string(tick_)},
-                               {"ms", fmt_ms(ms)},
-                               {"stamps", std::to_string(last_batch_)},
-                               {"sync_ms", fmt_ms(p.sync_ms)},
-                               {"commit_ms", fmt_ms(p.commit_ms)},
-                               {"apply_wait_ms", fmt_ms(p.apply_wait_ms)},
-                               {"applying", p.world_busy ? "yes" : "no"},
-                               {"stream_ms", fmt_ms(p.stream_ms)},
-                               {"snapshot_ms", fmt_ms(p.snapshot_ms)},
-                               {"trim_ms", fmt_ms(p.trim_ms)},
-                               {"base_tiles_read", std::to_string(tick_base_tiles_read_)},
-                               {"edited_tiles_loaded", std::to_string(tick_edited_tiles_loaded_)}});
+    note("tick_overrun", {{"tick", std::to_string(tick_)},
+                          {"ms", fmt_ms(ms)},
+                          {"stamps", std::to_string(last_batch_)},
+                          {"sync_ms", fmt_ms(p.sync_ms)},
+                          {"commit_ms", fmt_ms(p.commit_ms)},
+                          {"apply_wait_ms", fmt_ms(p.apply_wait_ms)},
+                          {"applying", p.world_busy ? "yes" : "no"},
+                          {"stream_ms", fmt_ms(p.stream_ms)},
+                          {"snapshot_ms", fmt_ms(p.snapshot_ms)},
+                          {"trim_ms", fmt_ms(p.trim_ms)},
+                          {"base_tiles_read", std::to_string(tick_base_tiles_read_)},
+                          {"edited_tiles_loaded", std::to_string(tick_edited_tiles_loaded_)}});
   }
 }
 
@@ -96,7 +95,6 @@ MetricsSnapshot ReplicationCore::metrics() const {
 }
 
 void ReplicationCore::report_stats(CoreTime) {
-  flush_suppressed_log_lines();
   std::vector<double> t = std::move(tick_ms_);
   tick_ms_.clear();
   std::sort(t.begin(), t.end());
@@ -107,7 +105,7 @@ void ReplicationCore::report_stats(CoreTime) {
       stats_line_fields(metrics(), {{27, "tick_p50_ms", std::to_string(last_p50_ms_)},
                                     {28, "tick_p99_ms", std::to_string(last_p99_ms_)},
                                     {29, "storage", storage_.writable() ? "ok" : "refusing edits"}});
-  log_event("stats", fields);
+  note("stats", fields);
 }
 
 namespace {

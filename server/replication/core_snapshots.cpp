@@ -3,7 +3,6 @@
 // log reopened after a failed sync, and the base cache trimmed after the tick.
 #include <algorithm>
 
-#include "server/event_log.h"
 #include "server/replication/core_detail.h"
 #include "server/replication/replication_core.h"
 
@@ -31,11 +30,11 @@ void ReplicationCore::try_resume_storage(CoreTime now) {
   if (const Status st = storage_.resume(sequenced_seq_); !st.ok()) {
     resume_backoff_s_ = std::min(resume_backoff_s_ * 2.0, kResumeBackoffMaxS);
     next_resume_try_ = now + after(resume_backoff_s_);
-    log_event("storage_retry",
-              {{"error", st.error().describe()}, {"next_in_s", std::to_string(resume_backoff_s_)}});
+    note("storage_retry",
+         {{"error", st.error().describe()}, {"next_in_s", std::to_string(resume_backoff_s_)}});
     return;
   }
-  log_event("storage_resumed", {{"seq", std::to_string(sequenced_seq_)}});
+  note("storage_resumed", {{"seq", std::to_string(sequenced_seq_)}});
 }
 
 void ReplicationCore::maybe_snapshot(CoreTime now, UnixMicros wall, bool force) {
@@ -83,28 +82,27 @@ void ReplicationCore::snapshot_done(const Result<SnapshotOutcome>& done, CoreTim
                               ? kSnapshotBackoffMinS
                               : std::min(snapshot_backoff_s_ * 2.0, kSnapshotBackoffMaxS);
     snapshot_retry_after_ = now + after(snapshot_backoff_s_);
-    log_event("snapshot_error",
-              {{"error", done.error().describe()}, {"retry_in_s", std::to_string(snapshot_backoff_s_)}});
+    note("snapshot_error",
+         {{"error", done.error().describe()}, {"retry_in_s", std::to_string(snapshot_backoff_s_)}});
     return;
   }
   snapshot_backoff_s_ = 0;
   const SnapshotWrite& w = done->write;
   stats_.snapshot_bytes_written += w.written_bytes;
   ++stats_.snapshots;
-  log_event(
-      "snapshot",
-      {{"path", w.path},
-       {"seq", std::to_string(w.last_seq)},
-       {"tiles", std::to_string(w.tiles_written)},
-       {"tile_bytes", std::to_string(w.tile_bytes)},
-       {"moved_bytes", std::to_string(w.moved_bytes)},
-       {"index_bytes", std::to_string(w.index_bytes)},
-       {"written_bytes", std::to_string(w.written_bytes)},
-       {"snapshots_removed", std::to_string(done->prune.snapshots_removed)},
-       {"tile_files_removed", std::to_string(done->prune.tile_files_removed)},
-       {"segments_removed", std::to_string(done->segments_removed)},
-       // From the tick that began it to the one that adopted it (0: written within one call).
-       {"ms", std::to_string(std::chrono::duration<double, std::milli>(now - snapshot_started_).count())}});
+  note("snapshot",
+       {{"path", w.path},
+        {"seq", std::to_string(w.last_seq)},
+        {"tiles", std::to_string(w.tiles_written)},
+        {"tile_bytes", std::to_string(w.tile_bytes)},
+        {"moved_bytes", std::to_string(w.moved_bytes)},
+        {"index_bytes", std::to_string(w.index_bytes)},
+        {"written_bytes", std::to_string(w.written_bytes)},
+        {"snapshots_removed", std::to_string(done->prune.snapshots_removed)},
+        {"tile_files_removed", std::to_string(done->prune.tile_files_removed)},
+        {"segments_removed", std::to_string(done->segments_removed)},
+        // From the tick that began it to the one that adopted it (0: written within one call).
+        {"ms", std::to_string(std::chrono::duration<double, std::milli>(now - snapshot_started_).count())}});
 }
 
 }  // namespace loam::server

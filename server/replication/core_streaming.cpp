@@ -3,7 +3,6 @@
 // first, nearest its focus, encoded once for all) and the TileHashes rounds.
 #include <algorithm>
 
-#include "server/event_log.h"
 #include "server/replication/core_detail.h"
 #include "server/replication/replication_core.h"
 
@@ -128,7 +127,7 @@ void ReplicationCore::stream_regions(CoreTime now, const std::function<uint64_t(
         auto got = frames_.get(terrain_.world(), &history_, t, need.base, need.rect, &encoded);
         if (encoded) --encodes_left;
         if (!got) {
-          log_event("encode_error", {{"tile", to_string(t)}, {"error", got.error().describe()}});
+          note("encode_error", {{"tile", to_string(t)}, {"error", got.error().describe()}});
           c.tiles.unsubscribe(t);  // cannot be served: stop planning it rather than retry forever
           continue;
         }

@@ -8,16 +8,16 @@
 #include "protocol/hex64.h"
 #include "protocol/stamps/stamp_apply.h"
 #include "protocol/wire/framing.h"
-#include "server/event_log.h"
 #include "server/replication/core_detail.h"
 
 namespace loam::server {
 
-FramePtr core_detail::encode(const wire::Message& m) {
+FramePtr core_detail::encode(const wire::Message& m, CoreOutput& out) {
   auto frame = wire::encode_frame(m, wire::kAbsoluteMaxFrameBytes);
   if (!frame) {
-    log_event("encode_error",
-              {{"type", wire::to_string(wire::message_type(m))}, {"error", frame.error().describe()}});
+    out.log.push_back(
+        {"encode_error",
+         {{"type", wire::to_string(wire::message_type(m))}, {"error", frame.error().describe()}}});
     return nullptr;
   }
   return std::make_shared<const std::vector<uint8_t>>(std::move(*frame));
@@ -77,15 +77,14 @@ void ReplicationCore::send_frame(ClientId id, FramePtr frame) {
   if (frame) out_.frames.emplace_back(id, std::move(frame));
 }
 
-void ReplicationCore::send(Client& c, const wire::Message& m) { send_frame(c.id, encode(m)); }
+void ReplicationCore::send(Client& c, const wire::Message& m) { send_frame(c.id, encode(m, out_)); }
 
 void ReplicationCore::violation(Client& c, wire::WireErrorCode code, const std::string& field,
                                 const std::string& text) {
   ++stats_.violations;
   ++c.violations;
-  log_event(
-      "violation",
-      {{"client", std::to_string(c.id)}, {"code", wire::to_string(code)}, {"field", field}, {"text", text}});
+  note("violation",
+       {{"client", std::to_string(c.id)}, {"code", wire::to_string(code)}, {"field", field}, {"text", text}});
   send(c, wire::ErrorMsg{code, field.substr(0, wire::kMaxFieldNameBytes),
                          text.substr(0, wire::kMaxErrorTextBytes)});
 }
@@ -118,14 +117,14 @@ bool ReplicationCore::erase_client(ClientId id) {
 void ReplicationCore::close(ClientId id, const std::string& reason) {
   if (!erase_client(id)) return;
   ++stats_.disconnects;
-  log_event("disconnect", {{"client", std::to_string(id)}, {"reason", reason}});
+  note("disconnect", {{"client", std::to_string(id)}, {"reason", reason}});
   out_.closes.emplace_back(id, reason);
 }
 
 void ReplicationCore::disconnected(ClientId id, const std::string& reason) {
   if (!erase_client(id)) return;
   ++stats_.disconnects;
-  log_event("disconnect", {{"client", std::to_string(id)}, {"reason", reason}});
+  note("disconnect", {{"client", std::to_string(id)}, {"reason", reason}});
 }
 
 void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now, UnixMicros wall) {
@@ -159,7 +158,7 @@ void ReplicationCore::receive(ClientId id, const wire::Message& m, CoreTime now,
       on_stamp_image(c, std::get<wire::StampImageRequest>(m));
       return;
     case wire::MessageType::kError:
-      log_event("client_error", {{"client", std::to_string(id)}, {"text", std::get<wire::ErrorMsg>(m).text}});
+      note("client_error", {{"client", std::to_string(id)}, {"text", std::get<wire::ErrorMsg>(m).text}});
       return;
     case wire::MessageType::kPong: return;
     case wire::MessageType::kStatsRequest:
@@ -204,36 +203,36 @@ void ReplicationCore::reload_tokens() {
   auto access = load_access_tokens(config_);
   if (!access) {
     // The tokens in force stay: a half-written secret must not lock everyone out.
-    log_event("tokens_reload_failed", {{"error", access.error().describe()}});
+    note("tokens_reload_failed", {{"error", access.error().describe()}});
     return;
   }
   access_ = std::move(*access);
   warn_if_tokens_file_exposed();
-  log_event("tokens_reloaded", {{"access", access_.required() ? "tokens" : "open"},
-                                {"editor_tokens", std::to_string(access_.editors.size())},
-                                {"viewer_tokens", std::to_string(access_.viewers.size())}});
+  note("tokens_reloaded", {{"access", access_.required() ? "tokens" : "open"},
+                           {"editor_tokens", std::to_string(access_.editors.size())},
+                           {"viewer_tokens", std::to_string(access_.viewers.size())}});
 }
 
 void ReplicationCore::warn_if_tokens_file_exposed() {
   if (config_.tokens_file.empty()) return;
   if (const auto mode = tokens_file_exposure(config_.tokens_file)) {
-    log_event("warning", {{"tokens_file", config_.tokens_file},
-                          {"mode", *mode},
-                          {"what", "the tokens file is readable by its group or others: chmod 600 it"}});
+    note("warning", {{"tokens_file", config_.tokens_file},
+                     {"mode", *mode},
+                     {"what", "the tokens file is readable by its group or others: chmod 600 it"}});
   }
 }
 
 void ReplicationCore::shutdown(const std::string& reason, CoreTime now, UnixMicros wall) {
   if (stopping_) return;
   stopping_ = true;
-  log_event("shutdown", {{"reason", reason}});
+  note("shutdown", {{"reason", reason}});
   if (!failed_) {
     // Stamps still queued were never acknowledged: dropping them loses nothing promised. Those
     // acknowledged are applied (their events go out before the Bye) and the snapshot holds them.
     pending_.clear();
     finish_applying();
     if (storage_.writable()) {
-      if (const Status st = storage_.sync(); !st.ok()) log_event("fatal", {{"error", st.error().describe()}});
+      if (const Status st = storage_.sync(); !st.ok()) note("fatal", {{"error", st.error().describe()}});
     }
     maybe_snapshot(now, wall, true);
   }

@@ -48,6 +48,7 @@
 #include "server/access_tokens.h"
 #include "server/apply_worker.h"
 #include "server/counters.h"
+#include "server/event_log.h"
 #include "server/metrics.h"
 #include "server/replication/client_tiles.h"
 #include "server/replication/core_time.h"
@@ -63,10 +64,18 @@ namespace loam::server {
 
 using ClientId = uint32_t;
 
+// A line for the server's log (event_log.h). The transport writes it: a line's time and its
+// rate limit are the writer's clock, and the core reads none.
+struct CoreLogLine {
+  const char* event = "";
+  std::vector<Field> fields;
+};
+
 // What the transport must do after a call into the core.
 struct CoreOutput {
   std::vector<std::pair<ClientId, FramePtr>> frames;     // write, in this order per client
   std::vector<std::pair<ClientId, std::string>> closes;  // stop reading; close once flushed
+  std::vector<CoreLogLine> log;                          // write to the log, in this order
 };
 
 class ReplicationCore {
@@ -132,6 +141,8 @@ class ReplicationCore {
   void report_stats(CoreTime now);
 
   CoreOutput take_output() { return std::exchange(out_, {}); }
+  // The log lines alone (a transport writing them where it sends nothing).
+  std::vector<CoreLogLine> take_log() { return std::exchange(out_.log, {}); }
   const ServerStats& stats() const { return stats_; }
   const RegionFrameCounters& region_counters() const { return frames_.counters(); }
   const TileHistory& tile_history() const { return history_; }
@@ -183,6 +194,9 @@ class ReplicationCore {
     uint64_t key = 0;   // the sender's resume key (0: none)
   };
 
+  // A line for the log, handed to the transport with the output.
+  void note(const char* event, std::initializer_list<Field> fields) { out_.log.push_back({event, fields}); }
+  void note(const char* event, std::vector<Field> fields) { out_.log.push_back({event, std::move(fields)}); }
   void send(Client& c, const wire::Message& m);
   void send_frame(ClientId id, FramePtr frame);
   void violation(Client& c, wire::WireErrorCode code, const std::string& field, const std::string& text);

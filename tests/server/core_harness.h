@@ -96,7 +96,9 @@ class CoreHarness {
     TickHooks with_acks = hooks();
     with_acks.acks_ready = [&] {
       early.applied_seq = core_->terrain().last_seq();
-      for (const auto& [id, frame] : core_->take_output().frames) {
+      CoreOutput out = core_->take_output();
+      for (const CoreLogLine& l : out.log) log_event(l.event, l.fields);
+      for (const auto& [id, frame] : out.frames) {
         wire::FrameAssembler a(wire::kAbsoluteMaxFrameBytes);
         a.feed(*frame);
         auto m = a.next_message();
@@ -158,6 +160,7 @@ class CoreHarness {
  private:
   void collect() {
     CoreOutput out = core_->take_output();
+    for (const CoreLogLine& l : out.log) log_event(l.event, l.fields);
     for (const auto& [id, frame] : out.frames) {
       wire::FrameAssembler a(wire::kAbsoluteMaxFrameBytes);
       a.feed(*frame);

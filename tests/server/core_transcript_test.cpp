@@ -118,7 +118,9 @@ class Transcript {
   // As the transport reports: its largest send queue, then the stats line or the metrics.
   void report_stats(uint64_t max_queue_bytes) {
     counters_.max_queue_bytes = max_queue_bytes;
+    flush_suppressed_log_lines();
     core_->report_stats(now_);
+    collect();
   }
   std::string metrics_text(uint64_t max_queue_bytes) {
     counters_.max_queue_bytes = max_queue_bytes;
@@ -183,6 +185,7 @@ class Transcript {
     run_tick(*core_, now_, kWall, hooks);
     collect();
     core_->record_tick({.total_ms = tick_ms});
+    collect();
     std::string due;
     for (ClientId id = 1; id < 64; ++id) {
       if (const ClientTiles* t = core_->tiles_of(id))
@@ -226,8 +229,10 @@ class Transcript {
     return sub;
   }
 
+  // As the transport does: the frames, the closes, and the core's log lines written.
   void collect() {
     CoreOutput out = core_->take_output();
+    for (const CoreLogLine& l : out.log) log_event(l.event, l.fields);
     for (const auto& [id, frame] : out.frames) {
       wire::FrameAssembler a(wire::kAbsoluteMaxFrameBytes);
       a.feed(*frame);
@@ -404,6 +409,7 @@ std::vector<std::string> run_script() {
   s.stream_error(b);
   s.timed_out(h, false);
   s.core().reload_tokens();
+  s.collect();
   s.tick(tick, 4.0);
 
   s.step("metrics");
