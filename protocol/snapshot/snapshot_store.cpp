@@ -442,7 +442,6 @@ struct SnapshotJob {
   SnapshotWrite report;
   uint64_t tiles_file_bytes = 0;
   std::set<uint64_t> named;
-  std::chrono::steady_clock::time_point started;
 };
 
 SnapshotJobHandle::SnapshotJobHandle(std::unique_ptr<SnapshotJob> job) : job_(std::move(job)) {}
@@ -459,7 +458,6 @@ SnapshotJobHandle::~SnapshotJobHandle() {
 SnapshotJobHandle SnapshotStore::begin(const World& world, uint64_t last_seq, uint32_t next_segment_index,
                                        const TextureRegistry& textures, const SnapshotSession& session) {
   auto job = std::make_unique<SnapshotJob>();
-  job->started = std::chrono::steady_clock::now();
   job->data_dir = data_dir_;
   job->file = next_file_++;
   job->report.last_seq = last_seq;
@@ -733,6 +731,7 @@ Result<Published> publish_index_and_manifest(SnapshotJob& job, const std::string
 
 Status SnapshotStore::run(SnapshotJobHandle& handle) {
   SnapshotJob& job = *handle.job_;
+  const auto started = std::chrono::steady_clock::now();
   const std::string dir = snapshot_tiles_dir(job.data_dir);
   std::error_code ec;
   fs::create_directories(dir, ec);
@@ -754,6 +753,7 @@ Status SnapshotStore::run(SnapshotJobHandle& handle) {
   report.index_bytes = published->index_bytes;
   report.index_entries = published->index_entries;
   report.written_bytes = job.tiles_file_bytes + published->index_bytes + published->manifest_bytes;
+  report.seconds = seconds_since(started);
   return {};
 }
 
@@ -770,7 +770,6 @@ Result<SnapshotWrite> SnapshotStore::finish(World& world, SnapshotJobHandle hand
   world.set_edit_source(shared_from_this());
   // Tiles changed since begin() have a newer version and stay dirty.
   for (const auto& [c, version] : job.persisted) world.mark_persisted(c, version);
-  job.report.seconds = seconds_since(job.started);
   return job.report;
 }
 

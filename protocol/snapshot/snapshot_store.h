@@ -74,7 +74,7 @@ struct SnapshotWrite {
   uint64_t index_bytes = 0;
   uint64_t written_bytes = 0;  // everything: tiles file, index, manifest
   size_t index_entries = 0;
-  double seconds = 0;
+  double seconds = 0;  // the write on the worker (run), by its own clock: begin and finish read none
 };
 
 struct RetentionPolicy {
