@@ -281,7 +281,11 @@ TEST(ConfigValidation, RenderRefusesACameraPathLineAtItsLookPoint) {
 TEST(ConfigValidation, ViewRefusesNanViewDistanceAndPortZero) {
   const Ran d = run({LOAM_CLIENT_BINARY, "view", "--headless", "--view-distance", "nan"});
   EXPECT_NE(d.exit_code, 0);
-  EXPECT_TRUE(mentions(d, "--view-distance: must be a finite number in (0, 10000000], got nan")) << d.output;
+  // 0 is the world's own view distance (render/start_view.h); NaN and negatives are refused.
+  EXPECT_TRUE(mentions(d, "--view-distance: must be a finite number in [0, 10000000], got nan")) << d.output;
+  const Ran n = run({LOAM_CLIENT_BINARY, "view", "--headless", "--view-distance", "-1"});
+  EXPECT_NE(n.exit_code, 0);
+  EXPECT_TRUE(mentions(n, "--view-distance: must be a finite number in [0, 10000000], got -1")) << n.output;
   const Ran p = run({LOAM_CLIENT_BINARY, "view", "--headless", "--port", "0"});
   EXPECT_NE(p.exit_code, 0);
   EXPECT_TRUE(mentions(p, "--port: must be an integer in 1..65535, got 0")) << p.output;
