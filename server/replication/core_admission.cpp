@@ -57,8 +57,13 @@ ClientId ReplicationCore::connect(const std::string& peer, CoreTime now) {
 void ReplicationCore::stream_error(ClientId id, const Error& e) {
   const auto it = clients_.find(id);
   if (it == clients_.end()) return;
-  // The stream cannot be trusted to be in sync any more: Error, Bye, close.
-  fatal(it->second, wire::to_wire(e.code), e.field, e.describe(), wire::ByeReason::kProtocolError);
+  // The stream cannot be trusted to be in sync any more: Error, Bye, close. A Hello of another
+  // major version is refused by its decoder (the rest of its layout may differ): the peer is
+  // told version_mismatch, which it can act on (upgrade), not protocol_error.
+  const bool version = it->second.state == Client::State::kHandshake && e.code == ErrorCode::kUnsupported &&
+                       e.field == "hello.version_major";
+  fatal(it->second, wire::to_wire(e.code), e.field, e.describe(),
+        version ? wire::ByeReason::kVersionMismatch : wire::ByeReason::kProtocolError);
 }
 
 void ReplicationCore::timed_out(ClientId id, bool in_handshake) {
@@ -106,6 +111,8 @@ bool ReplicationCore::admit_request(Client& c, wire::MessageType type, CoreTime 
 }
 
 void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
+  // From a socket, another major version never gets here: the Hello's decoder refuses it
+  // (stream_error). A caller handing the core a decoded Hello is answered the same way.
   if (h.version_major != wire::kProtocolMajor) {
     note("reject", {{"client", std::to_string(c.id)},
                     {"reason", "version"},

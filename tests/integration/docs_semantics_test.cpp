@@ -109,7 +109,7 @@ TEST(DocsSemantics, AStampThatChangesNothingIsAckedWithASequenceAndSendsNoEventT
   for (const TileCoord& t : tiles) EXPECT_EQ(replayed.tile_state(t).version, 0u) << to_string(t);
 }
 
-TEST(DocsSemantics, AnotherMajorVersionGetsErrorUnsupportedThenByeProtocolError) {
+TEST(DocsSemantics, AnotherMajorVersionGetsErrorUnsupportedThenByeVersionMismatch) {
   ServerProcess server;
   ASSERT_TRUE(server.start(temp_data_dir("version"))) << server.log();
   client::Connection c;
@@ -127,8 +127,9 @@ TEST(DocsSemantics, AnotherMajorVersionGetsErrorUnsupportedThenByeProtocolError)
   const auto* bye = std::get_if<wire::Bye>(&rest.back());
   ASSERT_NE(bye, nullptr) << "the last message is not a Bye";
   // The wire decoder refuses the Hello before the session logic sees it (docs/protocol.md,
-  // "Handshake and versions"): every undecodable frame ends with protocol_error.
-  EXPECT_EQ(bye->reason, wire::ByeReason::kProtocolError);
+  // "Handshake and versions"); the Bye says why, so the peer knows to upgrade. (It said
+  // protocol_error before, as for any undecodable frame.)
+  EXPECT_EQ(bye->reason, wire::ByeReason::kVersionMismatch);
   const std::string ours = std::to_string(wire::kProtocolMajor) + "." + std::to_string(wire::kProtocolMinor);
   EXPECT_NE(bye->text.find("peer speaks protocol " + std::to_string(wire::kProtocolMajor - 1) + ".0"),
             std::string::npos)
