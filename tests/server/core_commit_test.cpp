@@ -10,6 +10,21 @@ using core_test::CoreHarness;
 using core_test::encoding_of;
 using core_test::Received;
 
+// A detail-layer shockwave over much of the detail area, 256 steps: far longer to apply than
+// a tick.
+Result<QuantizedStamp> heavy_detail_shockwave(CoreHarness& h) {
+  const WorldParams& w = h.core().terrain().world().params();
+  const RectI d = w.detail_sample_rect();
+  StampParams heavy;
+  heavy.kind = StampKind::kShockwave;
+  heavy.layer = Layer::kDetail;
+  heavy.center_x = double(d.x0 + d.x1) / 2 * w.detail_meters_per_sample();
+  heavy.center_y = double(d.y0 + d.y1) / 2 * w.detail_meters_per_sample();
+  heavy.radius = 400 * w.detail_meters_per_sample();
+  heavy.intensity = 0.5, heavy.speed = 0.5, heavy.damping = 0.01, heavy.steps = 256;
+  return validate_stamp(heavy, w, h.core().terrain().limits());
+}
+
 TEST(ReplicationCore, ClientsInSyncAtEveryMipGetTheEventAndNoRegionForPerSampleStamps) {
   CoreHarness h;
   const auto [a, b] = h.two_players_in_sync();
@@ -66,16 +81,7 @@ TEST(ReplicationCore, AStampStillApplyingHoldsNoAckOfTheNextTickAndEventsFollowI
   const auto [a, b] = h.two_players_in_sync();
   // A detail-layer shockwave over much of the detail area, 256 steps: far longer to
   // apply than a tick.
-  const WorldParams& w = h.core().terrain().world().params();
-  const RectI d = w.detail_sample_rect();
-  StampParams heavy;
-  heavy.kind = StampKind::kShockwave;
-  heavy.layer = Layer::kDetail;
-  heavy.center_x = double(d.x0 + d.x1) / 2 * w.detail_meters_per_sample();
-  heavy.center_y = double(d.y0 + d.y1) / 2 * w.detail_meters_per_sample();
-  heavy.radius = 400 * w.detail_meters_per_sample();
-  heavy.intensity = 0.5, heavy.speed = 0.5, heavy.damping = 0.01, heavy.steps = 256;
-  auto q = validate_stamp(heavy, w, h.core().terrain().limits());
+  const auto q = heavy_detail_shockwave(h);
   ASSERT_TRUE(q.ok()) << q.error().describe();
   h.send(a, wire::Deform{1, *q});
   h.tick();
@@ -113,17 +119,9 @@ TEST(ReplicationCore, ATickWaitingForItsApplyNamesTheWorkerAndStreamsOnlyOnceThe
   config.max_stamp_cost = config.stamp_cost_per_second = 1ull << 40;
   CoreHarness h(config);
   const auto [a, b] = h.two_players_in_sync();
-  // A detail shockwave over much of the detail area, 256 steps: far longer than a tick.
-  const WorldParams& w = h.core().terrain().world().params();
-  const RectI d = w.detail_sample_rect();
-  StampParams heavy;
-  heavy.kind = StampKind::kShockwave;
-  heavy.layer = Layer::kDetail;
-  heavy.center_x = double(d.x0 + d.x1) / 2 * w.detail_meters_per_sample();
-  heavy.center_y = double(d.y0 + d.y1) / 2 * w.detail_meters_per_sample();
-  heavy.radius = 400 * w.detail_meters_per_sample();
-  heavy.intensity = 0.5, heavy.speed = 0.5, heavy.damping = 0.01, heavy.steps = 256;
-  auto q = validate_stamp(heavy, w, h.core().terrain().limits());
+  // A detail-layer shockwave over much of the detail area, 256 steps: far longer to
+  // apply than a tick.
+  const auto q = heavy_detail_shockwave(h);
   ASSERT_TRUE(q.ok()) << q.error().describe();
   h.send(a, wire::Deform{1, *q});
   TickHooks hooks;
