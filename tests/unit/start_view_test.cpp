@@ -15,13 +15,11 @@ namespace loam::render {
 namespace {
 
 WorldParams world(double mps, int32_t tiles_x, int32_t tiles_y, int32_t origin_x = 0, int32_t origin_y = 0) {
-  WorldParams p;
-  p.meters_per_sample = mps;
-  p.tiles_x = tiles_x;
-  p.tiles_y = tiles_y;
-  p.origin_tile_x = origin_x;
-  p.origin_tile_y = origin_y;
-  return p;
+  return {.meters_per_sample = mps,
+          .origin_tile_x = origin_x,
+          .origin_tile_y = origin_y,
+          .tiles_x = tiles_x,
+          .tiles_y = tiles_y};
 }
 
 bool inside(const WorldParams& p, double x, double y) {
