@@ -1,7 +1,7 @@
-// The commit pipeline, part of ReplicationCore: a tick's stamps sequenced and logged, one sync
-// (the durability point), their acks, the apply on the worker in sequence order, and once
-// applied the history and the events fanned out (one encoding for all). run_tick is the order
-// of a tick's phases.
+// The commit pipeline, part of ReplicationCore: the tick's phases around CommitPipeline
+// (commit_pipeline.h): its acks and refusals sent, the storage retried after a failed sync, and
+// once applied the history and the events fanned out (one encoding for all). run_tick is the
+// order of a tick's phases.
 #include "server/replication/core_detail.h"
 #include "server/replication/replication_core.h"
 
@@ -10,57 +10,28 @@ namespace loam::server {
 using namespace core_detail;
 
 void ReplicationCore::acknowledge(const PendingDeform& p, std::optional<uint64_t> seq) {
-  wire::DeformAck ack;
-  ack.client_seq = p.client_seq;
-  ack.accepted = seq.has_value();
-  if (seq) {
-    ack.global_seq = *seq;
-  } else {
-    ack.reject_code = wire::WireErrorCode::kIo;
-    ack.field = "storage.unavailable";
-  }
-  if (p.key != 0) ledger_.answered(p.key, ack);
-  // The sender, or the newest connection of its resume key when it has reconnected since.
-  ClientId to = p.client;
-  if (p.key != 0) {
-    if (const auto k = key_owner_.find(p.key); k != key_owner_.end()) to = k->second;
-  }
-  const auto it = clients_.find(to);
+  const CommitPipeline::Answer a = commits_.answer(p, seq);
+  const auto it = clients_.find(a.to);
   if (it == clients_.end()) return;
   Client& c = it->second;
-  if (to == p.client && c.unacked > 0) --c.unacked;  // its slot; a new connection never took one
-  send(c, ack);
+  if (a.to == p.client) Admission::acknowledged(c.allowance);  // a new connection never took a slot
+  send(c, a.ack);
 }
 
 bool ReplicationCore::begin_tick(CoreTime now) {
   if (stopping_ || failed_) return false;
   ++tick_;
-  // This tick's stamps, in order, up to the tick's cost budget (at least one): the rest wait,
-  // and all wait while a tick's worth is already sequenced and waiting for the apply worker.
-  size_t n = 0;
-  uint64_t spent = 0;
-  while (n < pending_.size() && to_apply_cost_ < config_.tick_stamp_cost &&
-         (n == 0 || spent + pending_[n].cost <= config_.tick_stamp_cost))
-    spent += pending_[n++].cost;
-  committing_.assign(std::make_move_iterator(pending_.begin()),
-                     std::make_move_iterator(pending_.begin() + ptrdiff_t(n)));
-  pending_.erase(pending_.begin(), pending_.begin() + ptrdiff_t(n));
-  last_batch_ = committing_.size();
+  last_batch_ = commits_.take_tick(config_.tick_stamp_cost);
   tick_start_counters_ = world_counters_;
   tick_base_tiles_read_ = tick_edited_tiles_loaded_ = 0;
   if (!storage_.writable()) try_resume_storage(now);
-  if (committing_.empty() || !storage_.writable()) return true;
+  if (commits_.committing().empty() || !storage_.writable()) return true;
   // 1. Sequence and log the whole tick (commit() syncs it once: the durability point).
-  uint64_t seq = sequenced_seq_;
-  for (const PendingDeform& p : committing_) {
-    const Status st = storage_.append({++seq, tick_, p.client, p.stamp});
-    if (!st.ok()) {  // a broken invariant (sequence or tick), not the disk
-      note("fatal", {{"error", st.error().describe()}});
-      failed_ = true;
-      committing_.clear();
-      shutdown("log append failed", now, 0);
-      return false;
-    }
+  if (const Status st = commits_.log(storage_, tick_); !st.ok()) {
+    note("fatal", {{"error", st.error().describe()}});
+    failed_ = true;
+    shutdown("log append failed", now, 0);
+    return false;
   }
   return true;
 }
@@ -74,51 +45,34 @@ void ReplicationCore::refuse(const std::vector<PendingDeform>& batch) {
 }
 
 bool ReplicationCore::commit(CoreTime now) {
-  if (committing_.empty() || failed_) return false;
-  const std::vector<PendingDeform> batch = std::exchange(committing_, {});
-  if (!storage_.writable()) {
-    refuse(batch);
-    return false;
-  }
-  if (const Status st = storage_.sync(); !st.ok()) {
-    // A full disk or an I/O error: nothing of this tick is durable (the writer cut the file
-    // back), so nothing of it is applied or acknowledged. The server keeps serving reads and
-    // hashes, refuses edits, and retries the log with a growing interval.
-    note("storage_unavailable",
-         {{"error", st.error().describe()}, {"refused", std::to_string(batch.size())}});
-    ++stats_.storage_failures;
-    resume_backoff_s_ = kResumeBackoffMinS;
-    next_resume_try_ = now + after(resume_backoff_s_);
-    refuse(batch);
+  if (commits_.committing().empty() || failed_) return false;
+  const CommitPipeline::Commit done = commits_.commit(storage_);
+  if (!done.first_seq) {
+    if (done.sync_error) {
+      // A full disk or an I/O error: nothing of this tick is durable, so nothing of it is
+      // applied or acknowledged. The server keeps serving reads and hashes, refuses edits, and
+      // retries the log with a growing interval.
+      note("storage_unavailable",
+           {{"error", done.sync_error->describe()}, {"refused", std::to_string(done.batch.size())}});
+      ++stats_.storage_failures;
+      storage_retry_.sync_failed(now);
+    }
+    refuse(done.batch);
     return false;
   }
   // 2. Acknowledge: durable and sequenced is what an ack promises, so the acks leave now,
   // before the tick's stamps are applied (a costly one delays only the events and regions).
-  for (const PendingDeform& p : batch) {
+  uint64_t seq = *done.first_seq;
+  for (const PendingDeform& p : done.batch) {
     ++stats_.deforms_accepted;
-    acknowledge(p, ++sequenced_seq_);
-    to_apply_.push_back({sequenced_seq_, p.client, p.stamp});
-    to_apply_cost_ += p.cost;
+    acknowledge(p, seq++);
   }
   return true;
 }
 
-bool ReplicationCore::advance_apply() {
-  while (true) {
-    if (applier_->busy()) {
-      auto done = applier_->take();
-      if (!done) return false;
-      publish(std::move(*done));
-    }
-    if (to_apply_.empty()) return true;
-    applier_->start(std::exchange(to_apply_, {}));
-    to_apply_cost_ = 0;
-  }
-}
+bool ReplicationCore::advance_apply() { return commits_.advance(publisher()); }
 
-void ReplicationCore::finish_applying() {
-  while (!advance_apply()) applier_->wait();
-}
+void ReplicationCore::finish_applying() { commits_.finish(publisher()); }
 
 bool run_tick(ReplicationCore& core, CoreTime now, UnixMicros wall, const TickHooks& hooks) {
   const auto done = [&](TickPhase p) {
@@ -153,7 +107,6 @@ bool run_tick(ReplicationCore& core, CoreTime now, UnixMicros wall, const TickHo
 // client), the plans.
 void ReplicationCore::publish(std::vector<ApplyWorker::Output> applied) {
   for (ApplyWorker::Output& o : applied) {
-    published_seq_ = o.seq;
     for (const Error& e : o.backend_failures)
       note("backend_error", {{"seq", std::to_string(o.seq)}, {"error", e.describe()}, {"fallback", "cpu"}});
     if (!o.applied) {

@@ -1,8 +1,7 @@
 // Helpers shared by the files of ReplicationCore (replication_core.cpp and core_*.cpp):
-// frame encoding and the time arithmetic on the time the core is given. Private to them.
+// frame encoding. Private to them.
 #pragma once
 
-#include <chrono>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -16,11 +15,6 @@ struct CoreOutput;
 }  // namespace loam::server
 
 namespace loam::server::core_detail {
-
-inline double seconds(CoreDuration d) { return std::chrono::duration<double>(d).count(); }
-inline CoreDuration after(double s) {
-  return std::chrono::duration_cast<CoreDuration>(std::chrono::duration<double>(s));
-}
 
 // One message as a frame shared by every client it goes to; null when it cannot be encoded
 // (the error goes to `out`'s log).

@@ -62,11 +62,11 @@ MetricsSnapshot ReplicationCore::metrics() const {
 #undef LOAM_COUNTER_COPY_state
   m.deforms_rejected_by = stats_.deforms_rejected_by;
   // The rows read from the core's state.
-  m.sessions = sessions_;
-  m.handshakes = handshakes_;
+  m.sessions = admission_.sessions();
+  m.handshakes = admission_.handshakes();
   m.clients = clients_.size();
-  m.seq = published_seq_;
-  const RegionFrameCounters& rc = frames_.counters();
+  m.seq = commits_.published_seq();
+  const RegionFrameCounters& rc = streamer_.frames().counters();
   m.region_encodes = rc.encodes;
   m.region_cache_hits = rc.hits;
   m.region_deltas = rc.delta_encodes;
@@ -87,8 +87,8 @@ MetricsSnapshot ReplicationCore::metrics() const {
   }
   m.snapshot_store_bytes = storage_.store().file_bytes();
   m.snapshot_live_bytes = storage_.store().live_bytes();
-  m.pending_deforms = pending_.size();
-  for (const PendingDeform& p : pending_) m.pending_stamp_cost += p.cost;
+  m.pending_deforms = commits_.queued().size();
+  for (const PendingDeform& p : commits_.queued()) m.pending_stamp_cost += p.cost;
   m.snapshot_sequence = storage_.last_snapshot_seq();
   m.ticks = ticks_;
   return m;

@@ -1,22 +1,15 @@
 // Streaming, part of ReplicationCore: subscriptions (deferred while an apply runs), and each
-// tick with the world free the regions due under each client's byte budget (coarsest mip
-// first, nearest its focus, encoded once for all) and the TileHashes rounds.
+// tick with the world free a bulk round (region_streamer.h) and a TileHashes round
+// (tile_hash_round.h) over the clients in session.
 #include <algorithm>
 
 #include "server/replication/core_detail.h"
 #include "server/replication/replication_core.h"
+#include "server/replication/tile_hash_round.h"
 
 namespace loam::server {
 
 using namespace core_detail;
-
-namespace {
-
-// Untouched tiles a hashes round may generate (or read from a pack) to hash them: about 4 ms
-// of refinement. A roaming client's new tiles would otherwise all be made in one tick.
-constexpr uint32_t kHashBaseReadsPerRound = 16;
-
-}  // namespace
 
 bool ReplicationCore::valid_tile(const TileCoord& t) const {
   const WorldParams& p = terrain_.world().params();
@@ -25,7 +18,7 @@ bool ReplicationCore::valid_tile(const TileCoord& t) const {
 }
 
 void ReplicationCore::receive_subscription(Client& c, const wire::Message& m) {
-  if (applier_->busy() || !deferred_subscriptions_.empty()) {
+  if (commits_.busy() || !deferred_subscriptions_.empty()) {
     deferred_subscriptions_.emplace_back(c.id, m);
     return;
   }
@@ -82,89 +75,31 @@ void ReplicationCore::on_subscribe(Client& c, const wire::Subscribe& sub) {
 void ReplicationCore::stream(CoreTime now, const std::function<uint64_t(ClientId)>& unsent) {
   if (stopping_ || failed_) return;
   run_deferred_subscriptions();
-  frames_.adopt_best();
+  streamer_.frames().adopt_best();
   stream_regions(now, unsent);
-  if (config_.hashes_every_ticks > 0 && tick_ % config_.hashes_every_ticks == 0) {
-    uint32_t base_reads_left = kHashBaseReadsPerRound;
-    std::vector<TileCoord> later;
-    for (auto& [id, c] : clients_) {
-      if (c.state == Client::State::kReady && c.tiles.size() != 0) send_hashes(c, base_reads_left, later);
-    }
-    if (prefetch_ && !later.empty()) prefetch_->prefetch(later);
-  }
+  if (config_.hashes_every_ticks > 0 && tick_ % config_.hashes_every_ticks == 0) send_hashes();
 }
 
 void ReplicationCore::stream_regions(CoreTime now, const std::function<uint64_t(ClientId)>& unsent) {
-  // Every client's turn in a rotating order; within a client, its due tiles in order, while
-  // its byte budget has credit. Encodes (cache misses) are bounded per tick for everyone.
-  std::vector<ClientId> order;
+  std::vector<BulkClient> ready;
   for (auto& [id, c] : clients_) {
-    if (c.state == Client::State::kReady) order.push_back(id);
+    if (c.state == Client::State::kReady) ready.push_back({id, &c.tiles, &c.credit});
   }
-  if (order.empty()) return;
-  std::rotate(order.begin(), order.begin() + ptrdiff_t(stream_cursor_ % order.size()), order.end());
-  ++stream_cursor_;
-  const double budget = double(config_.client_bytes_per_second);
-  uint32_t encodes_left = config_.max_encodes_per_tick;
-  for (const ClientId id : order) {
-    Client& c = clients_.at(id);
-    c.credit.refill(now);
-    if (c.tiles.due_count() == 0) continue;
-    // A client that does not read gets no more bulk: only what must go.
-    const uint64_t queued = unsent ? unsent(id) : 0;
-    if (budget > 0 && double(queued) > budget) continue;
-    for (const TileCoord& t : c.tiles.due_in_order()) {
-      if (budget > 0 && c.credit.level() <= 0) break;
-      const RegionNeed need = c.tiles.need(
-          t, [&](const TileCoord& tile, uint64_t held) { return history_.can_rebuild(tile, held); });
-      Frames frames;
-      if (encodes_left == 0) {
-        // Out of encodes this tick: only what the cache already holds may still go.
-        frames = frames_.cached(terrain_.world(), t, need.base, need.rect);
-        if (frames.empty()) break;
-      } else {
-        bool encoded = false;
-        auto got = frames_.get(terrain_.world(), &history_, t, need.base, need.rect, &encoded);
-        if (encoded) --encodes_left;
-        if (!got) {
-          note("encode_error", {{"tile", to_string(t)}, {"error", got.error().describe()}});
-          c.tiles.unsubscribe(t);  // cannot be served: stop planning it rather than retry forever
-          continue;
-        }
-        frames = std::move(*got);
-      }
-      for (const FramePtr& f : frames) {
-        send_frame(id, f);
-        c.credit.spend(double(f->size()));
-      }
-      c.tiles.mark_sent(t, terrain_.world().tile_state(t).version);
-      ++stats_.regions_sent;
-      if (need.base) ++stats_.partial_regions_sent;
-    }
-  }
+  const BulkRound round = streamer_.stream(ready, terrain_.world(), history_, now, unsent,
+                                           [&](ClientId id, FramePtr f) { send_frame(id, std::move(f)); });
+  for (const auto& [tile, error] : round.failed)
+    note("encode_error", {{"tile", to_string(tile)}, {"error", error.describe()}});
+  stats_.regions_sent += round.regions;
+  stats_.partial_regions_sent += round.partial_regions;
 }
 
-void ReplicationCore::send_hashes(Client& c, uint32_t& base_reads_left, std::vector<TileCoord>& later) {
-  wire::TileHashes msg;
-  for (const auto& [t, interest] : c.tiles.tiles()) {
-    // An untouched tile whose hash is not known costs a generation or a pack read: the round
-    // makes a few, and the rest are made ahead and hashed in a later round.
-    std::optional<TileState> st = terrain_.world().known_tile_state(t);
-    if (!st) {
-      if (base_reads_left == 0) {
-        later.push_back(t);
-        continue;
-      }
-      --base_reads_left;
-      st = terrain_.world().tile_state(t);
-    }
-    msg.entries.push_back({t, st->version, st->hash});
-    if (msg.entries.size() == wire::kMaxTileHashEntries) {
-      send(c, msg);
-      msg.entries.clear();
-    }
+void ReplicationCore::send_hashes() {
+  TileHashRound round;
+  for (auto& [id, c] : clients_) {
+    if (c.state != Client::State::kReady || c.tiles.size() == 0) continue;
+    for (const wire::TileHashes& msg : round.hashes(c.tiles, terrain_.world())) send(c, msg);
   }
-  if (!msg.entries.empty()) send(c, msg);
+  if (prefetch_ && !round.later().empty()) prefetch_->prefetch(round.later());
 }
 
 }  // namespace loam::server

@@ -25,33 +25,40 @@ FramePtr core_detail::encode(const wire::Message& m, CoreOutput& out) {
 
 using namespace core_detail;
 
+namespace {
+
+// serve() reports bad tokens before the core is made; a caller that did not is failed closed.
+AccessTokens access_or_none(const ServerConfig& config) {
+  auto access = load_access_tokens(config);
+  if (access) return std::move(*access);
+  AccessTokens none;
+  none.deny_all = true;
+  return none;
+}
+
+}  // namespace
+
 ReplicationCore::ReplicationCore(ServerConfig config, OpenedStorage opened, CoreTime now,
                                  const TransportCounters* transport)
     : config_(std::move(config)),
       storage_(std::move(opened.storage)),
       terrain_(std::move(opened.terrain)),
-      frames_(config_.region_cache_bytes, config_.best_after_uses),
+      admission_(config_, access_or_none(config_)),
+      commits_(terrain_, config_.history_bytes / 8),
+      streamer_(config_),
+      snapshots_(config_, now),
       history_(config_.history_changes_per_tile, config_.history_tiles, config_.history_bytes),
       transport_(transport ? transport : &no_transport_),
-      started_(now),
-      last_snapshot_time_(now) {
+      started_(now) {
   // Ticks continue the log's: its writer refuses a tick that goes backwards, and a restarted
   // server must be able to log at once.
   tick_ = storage_.last_tick();
-  // serve() reports bad tokens before it gets here; a caller that did not is failed closed.
-  auto access = load_access_tokens(config_);
-  if (access)
-    access_ = std::move(*access);
-  else
-    access_.deny_all = true;
   // A base that costs something to read (a refined source, a pack) gets a worker that makes
   // the tiles admitted stamps and new subscriptions will read before the tick reads them.
   if (config_.prefetch_tiles > 0 && !terrain_.world().base().uniform()) {
     prefetch_ = std::make_shared<PrefetchingBase>(terrain_.world().base_ptr(), config_.prefetch_tiles);
     terrain_.mutable_world().replace_base(prefetch_);
   }
-  sequenced_seq_ = published_seq_ = terrain_.last_seq();
-  applier_ = std::make_unique<ApplyWorker>(terrain_, config_.history_bytes / 8);
   refresh_world_counters();
 }
 
@@ -101,15 +108,8 @@ void ReplicationCore::fatal(Client& c, wire::WireErrorCode code, const std::stri
 bool ReplicationCore::erase_client(ClientId id) {
   const auto it = clients_.find(id);
   if (it == clients_.end()) return false;
-  if (const auto k = key_owner_.find(it->second.resume_key); k != key_owner_.end() && k->second == id)
-    key_owner_.erase(k);
-  if (it->second.state == Client::State::kHandshake) {
-    --handshakes_;
-    const auto a = handshakes_by_address_.find(it->second.address);
-    if (a != handshakes_by_address_.end() && --a->second == 0) handshakes_by_address_.erase(a);
-  } else {
-    --sessions_;
-  }
+  commits_.release_key(it->second.resume_key, id);
+  admission_.leave(it->second.address, it->second.state == Client::State::kReady);
   clients_.erase(it);
   return true;
 }
@@ -206,11 +206,12 @@ void ReplicationCore::reload_tokens() {
     note("tokens_reload_failed", {{"error", access.error().describe()}});
     return;
   }
-  access_ = std::move(*access);
+  admission_.set_access(std::move(*access));
   warn_if_tokens_file_exposed();
-  note("tokens_reloaded", {{"access", access_.required() ? "tokens" : "open"},
-                           {"editor_tokens", std::to_string(access_.editors.size())},
-                           {"viewer_tokens", std::to_string(access_.viewers.size())}});
+  const AccessTokens& a = admission_.access();
+  note("tokens_reloaded", {{"access", a.required() ? "tokens" : "open"},
+                           {"editor_tokens", std::to_string(a.editors.size())},
+                           {"viewer_tokens", std::to_string(a.viewers.size())}});
 }
 
 void ReplicationCore::warn_if_tokens_file_exposed() {
@@ -229,7 +230,7 @@ void ReplicationCore::shutdown(const std::string& reason, CoreTime now, UnixMicr
   if (!failed_) {
     // Stamps still queued were never acknowledged: dropping them loses nothing promised. Those
     // acknowledged are applied (their events go out before the Bye) and the snapshot holds them.
-    pending_.clear();
+    commits_.drop_queued();
     finish_applying();
     if (storage_.writable()) {
       if (const Status st = storage_.sync(); !st.ok()) note("fatal", {{"error", st.error().describe()}});

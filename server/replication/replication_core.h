@@ -22,10 +22,14 @@
 //    tiles sent to many are re-encoded in the best mode on a worker thread;
 //  - TileHashes, snapshots, storage back-off after a failed sync, and stats.
 //
-// Its parts, one file each: admission (core_admission.cpp), the commit pipeline
-// (core_commit.cpp), streaming (core_streaming.cpp), snapshots and storage
-// (core_snapshots.cpp), reporting (core_reporting.cpp); replication_core.cpp holds the clients,
-// the output, the dispatch of messages and shutdown.
+// It composes four units, each with its own state and tests: Admission (admission.h: the
+// pools, tokens and per-client allowances), CommitPipeline (commit_pipeline.h: queue, sequence,
+// log, sync, apply, the ledger), RegionStreamer (region_streamer.h: bulk under the budgets) with
+// TileHashRound (tile_hash_round.h), and SnapshotSchedule with StorageRetry
+// (snapshot_schedule.h). The core's own files glue them to the clients and the output:
+// core_admission.cpp, core_commit.cpp, core_streaming.cpp, core_snapshots.cpp,
+// core_reporting.cpp, and replication_core.cpp (the clients, the output, the dispatch of
+// messages and shutdown).
 //
 // Time is given, never read (core_time.h): every call that needs the time takes it, the
 // transport owns every wait (the tick's wait for its apply included: the core only says what it
@@ -50,10 +54,13 @@
 #include "server/counters.h"
 #include "server/event_log.h"
 #include "server/metrics.h"
+#include "server/replication/admission.h"
 #include "server/replication/client_tiles.h"
+#include "server/replication/commit_pipeline.h"
 #include "server/replication/core_time.h"
-#include "server/replication/deform_ledger.h"
 #include "server/replication/region_frames.h"
+#include "server/replication/region_streamer.h"
+#include "server/replication/snapshot_schedule.h"
 #include "server/replication/tile_history.h"
 #include "server/replication/token_bucket.h"
 #include "server/server_config.h"
@@ -115,7 +122,7 @@ class ReplicationCore {
   //    sequenced. True once the world is free; while false, the tick waits on applying() (up to
   //    the transport's apply wait) and calls this again, or goes on without the apply.
   bool advance_apply();
-  ApplyWorker* applying() { return applier_->busy() ? applier_.get() : nullptr; }
+  ApplyWorker* applying() { return commits_.applying(); }
   // 4. With the world free: deferred subscriptions, best-mode encodes adopted, regions under
   //    each client's budget, TileHashes. `unsent(id)`: bytes queued for the client and not yet
   //    written (bulk waits while it is over the client's one-second budget: a client that does
@@ -144,12 +151,12 @@ class ReplicationCore {
   // The log lines alone (a transport writing them where it sends nothing).
   std::vector<CoreLogLine> take_log() { return std::exchange(out_.log, {}); }
   const ServerStats& stats() const { return stats_; }
-  const RegionFrameCounters& region_counters() const { return frames_.counters(); }
+  const RegionFrameCounters& region_counters() const { return streamer_.frames().counters(); }
   const TileHistory& tile_history() const { return history_; }
   // Every number the server reports (counters.h), now: /metrics, the stats line and Stats.
   MetricsSnapshot metrics() const;
   // Waits for the best-mode re-encodes running off the tick thread and adopts them (tests).
-  void finish_background_encodes() { frames_.finish_best(); }
+  void finish_background_encodes() { streamer_.frames().finish_best(); }
   bool failed() const { return failed_; }
   uint64_t tick_count() const { return tick_; }
   // The terrain; its world only while no apply runs (after tick(), or finish_applying()).
@@ -157,9 +164,9 @@ class ReplicationCore {
   // Waits for the apply in flight and applies everything sequenced (tests, shutdown).
   void finish_applying();
   // The last sequence logged and acknowledged, and the last applied with its events sent.
-  uint64_t sequenced_seq() const { return sequenced_seq_; }
-  uint64_t published_seq() const { return published_seq_; }
-  const AccessTokens& access() const { return access_; }
+  uint64_t sequenced_seq() const { return commits_.sequenced_seq(); }
+  uint64_t published_seq() const { return commits_.published_seq(); }
+  const AccessTokens& access() const { return admission_.access(); }
   const ServerConfig& config() const { return config_; }
   size_t clients() const { return clients_.size(); }
   // The core's view of a client's tiles (tests).
@@ -177,23 +184,11 @@ class ReplicationCore {
     uint64_t resume_key = 0;  // Hello's: resent Deforms are recognised by it (deform_ledger.h)
     wire::Role role = wire::Role::kPlayer;
     bool editor = true;
-    TokenBucket deforms;     // Deforms
-    TokenBucket stamp_cost;  // the sample updates of its stamps
-    uint32_t unacked = 0;    // deforms accepted into the queue, not yet acknowledged
     uint64_t violations = 0;
-    TokenBucket requests;           // Subscribe, Unsubscribe, Ping, ...
-    bool requests_refused = false;  // refused since the last one accepted: Error already sent
+    ClientAllowance allowance;  // what it may still ask (admission.h)
     ClientTiles tiles;
-    TokenBucket credit;  // bulk bytes (spent whole regions at a time: may go below zero)
+    TokenBucket credit;  // bulk bytes (region_streamer.h)
   };
-  struct PendingDeform {
-    ClientId client = 0;
-    uint32_t client_seq = 0;
-    QuantizedStamp stamp;
-    uint64_t cost = 0;  // stamp_cost
-    uint64_t key = 0;   // the sender's resume key (0: none)
-  };
-
   // A line for the log, handed to the transport with the output.
   void note(const char* event, std::initializer_list<Field> fields) { out_.log.push_back({event, fields}); }
   void note(const char* event, std::vector<Field> fields) { out_.log.push_back({event, std::move(fields)}); }
@@ -208,6 +203,7 @@ class ReplicationCore {
 
   // Takes a request token; false (the request is dropped) when the client is over its rate.
   bool admit_request(Client& c, wire::MessageType type, CoreTime now);
+  void refuse_deform(Client& c, uint32_t client_seq, const Refusal& r);
   void on_hello(Client& c, const wire::Hello& h);
   void on_subscribe(Client& c, const wire::Subscribe& sub);
   void on_deform(Client& c, const wire::Deform& d, CoreTime now);
@@ -219,6 +215,9 @@ class ReplicationCore {
   // Refuses a batch the storage cannot take: nothing of it is logged or applied.
   void refuse(const std::vector<PendingDeform>& batch);
   void publish(std::vector<ApplyWorker::Output> applied);
+  CommitPipeline::Publish publisher() {
+    return [this](std::vector<ApplyWorker::Output> applied) { publish(std::move(applied)); };
+  }
   // Subscribe and Unsubscribe read the world's tile versions: while an apply runs they wait
   // here, in order, for the world to be free.
   void receive_subscription(Client& c, const wire::Message& m);
@@ -226,8 +225,7 @@ class ReplicationCore {
   void refresh_world_counters();
   void acknowledge(const PendingDeform& p, std::optional<uint64_t> seq);
   void stream_regions(CoreTime now, const std::function<uint64_t(ClientId)>& unsent);
-  // Untouched tiles it must read to hash come out of base_reads_left; past it they go to later.
-  void send_hashes(Client& c, uint32_t& base_reads_left, std::vector<TileCoord>& later);
+  void send_hashes();
   // Logs a snapshot's outcome; a failure backs off the next try.
   void snapshot_done(const Result<SnapshotOutcome>& done, CoreTime now);
   // Queues the base tiles an admitted stamp will read, at every mip under its reach.
@@ -236,26 +234,16 @@ class ReplicationCore {
   void try_resume_storage(CoreTime now);
 
   ServerConfig config_;
-  AccessTokens access_;
   Storage storage_;
   TerrainState terrain_;
-  RegionFrames frames_;
+  Admission admission_;
+  CommitPipeline commits_;
+  RegionStreamer streamer_;
+  SnapshotSchedule snapshots_;
+  StorageRetry storage_retry_;
   TileHistory history_;
   std::shared_ptr<PrefetchingBase> prefetch_;
-  CoreTime snapshot_started_{};
   std::map<ClientId, Client> clients_;
-  // Connections still in their handshake (all, and per address) and clients in session: the
-  // pools --max-handshakes, --max-handshakes-per-address and --max-clients bound.
-  size_t handshakes_ = 0, sessions_ = 0;
-  DeformLedger ledger_{4096, 1024};
-  std::map<uint64_t, ClientId> key_owner_;  // resume key -> its newest connection
-  std::map<std::string, uint32_t> handshakes_by_address_;
-  std::vector<PendingDeform> pending_;
-  // Sequenced, logged and acknowledged, waiting for the apply worker, in order.
-  std::vector<ApplyWorker::Input> to_apply_;
-  uint64_t to_apply_cost_ = 0;
-  std::unique_ptr<ApplyWorker> applier_;
-  uint64_t sequenced_seq_ = 0, published_seq_ = 0;
   std::vector<std::pair<ClientId, wire::Message>> deferred_subscriptions_;
   // The world's counters as of the last time it was free (stats and metrics read these, never
   // the world while an apply runs).
@@ -273,18 +261,6 @@ class ReplicationCore {
   TransportCounters no_transport_;
   const TransportCounters* transport_;
   CoreTime started_;
-  CoreTime last_snapshot_time_;
-  // A failed snapshot is retried after a growing interval (a full disk).
-  static constexpr double kSnapshotBackoffMinS = 5.0, kSnapshotBackoffMaxS = 300.0;
-  double snapshot_backoff_s_ = 0;
-  CoreTime snapshot_retry_after_{};
-  // A failed log sync refuses edits; reopening is retried after a growing interval.
-  static constexpr double kResumeBackoffMinS = 0.25, kResumeBackoffMaxS = 10.0;
-  double resume_backoff_s_ = kResumeBackoffMinS;
-  CoreTime next_resume_try_{};
-  size_t stream_cursor_ = 0;  // bulk turns rotate so no client always goes first
-  // The tick being committed: logged by begin_tick, synced and acknowledged by commit.
-  std::vector<PendingDeform> committing_;
   size_t last_batch_ = 0;  // stamps in the last tick
   // The world's counters when the tick began, and the tiles the last tick had to read from the
   // base or reload from the snapshot store (logged with an overrun).
