@@ -159,30 +159,30 @@ Status ReadStream::expect_end(const char* field) const {
 
 Status MeasureStream::f64(double& v, const char* field) {
   if (!std::isfinite(v)) return not_finite_error(field);
-  bytes_ += 8;
+  record(field, 8, 0);
   return {};
 }
 
-Status MeasureStream::boolean(bool&, const char*) {
-  bytes_ += 1;
+Status MeasureStream::boolean(bool& v, const char* field) {
+  record(field, 1, v ? 1 : 0);
   return {};
 }
 
 Status MeasureStream::string(std::string& s, size_t max_bytes, const char* field) {
   if (s.size() > max_bytes) return oversize_error(field, s.size(), max_bytes);
-  bytes_ += 2 + s.size();
+  record(field, 2 + s.size(), s.size());
   return {};
 }
 
 Status MeasureStream::blob(std::vector<uint8_t>& b, uint32_t max_bytes, const char* field) {
   if (b.size() > max_bytes) return oversize_error(field, b.size(), max_bytes);
-  bytes_ += 4 + b.size();
+  record(field, 4 + b.size(), b.size());
   return {};
 }
 
 Status MeasureStream::count(uint32_t& n, uint32_t cap, size_t, const char* field) {
   if (n > cap) return oversize_error(field, n, cap);
-  bytes_ += 4;
+  record(field, 4, n);
   return {};
 }
 

@@ -93,28 +93,41 @@ class ReadStream {
   size_t pos_ = 0;
 };
 
+// One field as a message lays it out: the name a decode error gives it, where it starts, its
+// width in bytes, and for an integer its value (a count says how many elements follow).
+struct FieldSpan {
+  std::string field;
+  size_t offset = 0, width = 0;
+  uint64_t value = 0;
+};
+
+// Counts the bytes a message takes without writing them; given a `layout`, it also lists every
+// field as it goes (the layout the docs' tables are checked against).
 class MeasureStream {
  public:
   static constexpr bool kReading = false;
+  explicit MeasureStream(std::vector<FieldSpan>* layout = nullptr) : layout_(layout) {}
 
   template <typename T>
-  Status bits(T&, const char*) {
+  Status bits(T& v, const char* field) {
     static_assert(std::is_integral_v<T>);
-    bytes_ += sizeof(T);
+    record(field, sizeof(T), static_cast<uint64_t>(v));
     return {};
   }
   Status f64(double& v, const char* field);
   Status boolean(bool& v, const char* field);
-  Status varint(uint64_t& v, const char*) {
+  Status varint(uint64_t& v, const char* field) {
+    size_t n = 0;
     uint64_t x = v;
     do {
-      ++bytes_;
+      ++n;
       x >>= 7;
     } while (x != 0);
+    record(field, n, v);
     return {};
   }
-  Status bytes(uint8_t*, size_t n, const char*) {
-    bytes_ += n;
+  Status bytes(uint8_t*, size_t n, const char* field) {
+    record(field, n, 0);
     return {};
   }
   Status string(std::string& s, size_t max_bytes, const char* field);
@@ -124,7 +137,12 @@ class MeasureStream {
   size_t offset() const { return bytes_; }
 
  private:
+  void record(const char* field, size_t n, uint64_t value) {
+    if (layout_) layout_->push_back({field, bytes_, n, value});
+    bytes_ += n;
+  }
   size_t bytes_ = 0;
+  std::vector<FieldSpan>* layout_;
 };
 
 // Enumerations travel as their underlying integer; values >= count are rejected both ways.

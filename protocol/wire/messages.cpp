@@ -533,6 +533,13 @@ Result<size_t> measure_payload(const Message& m) {
   return s.offset();
 }
 
+Result<std::vector<FieldSpan>> payload_layout(const Message& m) {
+  std::vector<FieldSpan> layout;
+  MeasureStream s(&layout);
+  LOAM_TRY(serialize_any(s, m));
+  return layout;
+}
+
 Result<Message> decode_payload(uint16_t type, std::span<const uint8_t> payload) {
   if (type < kFirstMessageType || type > kLastMessageType) {
     return make_error(ErrorCode::kUnknownType, "frame.type", "unknown message type " + std::to_string(type));

@@ -21,6 +21,7 @@
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 #include "protocol/stamps/stamp.h"
+#include "protocol/wire/byte_stream.h"
 #include "protocol/wire/constants.h"
 
 namespace loam::wire {
@@ -310,6 +311,10 @@ MessageType message_type(const Message& m);
 Result<std::vector<uint8_t>> encode_payload(const Message& m);
 // Payload size in bytes, or the encoding error.
 Result<size_t> measure_payload(const Message& m);
+// Every field of m's payload in order, as the encoder writes it and the decoder reads it (one
+// serialize function does both): its name, offset, width and integer value. For tools and for
+// the tests that hold docs/protocol.md to the code.
+Result<std::vector<FieldSpan>> payload_layout(const Message& m);
 // Decodes a payload of a frame whose header said `type`.
 Result<Message> decode_payload(uint16_t type, std::span<const uint8_t> payload);
 

@@ -8,11 +8,15 @@
 //   each sample message of tests/unit/wire_samples.h is decoded from every prefix of its
 //   payload, and the field each truncated decode names gives the order, names and widths the
 //   decoder really reads, which must be the table's rows (conditional rows, marked "only",
-//   may be absent). The golden vector table's files must decode as the message named.
+//   may be absent). That walk ends at a list's count; a second walk takes the encoder's layout
+//   (wire::payload_layout, the same serialize function) through every list element, the rows
+//   marked "per entry", "per image" or "per tile" repeating as many times as the count says.
+//   The golden vector table's files must decode as the message named.
 // - stamps.md: every constant (by name) against the code's constant or, for numbers that
 //   live inside the kernel (the Q16 divisor, exp's halving limit and term count, the gaussian
 //   exponent, the crater's bowl radius), against what the kernel computes; the kinds table
 //   against StampKind, the event rule and check_quantized.
+#include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
 
 #include <cctype>
@@ -428,7 +432,7 @@ TEST(DocsDrift, FixedLayoutsHaveTheDecodersOffsetsWidthsAndNames) {
 // What the decoder reads, in order: each field's name and where it starts. Fields of a
 // compound (tile.*, rect.*, world.*, stamp.*) count as one. The walk ends at a list's count:
 // past it, a truncated list fails on the count (not enough bytes for the elements), so the
-// element layout is pinned by the golden vectors instead.
+// elements are walked on the encoder's layout instead (folded_layout, below).
 struct Read {
   std::string name;
   size_t offset = 0, width = 0;
@@ -530,6 +534,159 @@ TEST(DocsDrift, EveryMessageTableIsTheOrderNamesAndWidthsTheDecoderReads) {
     ++tables_checked;
   }
   EXPECT_GE(tables_checked, 10u);
+}
+
+// The encoder's layout of m (payload_layout: the one serialize function the decoder runs too),
+// with each compound (a TileCoord's tile.*, ...) folded into one field. Unlike the truncation
+// walk above, it goes on past a list's count: every element, every field.
+std::vector<wire::FieldSpan> folded_layout(const wire::Message& m) {
+  const auto layout = wire::payload_layout(m);
+  EXPECT_TRUE(layout.ok());
+  std::vector<wire::FieldSpan> out;
+  std::set<std::string> in_compound;  // the compound's fields so far: a repeat starts the next one
+  for (const wire::FieldSpan& f : layout.ok() ? *layout : std::vector<wire::FieldSpan>{}) {
+    const std::string name = compound_of(f.field);
+    if (!out.empty() && out.back().field == name && name.back() == '*' && !in_compound.count(f.field)) {
+      out.back().width += f.width;
+      in_compound.insert(f.field);
+      continue;
+    }
+    in_compound = {f.field};
+    out.push_back({name, f.offset, f.width, f.value});
+  }
+  return out;
+}
+
+// A row describing a list's elements: its rule starts "per entry", "per image", "per tile".
+bool per_element(const std::vector<std::string>& row) {
+  return row.size() > 2 && row[2].rfind("per ", 0) == 0;
+}
+bool conditional(const std::vector<std::string>& row) {
+  return row.size() > 2 && row[2].find("only") != std::string::npos;
+}
+
+// Matches the table's rows against the layout, from k: each row is the next field, or absent
+// when it is conditional. The rows of a list's elements repeat as a group, as many times as the
+// count before them says. Returns the fields matched.
+void match_rows(const Table& table, const std::vector<wire::FieldSpan>& layout, const std::string& prefix) {
+  size_t k = 0;
+  uint64_t last_count = 0;
+  const auto match = [&](const std::vector<std::string>& row) {
+    const std::string want = expected_read(prefix, row.at(0), row.at(1));
+    if (k < layout.size() && layout[k].field == want) {
+      const size_t w = type_width(row.at(0));
+      if (w != 0) {
+        EXPECT_EQ(layout[k].width, w) << row.at(1) << " at byte " << layout[k].offset;
+      }
+      if (is_count(want)) last_count = layout[k].value;
+      ++k;
+      return;
+    }
+    EXPECT_TRUE(conditional(row)) << "the table has " << row.at(1) << " (" << want
+                                  << ") where the encoder writes "
+                                  << (k < layout.size() ? layout[k].field : std::string("nothing more"))
+                                  << " at byte " << (k < layout.size() ? layout[k].offset : 0);
+  };
+  for (size_t i = 0; i < table.rows.size();) {
+    if (!per_element(table.rows[i])) {
+      match(table.rows[i++]);
+      continue;
+    }
+    size_t j = i;
+    while (j < table.rows.size() && per_element(table.rows[j])) ++j;
+    EXPECT_GT(last_count, 0u) << "the sample's list is empty: its element rows go unchecked";
+    for (uint64_t e = 0; e < last_count; ++e) {
+      SCOPED_TRACE("element " + std::to_string(e));
+      for (size_t r = i; r < j; ++r) match(table.rows[r]);
+    }
+    i = j;
+  }
+  EXPECT_EQ(k, layout.size()) << "the encoder writes " << (k < layout.size() ? layout[k].field : "")
+                              << " at byte " << (k < layout.size() ? layout[k].offset : 0)
+                              << ", which the table does not list there";
+}
+
+// Every sample message, and an event with a tile far from its stamp's (the long offset form).
+std::vector<std::pair<std::string, wire::Message>> layout_samples() {
+  auto v = test::sample_messages();
+  for (const auto& [name, m] : test::sample_messages()) {
+    if (name != "deform_event") continue;
+    wire::DeformEvent far = std::get<wire::DeformEvent>(m);
+    far.base_versions.push_back({TileCoord{Layer::kCoarse, 1, 60, 40}, 5});
+    v.emplace_back("deform_event_far_tile", far);
+  }
+  return v;
+}
+
+TEST(DocsDrift, EveryMessageTableListsEveryFieldTheEncoderWritesListElementsIncluded) {
+  const auto& lines = protocol_lines();
+  const auto samples = layout_samples();
+  size_t tables = 0, element_groups = 0;
+  std::set<std::string> long_offset_seen;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    if (lines[i].rfind("### ", 0) != 0) continue;
+    const auto named = named_ids(lines[i]);
+    if (named.empty()) continue;
+    const auto type = wire::MessageType(named.back().second);
+    size_t end = i + 1;
+    while (end < lines.size() && lines[end].rfind("### ", 0) != 0 && lines[end].rfind("## ", 0) != 0) ++end;
+    std::optional<Table> table;
+    for (const Table& t : tables_in(lines, i + 1, end))
+      if (t.header.size() >= 2 && t.header[0] == "type" && t.header[1] == "field") {
+        table = t;
+        break;
+      }
+    if (!table) continue;
+    SCOPED_TRACE(std::string(wire::to_string(type)) + " (docs/protocol.md line " +
+                 std::to_string(table->line) + ")");
+    ++tables;
+    for (const auto& row : table->rows) element_groups += per_element(row) ? 1 : 0;
+    size_t checked = 0;
+    for (const auto& [name, m] : samples) {
+      if (wire::message_type(m) != type) continue;
+      SCOPED_TRACE("sample " + name);
+      const auto layout = folded_layout(m);
+      ASSERT_FALSE(layout.empty());
+      std::string prefix;
+      for (const auto& f : layout)
+        if (f.field.back() != '*') {
+          prefix = f.field.substr(0, f.field.find('.'));
+          break;
+        }
+      match_rows(*table, layout, prefix);
+      for (const auto& f : layout)
+        if (f.field == "deform_event.tile_dx") long_offset_seen.insert(name);
+      ++checked;
+    }
+    EXPECT_GT(checked, 0u) << "no sample message to check the table with";
+  }
+  EXPECT_GE(tables, 15u);
+  // Subscribe, Unsubscribe, DeformEvent, TileHashes and StampImageList have element rows.
+  EXPECT_GE(element_groups, 14u);
+  EXPECT_TRUE(long_offset_seen.count("deform_event_far_tile")) << "the far tile must take the long form";
+}
+
+TEST(DocsDrift, AListsElementRowsFailWhenTheyDisagreeWithTheEncoder) {
+  // The check itself: a table that swaps two element fields, or drops one, is caught.
+  const wire::Message& m = sample("tile_hashes");
+  const auto layout = folded_layout(m);
+  Table swapped;
+  swapped.rows = {{"u32", "count", ""},
+                  {"TileCoord", "tile", "per entry"},
+                  {"u64", "hash", "per entry"},
+                  {"u64", "version", "per entry"}};
+  Table short_one = swapped;
+  short_one.rows = {
+      {"u32", "count", ""}, {"TileCoord", "tile", "per entry"}, {"u64", "version", "per entry"}};
+  for (const Table* t : {&swapped, &short_one}) {
+    ::testing::TestPartResultArray failures;
+    {
+      ::testing::ScopedFakeTestPartResultReporter reporter(
+          ::testing::ScopedFakeTestPartResultReporter::INTERCEPT_ONLY_CURRENT_THREAD, &failures);
+      match_rows(*t, layout, "tile_hashes");
+    }
+    EXPECT_GT(failures.size(), 0) << "a wrong element table passed";
+  }
 }
 
 TEST(DocsDrift, GoldenVectorTableNamesFilesThatDecodeAsItsMessages) {

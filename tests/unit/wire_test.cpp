@@ -67,6 +67,29 @@ TEST(WireMessages, FrameEncodeThenDecodeIsTheIdentityForEveryMessage) {
   }
 }
 
+TEST(WireMessages, PayloadLayoutCoversEveryByteInOrderWithTheDecodersNames) {
+  for (const auto& [name, m] : test::sample_messages()) {
+    SCOPED_TRACE(name);
+    const auto payload = encode_payload(m);
+    const auto layout = payload_layout(m);
+    ASSERT_TRUE(payload.ok() && layout.ok());
+    size_t at = 0;
+    for (const FieldSpan& f : *layout) {
+      EXPECT_EQ(f.offset, at) << f.field;
+      at += f.width;
+      // The decoder, cut inside the field, names it: the layout is what it reads.
+      if (f.width == 0) continue;
+      const std::vector<uint8_t> cut(payload->begin(), payload->begin() + ptrdiff_t(f.offset + f.width - 1));
+      const auto r = decode_payload(uint16_t(message_type(m)), cut);
+      ASSERT_FALSE(r.ok());
+      // Inside a list the count's check fails first (the elements cannot fit).
+      const bool in_list = r.error().field.find("count") != std::string::npos;
+      EXPECT_TRUE(r.error().field == f.field || in_list) << r.error().field << " vs " << f.field;
+    }
+    EXPECT_EQ(at, payload->size());
+  }
+}
+
 TEST(WireMessages, EmptyAndMaximalCollectionsRoundTrip) {
   // Caps are inclusive: a message exactly at its cap must pass both ways.
   Subscribe sub;
