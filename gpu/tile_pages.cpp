@@ -3,15 +3,22 @@
 #include <climits>
 #include <string>
 
+#include "protocol/layer.h"
+
 namespace loam::gpu {
 
 namespace {
 constexpr int64_t kFree = INT64_MIN;
 }
 
+// The layer table's GL numbers are GL's (protocol/ includes no GL header).
+static_assert(CoarseLayer::kGlInternalFormat == GL_R16UI && CoarseLayer::kGlType == GL_UNSIGNED_SHORT);
+static_assert(DetailLayer::kGlInternalFormat == GL_R8I && DetailLayer::kGlType == GL_BYTE);
+
 PageFormat page_format(Layer layer) {
-  return layer == Layer::kCoarse ? PageFormat{GL_R16UI, GL_RED_INTEGER, GL_UNSIGNED_SHORT, 2}
-                                 : PageFormat{GL_R8I, GL_RED_INTEGER, GL_BYTE, 1};
+  const LayerInfo& l = layer_info(layer);
+  return PageFormat{GLenum(l.gl_internal_format), GL_RED_INTEGER, GLenum(l.gl_type),
+                    size_t(l.bytes_per_sample)};
 }
 
 Result<TilePages> TilePages::create(Layer layer, int32_t max_pages, int32_t initial_pages) {

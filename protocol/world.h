@@ -29,6 +29,7 @@
 
 #include "protocol/base/tile_base.h"
 #include "protocol/geometry.h"
+#include "protocol/layer.h"
 #include "protocol/result.h"
 
 namespace loam {
@@ -94,6 +95,9 @@ class World {
   std::span<uint16_t> coarse_tile_mut(int32_t tx, int32_t ty);
   // A stored detail tile, or an empty span where the tile is all zero.
   std::span<const int8_t> detail_tile(int32_t tx, int32_t ty) const;
+  // The tile's samples in its row's type (the detail layer has mip 0 only).
+  template <class R>
+  std::span<const typename R::Sample> tile_samples(const TileCoord& c) const;
   // A detail tile to modify in place (created as zeros); call mark_dirty for changes.
   std::span<int8_t> detail_tile_mut(int32_t tx, int32_t ty);
   // Records that samples in `global_rect` (the layer's global sample grid) changed.
@@ -288,6 +292,15 @@ class World {
   // Pending dirty rects per mip-0 tile (tile-local coordinates), merged per tile.
   std::unordered_map<TileCoord, RectI, TileCoordHash> pending_;
 };
+
+template <>
+inline std::span<const uint16_t> World::tile_samples<CoarseLayer>(const TileCoord& c) const {
+  return coarse_tile(c.mip, c.tx, c.ty);
+}
+template <>
+inline std::span<const int8_t> World::tile_samples<DetailLayer>(const TileCoord& c) const {
+  return detail_tile(c.tx, c.ty);
+}
 
 // World::world_hash of a world with these parameters and this content hash.
 uint64_t world_hash_of(const WorldParams& params, uint64_t content_hash);

@@ -1,5 +1,7 @@
 #include "server/tile_prefetcher.h"
 
+#include "protocol/layer.h"
+
 #include <algorithm>
 
 namespace loam::server {
@@ -23,7 +25,7 @@ void PrefetchingBase::prefetch(std::span<const TileCoord> tiles) const {
   {
     std::lock_guard lock(mu_);
     for (const TileCoord& c : tiles) {
-      if (c.layer != Layer::kCoarse) continue;
+      if (!layer_info(c.layer).has_base) continue;
       if (queue_.size() >= max_ready_) break;
       if (queued_.count(c) || ready_.count(c)) continue;
       queue_.push_back(c);

@@ -17,6 +17,7 @@
 #include "protocol/codec/predictor.h"
 #include "protocol/codec/range_coder.h"
 #include "protocol/codec/refine_coder.h"
+#include "protocol/layer.h"
 #include "protocol/tile_hash.h"
 
 namespace loam {
@@ -46,21 +47,20 @@ Error err(ErrorCode code, const char* field, std::string message) {
   return make_error(code, field, std::move(message));
 }
 
-// Per sample type: the field domain of the samples themselves and of signed differences.
+// Per sample type: the field domain of the samples themselves and of signed differences, from
+// the layer's row (protocol/layer.h), and the type's tag in the header.
+template <LayerRow R, SampleType kTag>
+struct CodecTraits {
+  static constexpr SampleType kType = kTag;
+  static constexpr int kBits = R::kBits;
+  static constexpr int32_t kLo = R::kMin;
+};
 template <typename T>
 struct Traits;
 template <>
-struct Traits<uint16_t> {
-  static constexpr SampleType kType = SampleType::kCoarseU16;
-  static constexpr int kBits = 16;
-  static constexpr int32_t kLo = 0;
-};
+struct Traits<CoarseLayer::Sample> : CodecTraits<CoarseLayer, SampleType::kCoarseU16> {};
 template <>
-struct Traits<int8_t> {
-  static constexpr SampleType kType = SampleType::kDetailI8;
-  static constexpr int kBits = 8;
-  static constexpr int32_t kLo = -128;
-};
+struct Traits<DetailLayer::Sample> : CodecTraits<DetailLayer, SampleType::kDetailI8> {};
 
 template <typename T>
 int32_t wrap_signed(int32_t v) {  // v modulo 2^bits, in [-2^(bits-1), 2^(bits-1))
@@ -69,10 +69,10 @@ int32_t wrap_signed(int32_t v) {  // v modulo 2^bits, in [-2^(bits-1), 2^(bits-1
 }
 template <typename T>
 T wrap_sample(int32_t v) {  // v modulo 2^bits, as a sample
-  if constexpr (std::is_same_v<T, uint16_t>) {
-    return uint16_t(v & 0xFFFF);
+  if constexpr (std::is_unsigned_v<T>) {
+    return T(v & ((int32_t(1) << Traits<T>::kBits) - 1));
   } else {
-    return int8_t(wrap_signed<int8_t>(v));
+    return T(wrap_signed<T>(v));
   }
 }
 

@@ -130,7 +130,7 @@ LogSummary summarize(std::span<const SegmentScan> scans) {
       s.last_tick = r.tick;
       const auto kind = size_t(r.stamp.kind);
       if (kind < s.per_kind.size()) ++s.per_kind[kind];
-      ++s.per_layer[r.stamp.layer == Layer::kCoarse ? 0 : 1];
+      ++s.per_layer[r.stamp.layer];
       clients.insert(r.client_id);
     }
   }
@@ -152,8 +152,12 @@ std::string summary_to_json(const LogSummary& s) {
     o += "\":";
     o += std::to_string(s.per_kind[k]);
   }
-  o += "},\"layers\":{\"coarse\":" + std::to_string(s.per_layer[0]) +
-       ",\"detail\":" + std::to_string(s.per_layer[1]) + "}";
+  o += "},\"layers\":{";
+  s.per_layer.for_each([&](Layer l, uint64_t n) {
+    if (l != kLayers.front()) o += ',';
+    o += "\"" + std::string(layer_info(l).name) + "\":" + std::to_string(n);
+  });
+  o += '}';
   o += ",\"clients\":" + std::to_string(s.distinct_clients);
   o += ",\"created_unix_us\":" + std::to_string(s.created_unix_us);
   o += ",\"damaged_segments\":" + std::to_string(s.damaged_segments) + "}";
@@ -175,8 +179,10 @@ std::string summary_to_text(const LogSummary& s) {
     o += '=';
     o += std::to_string(s.per_kind[k]);
   }
-  o += "\nlayers: coarse=" + std::to_string(s.per_layer[0]) + " detail=" + std::to_string(s.per_layer[1]) +
-       "\n";
+  o += "\nlayers:";
+  s.per_layer.for_each(
+      [&](Layer l, uint64_t n) { o += " " + std::string(layer_info(l).name) + "=" + std::to_string(n); });
+  o += '\n';
   o += "clients: " + std::to_string(s.distinct_clients) + "\n";
   o += "created_unix_us: " + std::to_string(s.created_unix_us) + "\n";
   if (s.damaged_segments) o += "damaged segments: " + std::to_string(s.damaged_segments) + "\n";

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <string>
 
+#include "protocol/layer.h"
 #include "protocol/log/log_format.h"
 
 namespace loam::log {
@@ -25,7 +26,7 @@ struct LogSummary {
   uint64_t first_tick = 0;
   uint64_t last_tick = 0;
   std::array<uint64_t, kStampKindCount> per_kind{};
-  std::array<uint64_t, 2> per_layer{};
+  PerLayer<uint64_t> per_layer;
   uint64_t distinct_clients = 0;
   uint64_t created_unix_us = 0;  // of the first segment
   uint64_t damaged_segments = 0;

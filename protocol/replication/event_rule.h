@@ -14,6 +14,7 @@
 #include <optional>
 
 #include "protocol/geometry.h"
+#include "protocol/layer.h"
 #include "protocol/stamps/stamp.h"
 #include "protocol/wire/messages.h"
 
@@ -23,7 +24,7 @@ namespace loam::replication {
 // of c by applying the stamp there.
 constexpr bool event_reproduces_tile(const QuantizedStamp& stamp, const TileCoord& c) {
   if (c.layer != stamp.layer) return false;
-  return c.mip == 0 || (stamp.kind != StampKind::kShockwave && c.layer == Layer::kCoarse);
+  return c.mip == 0 || (stamp.kind != StampKind::kShockwave && layer_info(c.layer).has_mips);
 }
 
 enum class EventFit : uint8_t {

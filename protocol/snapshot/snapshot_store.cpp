@@ -483,13 +483,11 @@ SnapshotJobHandle SnapshotStore::begin(const World& world, uint64_t last_seq, ui
     SnapshotJob::Changed ch;
     ch.entry =
         StoredTile{uint8_t(c.layer), c.mip, c.tx, c.ty, t.state.version, t.state.hash, t.base_hash, 0, 0, 0};
-    if (c.layer == Layer::kCoarse) {
-      const auto samples = world.coarse_tile(c.mip, c.tx, c.ty);
-      ch.coarse.assign(samples.begin(), samples.end());
-    } else {
-      const auto samples = world.detail_tile(c.tx, c.ty);
-      ch.detail.assign(samples.begin(), samples.end());
-    }
+    visit_layer(c.layer, [&](auto row) {
+      using R = decltype(row);
+      const auto samples = world.tile_samples<R>(c);
+      samples_of<R>(ch).assign(samples.begin(), samples.end());
+    });
     job->changed.push_back(std::move(ch));
     job->persisted.push_back({c, t.state.version});
   }

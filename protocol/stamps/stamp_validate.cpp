@@ -34,13 +34,6 @@ bool own_combination(StampKind k) {
   return k == StampKind::kFootprint || k == StampKind::kFlatten || k == StampKind::kShockwave;
 }
 
-double layer_meters_per_sample(const WorldParams& w, Layer l) {
-  return l == Layer::kCoarse ? w.meters_per_sample : w.detail_meters_per_sample();
-}
-double layer_meters_per_unit(const WorldParams& w, Layer l) {
-  return l == Layer::kCoarse ? w.meters_per_unit : w.detail_meters_per_unit;
-}
-
 // Half side of the final shockwave box in layer samples (radius + every sub-step + margin).
 int64_t shockwave_half_side(uint32_t radius_q8, uint16_t steps, uint16_t speed) {
   return int64_t(radius_q8 >> kPositionFracBits) + 2 + int64_t(steps) * shockwave_substeps(speed);
@@ -118,7 +111,7 @@ Result<QuantizedStamp> validate_stamp(const StampParams& p, const WorldParams& w
   q.rotation = uint16_t(floor_mod(round_i64(p.rotation / kTwoPi * 65536.0), 65536));
 
   // Intensity.
-  const int32_t max_units = p.layer == Layer::kCoarse ? 65535 : 255;
+  const int32_t max_units = layer_max(p.layer) - layer_min(p.layer);  // the layer's span
   if (p.kind == StampKind::kFlatten) {
     if (p.intensity < 0.0 || p.intensity > 1.0) return bad("intensity", "flatten strength must be in [0, 1]");
     q.intensity = int32_t(round_i64(p.intensity * 65536.0));
@@ -142,8 +135,7 @@ Result<QuantizedStamp> validate_stamp(const StampParams& p, const WorldParams& w
                                " blend has no target (only flatten and the min/max blends take one)");
     }
   } else {
-    const double units =
-        p.layer == Layer::kCoarse ? (p.target - world.height_offset) / world.meters_per_unit : p.target / mpu;
+    const double units = (p.target - layer_zero_meters(world, p.layer)) / mpu;
     if (!(units >= double(layer_min(p.layer)) - 0.5 && units < double(layer_max(p.layer)) + 0.5)) {
       return bad("target", "outside the " + std::string(to_string(p.layer)) + " layer's height range");
     }
@@ -201,7 +193,7 @@ Status check_quantized(const QuantizedStamp& q, const WorldParams& world, const 
   if (q.radius == 0) return bad("radius", "must be > 0");
   if (double(q.radius) > max_r * 256.0)
     return bad("radius", "above the configured maximum", ErrorCode::kOversize);
-  const int32_t max_units = q.layer == Layer::kCoarse ? 65535 : 255;
+  const int32_t max_units = layer_max(q.layer) - layer_min(q.layer);
   if (q.kind == StampKind::kFlatten) {
     if (q.intensity < 0 || q.intensity > 65536)
       return bad("intensity", "flatten strength must be in [0, 65536]");

@@ -12,6 +12,7 @@
 #include <cstdint>
 
 #include "protocol/geometry.h"
+#include "protocol/layer.h"
 #include "protocol/result.h"
 #include "protocol/stamps/stamp.h"
 #include "protocol/stamps/texture_registry.h"
@@ -53,12 +54,5 @@ Status check_quantized(const QuantizedStamp& q, const WorldParams& world, const 
 int32_t shockwave_substeps(uint16_t speed_q16);
 // nu^2 of one sub-step in Q16: round(speed^2 / substeps^2).
 int32_t shockwave_nu2_q16(uint16_t speed_q16, int32_t substeps);
-
-// Layer helpers shared by validation and the kernels.
-inline int32_t layer_min(Layer l) { return l == Layer::kCoarse ? 0 : -128; }
-inline int32_t layer_max(Layer l) { return l == Layer::kCoarse ? 65535 : 127; }
-inline RectI layer_sample_rect(const WorldParams& w, Layer l) {
-  return l == Layer::kCoarse ? w.sample_rect() : w.detail_sample_rect();
-}
 
 }  // namespace loam

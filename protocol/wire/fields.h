@@ -5,6 +5,7 @@
 #pragma once
 
 #include "protocol/geometry.h"
+#include "protocol/layer.h"
 #include "protocol/stamps/stamp.h"
 #include "protocol/wire/byte_stream.h"
 
@@ -14,9 +15,9 @@ namespace loam::wire {
 inline constexpr size_t kTileCoordBytes = 10;
 template <typename S>
 Status serialize_tile(S& s, TileCoord& c) {
-  LOAM_TRY(serialize_enum(s, c.layer, 2, "tile.layer"));
+  LOAM_TRY(serialize_enum(s, c.layer, uint32_t(kLayerCount), "tile.layer"));
   LOAM_TRY(serialize_range<uint8_t>(s, c.mip, 0, kMaxMips - 1, "tile.mip"));
-  if (c.layer == Layer::kDetail && c.mip != 0) {
+  if (!layer_has_mip(c.layer, c.mip)) {
     return make_error(ErrorCode::kInvalidArgument, "tile.mip", "the detail layer has mip 0 only");
   }
   LOAM_TRY(s.bits(c.tx, "tile.tx"));

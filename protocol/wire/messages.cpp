@@ -330,7 +330,7 @@ Status serialize(S& s, DeformEvent& m) {
       t.tile.layer = Layer(key >> 7);
       t.tile.mip = uint8_t(key & 0x7F);
     }
-    if (t.tile.mip >= kMaxMips || (t.tile.layer == Layer::kDetail && t.tile.mip != 0))
+    if (t.tile.mip >= kMaxMips || !layer_has_mip(t.tile.layer, t.tile.mip))
       return make_error(ErrorCode::kInvalidArgument, "deform_event.tile", "no such layer and mip");
     const int64_t span = int64_t(kTileSize) << (kPositionFracBits + t.tile.mip);
     const int64_t ax = floor_div(m.stamp.center_x, span), ay = floor_div(m.stamp.center_y, span);
@@ -377,7 +377,7 @@ Status serialize(S& s, DeformEvent& m) {
   return {};
 }
 
-uint32_t bytes_per_sample(Layer layer) { return layer == Layer::kCoarse ? 2u : 1u; }
+uint32_t bytes_per_sample(Layer layer) { return uint32_t(layer_info(layer).bytes_per_sample); }
 
 template <typename S>
 Status serialize(S& s, RegionUpdate& m) {

@@ -9,6 +9,7 @@
 #endif
 
 #include "protocol/codec/region_codec.h"
+#include "protocol/layer.h"
 
 namespace loam::server {
 
@@ -56,12 +57,11 @@ void BackgroundEncoder::run() {
     queue_.pop_front();
     busy_ = true;
     lock.unlock();
-    Result<std::vector<uint8_t>> payload =
-        job.key.tile.layer == Layer::kCoarse
-            ? encode_region(RegionEncoding::kBest, std::span<const uint16_t>(job.coarse), job.width,
-                            job.height)
-            : encode_region(RegionEncoding::kBest, std::span<const int8_t>(job.detail), job.width,
-                            job.height);
+    Result<std::vector<uint8_t>> payload = visit_layer(job.key.tile.layer, [&](auto row) {
+      using R = decltype(row);
+      return encode_region(RegionEncoding::kBest, std::span<const typename R::Sample>(samples_of<R>(job)),
+                           job.width, job.height);
+    });
     lock.lock();
     done_.push_back({job.key, std::move(payload)});
     busy_ = false;

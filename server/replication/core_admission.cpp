@@ -122,7 +122,7 @@ void ReplicationCore::on_hello(Client& c, const wire::Hello& h) {
 }
 
 void ReplicationCore::prefetch_reach(const QuantizedStamp& q) {
-  if (!prefetch_ || q.layer != Layer::kCoarse) return;
+  if (!prefetch_ || !layer_info(q.layer).has_base) return;  // only a base's tiles are made
   auto reach = stamp_reach(q, terrain_.world().params(), &terrain_.textures(), terrain_.limits());
   if (!reach || reach->empty()) return;
   // Every mip's tiles under the reach: the stamp writes mip 0, commit() updates the mips above.

@@ -12,9 +12,7 @@ namespace loam::server {
 using namespace core_detail;
 
 bool ReplicationCore::valid_tile(const TileCoord& t) const {
-  const WorldParams& p = terrain_.world().params();
-  if (t.layer == Layer::kCoarse) return t.mip < p.mip_count() && p.tile_range(t.mip).contains(t.tx, t.ty);
-  return t.mip == 0 && tiles_overlapping(p.detail_sample_rect()).contains(t.tx, t.ty);
+  return layer_tile_range(terrain_.world().params(), t.layer, t.mip).contains(t.tx, t.ty);
 }
 
 void ReplicationCore::receive_subscription(Client& c, const wire::Message& m) {
@@ -64,7 +62,7 @@ void ReplicationCore::on_subscribe(Client& c, const wire::Subscribe& sub) {
   if (prefetch_) {
     std::vector<TileCoord> ahead;
     for (const wire::SubscribeEntry& e : sub.entries) {
-      if (e.tile.layer == Layer::kCoarse && valid_tile(e.tile) &&
+      if (layer_info(e.tile.layer).has_base && valid_tile(e.tile) &&
           terrain_.world().needs_base_read(e.tile.mip, e.tile.tx, e.tile.ty))
         ahead.push_back(e.tile);
     }

@@ -50,16 +50,13 @@ Result<Frames> region_frames_of(const RegionKey& key, std::span<const uint8_t> p
 Result<Frames> encode_region_frames(const World& world, const TileHistory* history, const TileCoord& c,
                                     std::optional<uint64_t> base, const RectI& rect, bool* delta) {
   Result<std::vector<uint8_t>> payload = [&]() -> Result<std::vector<uint8_t>> {
-    if (c.layer == Layer::kCoarse) {
-      std::vector<uint16_t> now = copy_tile_rect(world.coarse_tile(c.mip, c.tx, c.ty), rect);
-      std::optional<std::vector<uint16_t>> before;
-      if (base && history) before = history->coarse_at(c, *base, rect, now);
+    return visit_layer(c.layer, [&](auto row) {
+      using R = decltype(row);
+      std::vector<typename R::Sample> now = copy_tile_rect(world.tile_samples<R>(c), rect);
+      std::optional<std::vector<typename R::Sample>> before;
+      if (base && history) before = history->samples_at<R>(c, *base, rect, now);
       return encode_samples(std::move(now), std::move(before), rect, delta);
-    }
-    std::vector<int8_t> now = copy_tile_rect(world.detail_tile(c.tx, c.ty), rect);
-    std::optional<std::vector<int8_t>> before;
-    if (base && history) before = history->detail_at(c, *base, rect, now);
-    return encode_samples(std::move(now), std::move(before), rect, delta);
+    });
   }();
   LOAM_TRY(payload);
   return region_frames_of(key_of(world, c, base, rect), *payload);
@@ -72,10 +69,10 @@ void RegionFrames::use(const World& world, const RegionKey& key, Entry& e) {
   job.key = key;
   job.width = uint32_t(key.rect.width());
   job.height = uint32_t(key.rect.height());
-  if (key.tile.layer == Layer::kCoarse)
-    job.coarse = copy_tile_rect(world.coarse_tile(key.tile.mip, key.tile.tx, key.tile.ty), key.rect);
-  else
-    job.detail = copy_tile_rect(world.detail_tile(key.tile.tx, key.tile.ty), key.rect);
+  visit_layer(key.tile.layer, [&](auto row) {
+    using R = decltype(row);
+    samples_of<R>(job) = copy_tile_rect(world.tile_samples<R>(key.tile), key.rect);
+  });
   e.best = best_.submit(std::move(job));  // a full queue: asked again on a later use
 }
 

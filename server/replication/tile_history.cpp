@@ -28,25 +28,25 @@ std::vector<TileSamples> read_reach(const World& world, Layer layer, const RectI
       }
     }
   };
-  if (layer == Layer::kDetail) {
-    const RectI r = reach0.intersect(p.detail_sample_rect());
-    cover(Layer::kDetail, 0, r, tiles_overlapping(p.detail_sample_rect()));
-  } else {
-    for (int32_t m = 0; m < p.mip_count() && total <= max_samples; ++m)
-      cover(Layer::kCoarse, m, mip_samples_reaching(p, m, reach0), p.tile_range(m));
-  }
-  if (total > max_samples) return {};
-  std::vector<TileSamples> out;
-  out.reserve(parts.size());
-  for (const Part& part : parts) {
-    TileSamples s{part.tile, part.local, {}, {}};
-    if (layer == Layer::kDetail)
-      s.detail = copy_tile_rect(world.detail_tile(part.tile.tx, part.tile.ty), part.local);
-    else
-      s.coarse = copy_tile_rect(world.coarse_tile(part.tile.mip, part.tile.tx, part.tile.ty), part.local);
-    out.push_back(std::move(s));
-  }
-  return out;
+  return visit_layer(layer, [&](auto row) {
+    using R = decltype(row);
+    // A layer with mips: every mip's samples the reach's mip-0 samples feed.
+    if constexpr (R::kHasMips) {
+      for (int32_t m = 0; m < p.mip_count() && total <= max_samples; ++m)
+        cover(layer, m, mip_samples_reaching(p, m, reach0), R::tile_range(p, m));
+    } else {
+      cover(layer, 0, reach0.intersect(R::sample_rect(p)), R::tile_range(p, 0));
+    }
+    std::vector<TileSamples> out;
+    if (total > max_samples) return out;
+    out.reserve(parts.size());
+    for (const Part& part : parts) {
+      TileSamples s{part.tile, part.local, {}, {}};
+      samples_of<R>(s) = copy_tile_rect(world.tile_samples<R>(part.tile), part.local);
+      out.push_back(std::move(s));
+    }
+    return out;
+  });
 }
 
 namespace {
@@ -85,16 +85,15 @@ void TileHistory::record(std::span<const TileChange> changes, std::span<const Ti
     Change rec{c, false, {}, {}};
     for (const TileSamples& s : before) {
       if (s.tile != c.coord || !s.rect.contains(c.rect)) continue;
-      const bool coarse = c.coord.layer == Layer::kCoarse;
-      if (size_t(s.rect.area()) != (coarse ? s.coarse.size() : s.detail.size())) break;
-      if (coarse) {
-        rec.coarse.resize(size_t(c.rect.area()));
-        copy_sub<uint16_t>(s.coarse, s.rect, rec.coarse, c.rect, c.rect);
-      } else {
-        rec.detail.resize(size_t(c.rect.area()));
-        copy_sub<int8_t>(s.detail, s.rect, rec.detail, c.rect, c.rect);
-      }
-      rec.kept = true;
+      rec.kept = visit_layer(c.coord.layer, [&](auto row) {
+        using R = decltype(row);
+        const auto& from = samples_of<R>(s);
+        if (size_t(s.rect.area()) != from.size()) return false;
+        auto& to = samples_of<R>(rec);
+        to.resize(size_t(c.rect.area()));
+        copy_sub<typename R::Sample>(from, s.rect, to, c.rect, c.rect);
+        return true;
+      });
       break;
     }
     std::deque<Change>& list = it->second.changes;
@@ -124,9 +123,10 @@ std::optional<RectI> TileHistory::changed_since(const TileCoord& c, uint64_t hel
   return found ? std::optional<RectI>(rect) : std::nullopt;
 }
 
-template <typename T>
-std::optional<std::vector<T>> TileHistory::samples_at(const TileCoord& c, uint64_t held, const RectI& rect,
-                                                      std::span<const T> current) const {
+template <class R>
+std::optional<std::vector<typename R::Sample>> TileHistory::samples_at(
+    const TileCoord& c, uint64_t held, const RectI& rect, std::span<const typename R::Sample> current) const {
+  using T = typename R::Sample;
   if (current.size() != size_t(rect.area())) return std::nullopt;
   const auto it = tiles_.find(c);
   if (it == tiles_.end()) return std::nullopt;
@@ -134,11 +134,7 @@ std::optional<std::vector<T>> TileHistory::samples_at(const TileCoord& c, uint64
   std::vector<T> out(current.begin(), current.end());
   if (!list.empty() && list.back().change.new_version == held) return out;
   for (auto ch = list.rbegin(); ch != list.rend(); ++ch) {
-    const std::vector<T>* before;
-    if constexpr (std::is_same_v<T, uint16_t>)
-      before = &ch->coarse;
-    else
-      before = &ch->detail;
+    const std::vector<T>* before = &samples_of<R>(*ch);
     if (!ch->kept || !rect.contains(ch->change.rect) || before->size() != size_t(ch->change.rect.area()))
       return std::nullopt;
     copy_sub<T>(*before, ch->change.rect, out, rect, ch->change.rect);
@@ -159,16 +155,9 @@ bool TileHistory::can_rebuild(const TileCoord& c, uint64_t held) const {
   return false;
 }
 
-std::optional<std::vector<uint16_t>> TileHistory::coarse_at(const TileCoord& c, uint64_t held,
-                                                            const RectI& rect,
-                                                            std::span<const uint16_t> current) const {
-  return samples_at<uint16_t>(c, held, rect, current);
-}
-
-std::optional<std::vector<int8_t>> TileHistory::detail_at(const TileCoord& c, uint64_t held,
-                                                          const RectI& rect,
-                                                          std::span<const int8_t> current) const {
-  return samples_at<int8_t>(c, held, rect, current);
-}
+template std::optional<std::vector<uint16_t>> TileHistory::samples_at<CoarseLayer>(
+    const TileCoord&, uint64_t, const RectI&, std::span<const uint16_t>) const;
+template std::optional<std::vector<int8_t>> TileHistory::samples_at<DetailLayer>(
+    const TileCoord&, uint64_t, const RectI&, std::span<const int8_t>) const;
 
 }  // namespace loam::server

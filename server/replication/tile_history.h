@@ -50,11 +50,12 @@ class TileHistory {
   // The samples of `rect` (which must contain changed_since(c, held)) as they were at version
   // `held`, given the same rect's samples now (`current`): every change since `held` undone,
   // newest first. nullopt when the history does not reach `held` or lacks a change's samples.
-  std::optional<std::vector<uint16_t>> coarse_at(const TileCoord& c, uint64_t held, const RectI& rect,
-                                                 std::span<const uint16_t> current) const;
-  std::optional<std::vector<int8_t>> detail_at(const TileCoord& c, uint64_t held, const RectI& rect,
-                                               std::span<const int8_t> current) const;
-  // Whether coarse_at / detail_at can rebuild c's samples at `held` (no copy made).
+  // R: c's layer row (protocol/layer.h).
+  template <class R>
+  std::optional<std::vector<typename R::Sample>> samples_at(
+      const TileCoord& c, uint64_t held, const RectI& rect,
+      std::span<const typename R::Sample> current) const;
+  // Whether samples_at can rebuild c's samples at `held` (no copy made).
   bool can_rebuild(const TileCoord& c, uint64_t held) const;
 
   size_t tiles() const { return tiles_.size(); }
@@ -72,9 +73,6 @@ class TileHistory {
     std::deque<Change> changes;  // oldest first
     std::list<TileCoord>::iterator lru;
   };
-  template <typename T>
-  std::optional<std::vector<T>> samples_at(const TileCoord& c, uint64_t held, const RectI& rect,
-                                           std::span<const T> current) const;
   void forget(std::map<TileCoord, Entry>::iterator it);
 
   size_t per_tile_, max_tiles_;

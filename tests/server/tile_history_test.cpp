@@ -48,7 +48,7 @@ TEST(TileHistory, SamplesAtAVersionAreRebuiltByUndoingEveryLaterChange) {
           const auto rect = history.changed_since(c, held);
           if (!rect || rect->empty()) continue;
           const auto now = copy_tile_rect(world.coarse_tile(m, tx, ty), *rect);
-          const auto rebuilt = history.coarse_at(c, held, *rect, now);
+          const auto rebuilt = history.samples_at<CoarseLayer>(c, held, *rect, now);
           ASSERT_TRUE(rebuilt.has_value()) << to_string(c) << " at " << held;
           EXPECT_EQ(*rebuilt, copy_tile_rect(old.coarse_tile(m, tx, ty), *rect))
               << to_string(c) << " at " << held;
@@ -70,7 +70,8 @@ TEST(TileHistory, SamplesAtAVersionAreRebuiltByUndoingEveryLaterChange) {
   ASSERT_TRUE(apply_stamp(w1, *q).ok());
   small.record(w1.commit(1), before);
   EXPECT_LE(small.bytes(), 1024u);
-  EXPECT_EQ(small.coarse_at(TileCoord{}, 0, RectI{0, 0, 1, 1}, std::vector<uint16_t>{100}), std::nullopt);
+  EXPECT_EQ(small.samples_at<CoarseLayer>(TileCoord{}, 0, RectI{0, 0, 1, 1}, std::vector<uint16_t>{100}),
+            std::nullopt);
 }
 
 TEST(TileHistory, ChangedSinceUnitesTheRectsAfterTheHeldVersionOrSaysUnknown) {
