@@ -1,7 +1,10 @@
 #include "client/net/confirmed_store.h"
 
 #include <algorithm>
+#include <cstring>
 
+#include "protocol/codec/region_codec.h"
+#include "protocol/layer.h"
 #include "protocol/replication/event_rule.h"
 #include "protocol/stamps/stamp_apply.h"
 #include "protocol/stamps/stamp_at_mip.h"
@@ -146,6 +149,62 @@ std::vector<uint16_t> ConfirmedStore::coarse_rect(const TileCoord& c, const Rect
 std::vector<int8_t> ConfirmedStore::detail_rect(const TileCoord& c, const RectI& rect) const {
   // An unstored detail tile of the mirror is all zero, which copy_tile_rect gives for it.
   return copy_tile_rect(mirror_.detail_tile(c.tx, c.ty), rect);
+}
+
+namespace {
+
+// The store's entry points of each layer, for apply_region.
+template <class R>
+struct StoreOps;
+template <>
+struct StoreOps<CoarseLayer> {
+  static std::vector<uint16_t> held(const ConfirmedStore& s, const TileCoord& c, const RectI& r) {
+    return s.coarse_rect(c, r);
+  }
+  static Status replace(ConfirmedStore& s, const TileCoord& c, uint64_t v, std::span<const uint16_t> x) {
+    return s.replace_coarse(c, v, x);
+  }
+  static Status patch(ConfirmedStore& s, const wire::RegionUpdate& r, std::span<const uint16_t> x) {
+    return s.patch_coarse(r.tile, r.rect, r.base_version, r.new_version, x);
+  }
+};
+template <>
+struct StoreOps<DetailLayer> {
+  static std::vector<int8_t> held(const ConfirmedStore& s, const TileCoord& c, const RectI& r) {
+    return s.detail_rect(c, r);
+  }
+  static Status replace(ConfirmedStore& s, const TileCoord& c, uint64_t v, std::span<const int8_t> x) {
+    return s.replace_detail(c, v, x);
+  }
+  static Status patch(ConfirmedStore& s, const wire::RegionUpdate& r, std::span<const int8_t> x) {
+    return s.patch_detail(r.tile, r.rect, r.base_version, r.new_version, x);
+  }
+};
+
+}  // namespace
+
+Status ConfirmedStore::apply_region(const wire::RegionUpdate& r, std::span<const uint8_t> payload) {
+  return visit_layer(r.tile.layer, [&](auto row) -> Status {
+    using R = decltype(row);
+    using T = typename R::Sample;
+    const uint32_t w = uint32_t(r.rect.width()), h = uint32_t(r.rect.height());
+    std::vector<T> samples;
+    if (r.encoding == wire::RegionEncoding::kRaw) {
+      // Little-endian samples as they are in memory here (the protocol's byte order).
+      if (payload.size() != size_t(w) * size_t(h) * sizeof(T))
+        return make_error(ErrorCode::kCorrupt, "region.payload", "raw size");
+      samples.resize(size_t(w) * size_t(h));
+      if (!payload.empty()) std::memcpy(samples.data(), payload.data(), payload.size());
+    } else {
+      // A patch is coded against what this store holds: decoded here, nothing handed around.
+      const std::vector<T> base = r.patch ? StoreOps<R>::held(*this, r.tile, r.rect) : std::vector<T>{};
+      auto decoded = decode_samples<T>(payload, w, h, RegionRefs<T>{.base = base, .coarser = {}});
+      if (!decoded) return decoded.error();
+      samples = std::move(*decoded);
+    }
+    if (!r.patch) return StoreOps<R>::replace(*this, r.tile, r.new_version, samples);
+    return StoreOps<R>::patch(*this, r, samples);
+  });
 }
 
 // Events at or below a region's version are already in its tile (the server covers every

@@ -76,6 +76,9 @@ class ConfirmedStore {
   // The held samples of `rect` (tile-local) of a tile (the base a delta-coded region needs).
   std::vector<uint16_t> coarse_rect(const TileCoord& c, const RectI& rect) const;
   std::vector<int8_t> detail_rect(const TileCoord& c, const RectI& rect) const;
+  // A whole region (its chunks assembled into `payload`): decoded, a patch against the
+  // samples this store holds, then replace_* or patch_* of the region's layer.
+  Status apply_region(const wire::RegionUpdate& r, std::span<const uint8_t> payload);
 
   // A texture stamp whose image is not in `textures` is buffered until it is (the server
   // applied it, so nothing else would bring its effect); the ids waited for are listed here.

@@ -162,42 +162,9 @@ Status TerrainClient::on_region_chunk(const wire::RegionUpdate& r) {
   if (!done) return done.error();
   if (!done->has_value()) return {};
   const std::vector<uint8_t> payload = std::move(**done);
-  const int32_t w = int32_t(r.rect.width()), h = int32_t(r.rect.height());
   // A patch applies to the tile held at base_version; held at another (an earlier region lost,
   // say), the tile is re-requested whole below.
-  const Status st = [&]() -> Status {
-    if (r.tile.layer == Layer::kCoarse) {
-      std::vector<uint16_t> samples;
-      if (r.encoding == wire::RegionEncoding::kRaw) {
-        if (payload.size() != size_t(w) * size_t(h) * 2)
-          return make_error(ErrorCode::kCorrupt, "region.payload", "raw size");
-        samples.resize(size_t(w) * size_t(h));
-        std::memcpy(samples.data(), payload.data(), payload.size());
-      } else {
-        const std::vector<uint16_t> base =
-            r.patch ? store_->coarse_rect(r.tile, r.rect) : std::vector<uint16_t>{};
-        auto decoded = decode_region(payload, w, h, RegionRefs<uint16_t>{.base = base, .coarser = {}});
-        if (!decoded) return decoded.error();
-        samples = std::move(*decoded);
-      }
-      if (!r.patch) return store_->replace_coarse(r.tile, r.new_version, samples);
-      return store_->patch_coarse(r.tile, r.rect, r.base_version, r.new_version, samples);
-    }
-    std::vector<int8_t> samples;
-    if (r.encoding == wire::RegionEncoding::kRaw) {
-      if (payload.size() != size_t(w) * size_t(h))
-        return make_error(ErrorCode::kCorrupt, "region.payload", "raw size");
-      samples.assign(reinterpret_cast<const int8_t*>(payload.data()),
-                     reinterpret_cast<const int8_t*>(payload.data()) + payload.size());
-    } else {
-      const std::vector<int8_t> base = r.patch ? store_->detail_rect(r.tile, r.rect) : std::vector<int8_t>{};
-      auto decoded = decode_detail_region(payload, w, h, RegionRefs<int8_t>{.base = base, .coarser = {}});
-      if (!decoded) return decoded.error();
-      samples = std::move(*decoded);
-    }
-    if (!r.patch) return store_->replace_detail(r.tile, r.new_version, samples);
-    return store_->patch_detail(r.tile, r.rect, r.base_version, r.new_version, samples);
-  }();
+  const Status st = store_->apply_region(r, payload);
   if (!st.ok() && r.patch && store_->wanted_tile(r.tile)) {
     wire::Subscribe sub;
     sub.entries.push_back({r.tile, false, 0});

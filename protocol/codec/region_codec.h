@@ -93,6 +93,24 @@ Result<std::vector<int8_t>> decode_detail_region(std::span<const uint8_t> payloa
                                                  uint32_t height, const RegionRefs<int8_t>& refs = {},
                                                  std::optional<uint64_t> expected_hash = {});
 
+// The decoder of a sample type, for code generic over layers (protocol/layer.h).
+template <typename T>
+Result<std::vector<T>> decode_samples(std::span<const uint8_t> payload, uint32_t width, uint32_t height,
+                                      const RegionRefs<T>& refs = {},
+                                      std::optional<uint64_t> expected_hash = {});
+template <>
+inline Result<std::vector<uint16_t>> decode_samples(std::span<const uint8_t> payload, uint32_t width,
+                                                    uint32_t height, const RegionRefs<uint16_t>& refs,
+                                                    std::optional<uint64_t> expected_hash) {
+  return decode_region(payload, width, height, refs, expected_hash);
+}
+template <>
+inline Result<std::vector<int8_t>> decode_samples(std::span<const uint8_t> payload, uint32_t width,
+                                                  uint32_t height, const RegionRefs<int8_t>& refs,
+                                                  std::optional<uint64_t> expected_hash) {
+  return decode_detail_region(payload, width, height, refs, expected_hash);
+}
+
 // The checksum the header carries: the low 32 bits of XXH3-64 over the header's first 14
 // bytes and the body, so a flipped bit anywhere in the payload is caught. `payload` must
 // hold at least the header. Exposed for the fuzz target and tests, which repair it so that

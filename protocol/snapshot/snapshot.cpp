@@ -14,6 +14,7 @@
 
 #include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
+#include "protocol/layer.h"
 #include "protocol/snapshot/snapshot_io.h"
 #include "protocol/snapshot/snapshot_store.h"
 #include "protocol/tile_hash.h"
@@ -29,6 +30,18 @@ constexpr uint32_t kFormat = 2;  // 2: texture-stamp images after the tile secti
 Error io_error(const std::string& path, const std::string& what) {
   return make_error(ErrorCode::kIo, path, what + ": " + std::strerror(errno));
 }
+
+// Writing a layer's decoded tile into a world.
+template <class R>
+struct LayerWrite;
+template <>
+struct LayerWrite<CoarseLayer> {
+  static void write(World& w, const RectI& r, std::span<const uint16_t> s) { w.write_coarse(r, s); }
+};
+template <>
+struct LayerWrite<DetailLayer> {
+  static void write(World& w, const RectI& r, std::span<const int8_t> s) { w.write_detail(r, s); }
+};
 
 }  // namespace
 
@@ -318,23 +331,24 @@ Result<LoadedSnapshot> read_snapshot(const std::string& path, std::shared_ptr<co
       const TileCoord c{Layer(*layer), *mip, *tx, *ty};
       if (*layer > 1) return make_error(ErrorCode::kCorrupt, tpath, "bad layer");
       const RectI rect = tile_rect(*tx, *ty);
-      if (section == 0) {
-        if (c.layer != Layer::kCoarse || c.mip != 0 || !manifest->world.tile_range(0).contains(*tx, *ty)) {
-          return make_error(ErrorCode::kCorrupt, tpath, "coarse tile " + to_string(c) + " outside the world");
+      if (section <= 1) {
+        // Sections 0 and 1: the mip-0 tiles of the coarse and of the detail layer.
+        const Layer want = Layer(section);
+        if (c.layer != want || c.mip != 0 || !layer_tile_range(manifest->world, want, 0).contains(*tx, *ty)) {
+          return make_error(
+              ErrorCode::kCorrupt, tpath,
+              std::string(layer_info(want).name) + " tile " + to_string(c) + " outside the world");
         }
-        auto s = decode_region(payload, kTileSize, kTileSize, {}, *hash);
-        if (!s)
-          return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(c) + ": " + s.error().describe());
-        world.write_coarse(rect, *s);
-      } else if (section == 1) {
-        if (c.layer != Layer::kDetail || c.mip != 0 ||
-            !tiles_overlapping(manifest->world.detail_sample_rect()).contains(*tx, *ty)) {
-          return make_error(ErrorCode::kCorrupt, tpath, "detail tile " + to_string(c) + " outside the world");
-        }
-        auto s = decode_detail_region(payload, kTileSize, kTileSize, {}, *hash);
-        if (!s)
-          return make_error(ErrorCode::kCorrupt, tpath, "tile " + to_string(c) + ": " + s.error().describe());
-        world.write_detail(rect, *s);
+        const Status read = visit_layer(want, [&](auto row) -> Status {
+          using R = decltype(row);
+          auto samples = decode_samples<typename R::Sample>(payload, kTileSize, kTileSize, {}, *hash);
+          if (!samples)
+            return make_error(ErrorCode::kCorrupt, tpath,
+                              "tile " + to_string(c) + ": " + samples.error().describe());
+          LayerWrite<R>::write(world, rect, *samples);
+          return {};
+        });
+        LOAM_TRY(read);
       }
       versions.push_back({c, *version, *hash});
     }
