@@ -473,28 +473,32 @@ std::string expected_read(const std::string& prefix, const std::string& type, co
   return prefix + "." + field;
 }
 
-TEST(DocsDrift, EveryMessageTableIsTheOrderNamesAndWidthsTheDecoderReads) {
+// Each message's field table (type | field ...) with its message: sections "### A (x)" or
+// "### A (x) / B (y)", whose table, when there is one, is the last message's (the response of
+// a request/response pair).
+std::vector<std::pair<wire::MessageType, Table>> message_tables() {
   const auto& lines = protocol_lines();
-  // Sections "### A (x)" or "### A (x) / B (y)": the table, when there is one, is the last
-  // message's (the response of a request/response pair).
-  size_t tables_checked = 0;
+  std::vector<std::pair<wire::MessageType, Table>> out;
   for (size_t i = 0; i < lines.size(); ++i) {
     if (lines[i].rfind("### ", 0) != 0) continue;
     const auto named = named_ids(lines[i]);
     if (named.empty()) continue;
-    const uint16_t id = named.back().second;
     size_t end = i + 1;
     while (end < lines.size() && lines[end].rfind("### ", 0) != 0 && lines[end].rfind("## ", 0) != 0) ++end;
-    std::optional<Table> table;
     for (const Table& t : tables_in(lines, i + 1, end))
       if (t.header.size() >= 2 && t.header[0] == "type" && t.header[1] == "field") {
-        table = t;
+        out.emplace_back(wire::MessageType(named.back().second), t);
         break;
       }
-    if (!table) continue;
-    const auto type = wire::MessageType(id);
+  }
+  return out;
+}
+
+TEST(DocsDrift, EveryMessageTableIsTheOrderNamesAndWidthsTheDecoderReads) {
+  size_t tables_checked = 0;
+  for (const auto& [type, table] : message_tables()) {
     SCOPED_TRACE(std::string(wire::to_string(type)) + " (docs/protocol.md line " +
-                 std::to_string(table->line) + ")");
+                 std::to_string(table.line) + ")");
     size_t samples = 0;
     for (const auto& [sample_name, m] : test::sample_messages()) {
       if (wire::message_type(m) != type) continue;
@@ -510,7 +514,7 @@ TEST(DocsDrift, EveryMessageTableIsTheOrderNamesAndWidthsTheDecoderReads) {
         }
       size_t k = 0;
       bool ended = false;
-      for (const auto& row : table->rows) {
+      for (const auto& row : table.rows) {
         if (ended) break;
         const std::string want = expected_read(prefix, row.at(0), row.at(1));
         if (k < reads.size() && reads[k].name == want) {
@@ -619,28 +623,14 @@ std::vector<std::pair<std::string, wire::Message>> layout_samples() {
 }
 
 TEST(DocsDrift, EveryMessageTableListsEveryFieldTheEncoderWritesListElementsIncluded) {
-  const auto& lines = protocol_lines();
   const auto samples = layout_samples();
   size_t tables = 0, element_groups = 0;
   std::set<std::string> long_offset_seen;
-  for (size_t i = 0; i < lines.size(); ++i) {
-    if (lines[i].rfind("### ", 0) != 0) continue;
-    const auto named = named_ids(lines[i]);
-    if (named.empty()) continue;
-    const auto type = wire::MessageType(named.back().second);
-    size_t end = i + 1;
-    while (end < lines.size() && lines[end].rfind("### ", 0) != 0 && lines[end].rfind("## ", 0) != 0) ++end;
-    std::optional<Table> table;
-    for (const Table& t : tables_in(lines, i + 1, end))
-      if (t.header.size() >= 2 && t.header[0] == "type" && t.header[1] == "field") {
-        table = t;
-        break;
-      }
-    if (!table) continue;
+  for (const auto& [type, table] : message_tables()) {
     SCOPED_TRACE(std::string(wire::to_string(type)) + " (docs/protocol.md line " +
-                 std::to_string(table->line) + ")");
+                 std::to_string(table.line) + ")");
     ++tables;
-    for (const auto& row : table->rows) element_groups += per_element(row) ? 1 : 0;
+    for (const auto& row : table.rows) element_groups += per_element(row) ? 1 : 0;
     size_t checked = 0;
     for (const auto& [name, m] : samples) {
       if (wire::message_type(m) != type) continue;
@@ -653,7 +643,7 @@ TEST(DocsDrift, EveryMessageTableListsEveryFieldTheEncoderWritesListElementsIncl
           prefix = f.field.substr(0, f.field.find('.'));
           break;
         }
-      match_rows(*table, layout, prefix);
+      match_rows(table, layout, prefix);
       for (const auto& f : layout)
         if (f.field == "deform_event.tile_dx") long_offset_seen.insert(name);
       ++checked;
