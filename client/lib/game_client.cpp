@@ -281,7 +281,6 @@ void Client::Impl::step() {
     const Status pumped = net.pump(std::chrono::milliseconds(todo.empty() ? 2 : 0));
     if (!pumped) {
       connected = false;
-      display->abandon_unacknowledged();
       next_reconnect = std::chrono::steady_clock::now() + std::chrono::seconds(1);
       std::lock_guard<std::mutex> lock(mu);
       error = pumped.error().describe();
@@ -324,7 +323,9 @@ void Client::Impl::step() {
       continue;
     }
     StampResult r{it->second, ack->accepted, ack->global_seq, ""};
-    if (!ack->accepted)
+    if (ack->lost)
+      r.error = "the connection was lost before the server answered (the terrain shows whether it applied)";
+    else if (!ack->accepted)
       r.error = std::string(wire::to_string(ack->code)) + (ack->field.empty() ? "" : ": " + ack->field);
     new_results.push_back(r);
     it = ticket_of_seq.erase(it);

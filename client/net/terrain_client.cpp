@@ -48,10 +48,13 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   // Deforms in flight on a lost connection go again, first, when the server still knows our
   // resume key (answered once, applied once); after a restart it may have logged them
   // already, so they are dropped (at most once). Then the queued ones.
-  if (welcome_.resume_key_known)
+  // A dropped Deform's answer says so (AckResult::lost), so whoever waits on it stops waiting.
+  if (welcome_.resume_key_known) {
     (void)pacer_.requeue_unacked();
-  else
-    (void)pacer_.drop_unacked();
+  } else {
+    for (const uint32_t seq : pacer_.drop_unacked())
+      acks_[seq] = AckResult{false, 0, wire::WireErrorCode::kIo, "connection.lost", true};
+  }
   pacer_.set_limits(welcome_.limits.max_pending_deforms, double(welcome_.limits.max_deforms_per_second),
                     DeformPacer::Clock::now());
   return send_paced();

@@ -28,6 +28,10 @@ struct AckResult {
   uint64_t global_seq = 0;
   wire::WireErrorCode code = wire::WireErrorCode::kInternal;
   std::string field;
+  // No answer will come: the connection was lost after the Deform left, and the server the
+  // client reconnected to did not know its resume key (a restart). The server may or may not
+  // have applied it; the confirmed tiles show which. Not accepted, not rejected.
+  bool lost = false;
 };
 
 // Returns the base of `identity` (TileBase::identity) when this program can generate it, else

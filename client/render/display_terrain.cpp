@@ -165,12 +165,6 @@ std::vector<int32_t> DisplayTerrain::expected_after(const Pending& p,
   return read_layer(crop, p.stamp.layer, p.reach);
 }
 
-void DisplayTerrain::abandon_unacknowledged() {
-  for (Pending& p : pending_) {
-    if (!p.acked) p.acked = true, p.accepted = false, p.abandoned = true;
-  }
-}
-
 bool DisplayTerrain::predict(uint32_t client_seq, const QuantizedStamp& q) {
   auto reach = stamp_reach(q, display_.params(), textures_);
   if (!reach || reach->empty() || !holds_mip0(q.layer, *reach)) {
@@ -201,6 +195,9 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
       if (const auto a = client.ack(p.client_seq)) {
         p.acked = true;
         p.accepted = a->accepted;
+        // Lost with the connection: it retires, and the confirmed state after the reconnect
+        // shows whether the server applied it. Queued stamps were not sent: they stay predicted.
+        p.abandoned = a->lost;
         p.global_seq = a->global_seq;
         p.ack_time = now;
       }

@@ -103,11 +103,6 @@ class DisplayTerrain final : public HeightSource {
   // Brings the display up to the client's store and acks; returns what changed on display.
   std::vector<DisplayDirty> sync(client::TerrainClient& client);
 
-  // The connection was lost: the own stamps not acknowledged yet may or may not have reached
-  // the server, and their acks will not come. They retire at the next sync (the confirmed state
-  // after the reconnect shows whichever happened).
-  void abandon_unacknowledged();
-
   // The store's changes the last sync() took in, oldest first (events and regions): what a
   // game's deformation hooks hear of.
   const std::vector<client::StoreChange>& last_changes() const { return last_changes_; }

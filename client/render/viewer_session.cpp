@@ -127,7 +127,6 @@ void ViewerSession::refresh_terrain(const std::vector<DisplayDirty>& dirty) {
 }
 
 Status ViewerSession::reconnect(const std::string& host, uint16_t port) {
-  display_->abandon_unacknowledged();
   LOAM_TRY(client_.reconnect(host, port));
   client_.store().keep_initial(client_.shared_base() == nullptr);
   display_->set_initial_base(client_.shared_base());

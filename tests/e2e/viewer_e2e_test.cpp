@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <random>
+#include <thread>
 
 #include "client/render/headless.h"
 #include "client/render/viewer_session.h"
@@ -196,15 +197,18 @@ TEST(ViewerEndToEnd, PredictionOverAnotherStampSequencedFirstCountsCorrectionsOn
   EXPECT_EQ(view.display().counters().retired, 2u);
 }
 
-// The server dies (kill -9) right after the viewer sent a stamp and comes back from its data
-// folder: the viewer reconnects, its unacknowledged stamp leaves the overlay (the server may
-// or may not have made it durable: the confirmed state says which), and it converges on the
+// The server dies (kill -9) right after the viewer sent a stamp, with another waiting on its
+// side (the server allows one unacknowledged Deform), and comes back from its data folder: the
+// viewer reconnects; the stamp that had left is answered as lost and leaves the overlay (the
+// server may or may not have made it durable: the confirmed state says which), the one that
+// never left goes to the new server and settles by its event; the viewer converges on the
 // recovered server's tiles with no divergence.
 TEST(ViewerEndToEnd, ViewerReconnectsAfterTheServerRestartsAndConverges) {
   LOAM_REQUIRE_GL();
   const std::string dir = temp_data_dir("restart");
+  const std::vector<std::string> args = {"--hashes-every", "5", "--max-pending-deforms", "1"};
   ServerProcess server;
-  ASSERT_TRUE(server.start(dir, {"--hashes-every", "5"})) << server.log();
+  ASSERT_TRUE(server.start(dir, args)) << server.log();
   const render::Camera cam = overview();
   auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
   ASSERT_TRUE(v.ok()) << v.error().describe();
@@ -213,25 +217,48 @@ TEST(ViewerEndToEnd, ViewerReconnectsAfterTheServerRestartsAndConverges) {
   const WorldParams& w = view.client().welcome().world;
   ASSERT_TRUE(view.deform(crater_at(w, 980, 740, 20, 4)).ok());
   ASSERT_TRUE(view.wait_settled(cam, 30s));
-  ASSERT_TRUE(view.deform(crater_at(w, 1040, 780, 15, 3)).ok());
+  // The first answered and a pacer interval (1/60 s) past: the next stamp leaves at once.
+  ASSERT_TRUE(view.client().wait_until([&] { return view.client().deforms_unacked() == 0; }, 30s));
+  std::this_thread::sleep_for(50ms);
+  const auto sent = view.deform(crater_at(w, 1040, 780, 15, 3));
+  const auto waiting = view.deform(crater_at(w, 1000, 700, 10, 2));
+  ASSERT_TRUE(sent.ok() && waiting.ok());
+  ASSERT_EQ(view.client().deforms_queued(), 1u) << "the second waits for the first's answer";
   server.kill9();
   // The loss shows as an error from update (the inbox drains first).
   Status st;
   for (int i = 0; i < 200 && st.ok(); ++i) st = view.update(cam, 10ms);
   ASSERT_FALSE(st.ok());
-  ASSERT_TRUE(server.start(dir, {"--hashes-every", "5"})) << server.log();
+  // Still waiting unless the first's ack beat the kill (the 30 Hz tick makes that unlikely but
+  // possible): then the second left too, and may be lost or answered like the first.
+  const bool never_left = view.client().deforms_queued() == 1;
+  ASSERT_TRUE(server.start(dir, args)) << server.log();
   ASSERT_TRUE(view.reconnect("127.0.0.1", server.port()).ok());
+  const uint64_t welcomed = view.client().welcome().global_sequence;
   ASSERT_TRUE(view.wait_settled(cam, 30s));
   EXPECT_EQ(view.display().overlay_size(), 0u);
-  // Both stamps settled: the first by its event, the second abandoned (unless its ack beat the
-  // kill, which the 30 Hz tick makes unlikely but possible).
-  EXPECT_EQ(view.display().counters().retired, 2u);
-  EXPECT_LE(view.display().counters().abandoned, 1u);
+  // All three settled: the first by its event, each other one by its answer: accepted, or lost
+  // with the connection (which is what the display counts as abandoned).
+  EXPECT_EQ(view.display().counters().retired, 3u);
+  uint64_t lost = 0, last_seq = welcomed;
+  for (const uint32_t s : {*sent, *waiting}) {
+    const auto a = view.client().ack(s);
+    ASSERT_TRUE(a.has_value()) << "stamp " << s << " has no answer";
+    EXPECT_TRUE(a->lost || a->accepted) << a->field;
+    lost += a->lost;
+    if (a->accepted) last_seq = std::max(last_seq, a->global_seq);
+  }
+  EXPECT_EQ(view.display().counters().abandoned, lost);
+  if (never_left) {
+    const auto later = view.client().ack(*waiting);
+    EXPECT_TRUE(later->accepted && !later->lost) << later->field;
+    EXPECT_EQ(later->global_seq, welcomed + 1) << "sequenced by the restarted server";
+  }
   // Let a TileHashes round compare everything held.
   const size_t hashes = view.client().tile_hash_messages();
   ASSERT_TRUE(view.client().wait_until([&] { return view.client().tile_hash_messages() > hashes + 1; }, 30s));
   EXPECT_EQ(view.client().hash_mismatches(), 0u);
-  const World expected = replayed_world(dir, view.client().welcome().global_sequence);
+  const World expected = replayed_world(dir, last_seq);
   EXPECT_TRUE(store_matches(view.client(), expected));
   // The resumed session's regions may reach the store after the first wait_settled (the tiles
   // held from before the restart count as held) and while the client alone was pumped above:

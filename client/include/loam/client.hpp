@@ -162,7 +162,7 @@ struct StampResult {
   uint64_t ticket = 0;  // stamp()'s answer
   bool accepted = false;
   uint64_t seq = 0;   // accepted: its global sequence
-  std::string error;  // rejected: why
+  std::string error;  // not accepted: why (refused, or lost with a connection to a restarted server)
 };
 
 class LOAM_CLIENT_API Client {
