@@ -4,6 +4,7 @@
 #include <cmath>
 #include <glm/geometric.hpp>
 #include <numbers>
+#include <optional>
 
 #include "client/query/terrain_query.h"
 
@@ -23,11 +24,24 @@ bool walkable(const glm::dvec3& n, const WalkerConfig& c) {
   return n.z >= std::cos(c.max_slope_degrees * std::numbers::pi / 180.0);
 }
 
-// Moves the capsule by `motion`, sliding along what it meets (up to four contacts); returns the
-// normal of the last contact that held it up, if any.
+// Whether two faces it touches hold it up together: in a crease (a narrow valley, a faceted
+// crater floor) each face may be too steep to stand on while the two together, pushing from
+// either side, make a floor. Their summed normal then says how steep that floor is.
+bool crease_holds(const glm::dvec3& a, const glm::dvec3& b, const WalkerConfig& c, glm::dvec3& support) {
+  const glm::dvec3 sum = a + b;
+  if (glm::length(sum) < 1e-9) return false;
+  const glm::dvec3 n = glm::normalize(sum);
+  if (!walkable(n, c)) return false;
+  support = n;
+  return true;
+}
+
+// Moves the capsule by `motion`, sliding along what it meets (up to four contacts); returns
+// whether what it met holds it up (a walkable face, or two faces of a crease), and that normal.
 bool move_and_slide(Walker& w, const query::TerrainSnapshot& s, glm::dvec3 motion, const WalkerConfig& c,
                     glm::dvec3& support) {
   bool supported = false;
+  std::optional<glm::dvec3> steep;  // the last face met that was too steep on its own
   for (int i = 0; i < 4 && glm::length(motion) > 1e-9; ++i) {
     const query::SweepResult r = query::sweep_capsule(s, capsule_at(w.feet, c), motion);
     if (!r.contact) {
@@ -51,6 +65,10 @@ bool move_and_slide(Walker& w, const query::TerrainSnapshot& s, glm::dvec3 motio
     if (walkable(n, c)) {
       supported = true;
       support = n;
+    } else if (steep && !supported && crease_holds(*steep, n, c, support)) {
+      supported = true;
+    } else {
+      steep = n;
     }
   }
   return supported;
@@ -94,10 +112,27 @@ void substep(Walker& w, const query::TerrainSnapshot& s, const WalkerInput& in, 
   if (!supported && (walking || w.velocity.z <= 1e-9)) {
     const double probe = walking ? c.snap_distance : 2.0 * kSkin;
     const query::SweepResult r = query::sweep_capsule(s, capsule_at(w.feet, c), {0.0, 0.0, -probe});
-    if (r.contact && walkable(r.contact->normal, c) && !r.contact->started_inside) {
-      w.feet.z -= std::max(0.0, r.contact->t * probe - kSkin);
-      supported = true;
-      support = r.contact->normal;
+    if (r.contact && !r.contact->started_inside) {
+      const glm::dvec3 n = r.contact->normal;
+      if (walkable(n, c)) {
+        w.feet.z -= std::max(0.0, r.contact->t * probe - kSkin);
+        supported = true;
+        support = n;
+      } else {
+        // A steep face: the rest of the probe along it finds whether another face beside it
+        // closes a crease that holds the walker where it is.
+        const glm::dvec3 reached =
+            w.feet + glm::dvec3{0.0, 0.0, -std::max(0.0, r.contact->t * probe - kSkin)};
+        glm::dvec3 rest{0.0, 0.0, -probe * (1.0 - r.contact->t)};
+        rest -= n * glm::dot(rest, n);
+        if (glm::length(rest) > 1e-9) {
+          const query::SweepResult r2 = query::sweep_capsule(s, capsule_at(reached, c), rest);
+          if (r2.contact && !r2.contact->started_inside && crease_holds(n, r2.contact->normal, c, support)) {
+            w.feet = reached;
+            supported = true;
+          }
+        }
+      }
     }
   }
   if (supported && (walking || w.velocity.z <= 1e-9)) {

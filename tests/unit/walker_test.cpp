@@ -84,6 +84,47 @@ TEST(Walker, SteeperThanItsLimitItSlidesDown) {
   EXPECT_GE(w.feet.z - ground(*s, w), -1e-6);  // sliding on it, not through it
 }
 
+// A V valley along y whose two faces rise at `degrees` from x = 128.
+World valley_world(double degrees) {
+  const WorldParams p = params();
+  World w(p);
+  const RectI r = p.sample_rect();
+  std::vector<uint16_t> s(size_t(r.area()));
+  const double rise = std::tan(degrees * std::numbers::pi / 180.0);
+  for (int64_t y = 0; y < r.y1; ++y) {
+    for (int64_t x = 0; x < r.x1; ++x)
+      s[size_t(y * r.x1 + x)] = quantize_height(p, 50.0 + rise * std::abs(double(x) - 128.0));
+  }
+  (void)w.write_coarse(r, s);
+  (void)w.commit(1);
+  return w;
+}
+
+// Each face of the valley is too steep to stand on, but together they hold it: it slides into
+// the crease and stands there, frame after frame (a faceted crater floor is such a crease).
+TEST(Walker, InACreaseOfTwoSteepFacesItStandsWhereTheyMeet) {
+  const World world = valley_world(50);
+  const auto s = snap(world);
+  Walker w = place_walker(*s, 129.5, 128);
+  EXPECT_FALSE(w.grounded);
+  for (int i = 0; i < 120; ++i) step_walker(w, *s, {}, 1.0 / 60);
+  EXPECT_NEAR(w.feet.x, 128.0, 0.05);
+  for (int i = 0; i < 240; ++i) {
+    step_walker(w, *s, {}, 1.0 / 60);
+    ASSERT_TRUE(w.grounded) << "frame " << i << ", feet at " << w.feet.x << ", " << w.feet.z;
+  }
+  EXPECT_NEAR(w.feet.x, 128.0, 0.05);
+  EXPECT_GE(w.feet.z - ground(*s, w), -1e-6);
+  // One face as steep alone never holds it: it slides.
+  const World slope = slope_world(50);
+  const auto t = snap(slope);
+  Walker alone = place_walker(*t, 120, 128);
+  for (int i = 0; i < 120; ++i) {
+    step_walker(alone, *t, {}, 1.0 / 60);
+    EXPECT_FALSE(alone.grounded);
+  }
+}
+
 TEST(Walker, AJumpRisesAsHighAsItsTakeOffSpeedAllows) {
   World world(params(), 3200);
   const auto s = snap(world);
