@@ -10,6 +10,7 @@
 #include "gpu/gl_debug.h"
 #include "gpu/shader_library.h"
 #include "protocol/stamps/stamp_kernel.h"
+#include "protocol/stamps/stamp_kinds.h"
 #include "protocol/world.h"
 
 namespace loam::gpu {
@@ -22,8 +23,8 @@ struct StampUniforms {
   int32_t rect_x0, rect_y0, rect_w, rect_h;
   int32_t d0x, d0y, shift, radius_r;
   int32_t cos_q15, sin_q15, intensity, target;
-  int32_t blend, tex_w, tex_h, aux0;
-  int32_t aux1, aux2, pad0, pad1;
+  int32_t blend, tex_w, tex_h, vertex_runs_per_row;
+  int32_t wave_stride, wave_origin_x, wave_origin_y, pad0;
   int32_t table[kProfileEntries + 4];
 };
 static_assert(sizeof(StampUniforms) == (20 + kProfileEntries + 4) * 4);
@@ -188,30 +189,57 @@ StampPath GpuStamper::path_for(int64_t samples) const {
                                                                        : StampPath::kCompute;
 }
 
-// key: stamp / contact (compute), vstamp / vcontact (vertex stage), wave_init, wave_step,
-// wave_apply (shockwave, compute).
-Result<GLuint> GpuStamper::program(const std::string& key, const std::string& file, int kind, Layer layer) {
-  const std::string full = key + "/" + std::to_string(kind) + "/" + to_string(layer);
-  const auto found = programs_.find(full);
+namespace {
+
+// Each pass: its define and the shader file of each stage (null: no such stage). The stamp
+// passes share stamp_common.glsl with their stage's file; the wave step and apply stand alone.
+struct PassRow {
+  const char* define;
+  const char* compute_file;
+  const char* vertex_file;
+  bool with_common;
+};
+constexpr PerStampPass<PassRow> kPasses{{{
+    {"PASS_STAMP", "stamp.comp.glsl", "stamp.vert.glsl", true},
+    {"PASS_CONTACT", "stamp.comp.glsl", "stamp.vert.glsl", true},
+    {"PASS_WAVE_INIT", "stamp.comp.glsl", nullptr, true},
+    {"PASS_STEP", "shockwave.comp.glsl", nullptr, false},
+    {"PASS_APPLY", "shockwave.comp.glsl", nullptr, false},
+}}};
+
+// The kinds table as the shaders' constants.
+std::vector<ShaderDefine> kind_defines(StampKind kind) {
+  std::vector<ShaderDefine> d = {{"KIND", std::to_string(int(kind))},
+                                 {"KIND_NEEDS_CONTACT", stamp_kind(kind).needs_contact ? "1" : "0"}};
+  for (const StampKindRow& r : kStampKinds)
+    d.push_back({"KIND_" + std::string(r.constant), std::to_string(int(r.kind))});
+  return d;
+}
+
+}  // namespace
+
+Result<GLuint> GpuStamper::program(const ProgramKey& key) {
+  const auto found = programs_.find(key);
   if (found != programs_.end()) return found->second.get();
-  std::vector<ShaderDefine> defines = {{"KIND", std::to_string(kind)}};
-  if (layer == Layer::kDetail) defines.push_back({"LAYER_DETAIL", "1"});
-  if (key == "stamp" || key == "vstamp") defines.push_back({"PASS_STAMP", "1"});
-  if (key == "contact" || key == "vcontact") defines.push_back({"PASS_CONTACT", "1"});
-  if (key == "wave_init") defines.push_back({"PASS_WAVE_INIT", "1"});
-  if (key == "wave_step") defines.push_back({"PASS_STEP", "1"});
-  if (key == "wave_apply") defines.push_back({"PASS_APPLY", "1"});
+  const PassRow& pass = kPasses[key.pass];
+  const bool vertex = key.stage == ShaderStage::kVertex;
+  const char* file = vertex ? pass.vertex_file : pass.compute_file;
+  if (file == nullptr)
+    return make_error(ErrorCode::kInvalidArgument, "program", "the pass has no such stage");
+  std::vector<ShaderDefine> defines = kind_defines(key.kind);
+  if (key.layer == Layer::kDetail) defines.push_back({"LAYER_DETAIL", "1"});
+  defines.push_back({pass.define, "1"});
   defines.push_back({"STAMP_ROWS", std::to_string(kComputeRows)});
   defines.push_back({"STAMP_RUN", std::to_string(kVertexRun)});
   Result<GlProgram> built = [&] {
     const std::string_view files[] = {"stamp_common.glsl", file};
-    if (file == "stamp.comp.glsl") return build_compute_program_from(files, defines);
-    if (file == "stamp.vert.glsl") return build_vertex_program_from(files, defines);
-    return build_compute_program(file, defines);
+    if (!pass.with_common) return build_compute_program(file, defines);
+    if (vertex) return build_vertex_program_from(files, defines);
+    return build_compute_program_from(files, defines);
   }();
   if (!built) return built.error();
   const GLuint name = built->get();
-  programs_.emplace(full, std::move(*built));
+  programs_.emplace(key, std::move(*built));
   return name;
 }
 
@@ -220,15 +248,16 @@ Result<GLuint> GpuStamper::program(const std::string& key, const std::string& fi
 Status GpuStamper::build_programs() {
   const bool compute = options_.path != StampPath::kVertex;
   const bool vertex = vertex_path_ && options_.path != StampPath::kCompute && (software_ || !compute);
-  for (Layer l : {Layer::kCoarse, Layer::kDetail}) {
-    for (int kind = 0; kind <= 4; ++kind) {
-      const bool footprint = kind == int(StampKind::kFootprint);
-      for (const auto& [use, key, file] : {std::tuple{compute, "stamp", "stamp.comp.glsl"},
-                                           std::tuple{compute && footprint, "contact", "stamp.comp.glsl"},
-                                           std::tuple{vertex, "vstamp", "stamp.vert.glsl"},
-                                           std::tuple{vertex && footprint, "vcontact", "stamp.vert.glsl"}}) {
+  for (const Layer l : kLayers) {
+    for (const StampKindRow& k : kStampKinds) {
+      if (!k.per_sample) continue;
+      for (const auto& [use, pass, stage] :
+           {std::tuple{compute, StampPass::kStamp, ShaderStage::kCompute},
+            std::tuple{compute && k.needs_contact, StampPass::kContact, ShaderStage::kCompute},
+            std::tuple{vertex, StampPass::kStamp, ShaderStage::kVertex},
+            std::tuple{vertex && k.needs_contact, StampPass::kContact, ShaderStage::kVertex}}) {
         if (!use) continue;
-        auto p = program(key, file, kind, l);
+        auto p = program({pass, k.kind, l, stage});
         if (!p) return p.error();
       }
     }
@@ -351,28 +380,27 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b
     // gx * 256 - center_x = (gx - rect.x0) * 256 + d0x; |d0x| <= support < 2^25.
     u.d0x = int32_t(part.rect.x0 * 256 - q.center_x);
     u.d0y = int32_t(part.rect.y0 * 256 - q.center_y);
-    u.aux0 = int32_t((part.rect.width() + kVertexRun - 1) / kVertexRun);  // the vertex pass's points per row
+    u.vertex_runs_per_row = int32_t((part.rect.width() + kVertexRun - 1) / kVertexRun);
     glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
     glBindBufferBase(GL_UNIFORM_BUFFER, 0, params_buf_.get());
   };
-  const bool footprint = q.kind == StampKind::kFootprint;
-  if (footprint) {
+  const bool contact_pass = stamp_kind(q.kind).needs_contact;
+  if (contact_pass) {
     // First contact: max over the whole foot (every part) of old - sole, gathered by a
     // pre-pass, then read by the stamp passes from the same buffer (no round trip to the CPU).
     reset_contact();
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 1, result_buf_.get());
   }
-  const int kind = int(q.kind);
   const GLuint pages_tex = pages(q.layer).texture();
   const GLenum format = page_format(q.layer).internal_format;
   if (vertex) {
-    auto prog = program("vstamp", "stamp.vert.glsl", kind, q.layer);
+    auto prog = program({StampPass::kStamp, q.kind, q.layer, ShaderStage::kVertex});
     if (!prog) return prog.error();
     auto points = [](const PagePart& part) {
       return GLsizei(((part.rect.width() + kVertexRun - 1) / kVertexRun) * part.rect.height());
     };
-    if (footprint) {
-      auto contact = program("vcontact", "stamp.vert.glsl", kind, q.layer);
+    if (contact_pass) {
+      auto contact = program({StampPass::kContact, q.kind, q.layer, ShaderStage::kVertex});
       if (!contact) return contact.error();
       for (const PagePart& part : parts) {
         load_part(part);
@@ -395,13 +423,13 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b
     glUseProgram(prog);
     glDispatchCompute(groups(part.rect.width()), groups(part.rect.height(), kGroup * kComputeRows), 1);
   };
-  if (footprint) {
-    auto contact = program("contact", "stamp.comp.glsl", kind, q.layer);
+  if (contact_pass) {
+    auto contact = program({StampPass::kContact, q.kind, q.layer, ShaderStage::kCompute});
     if (!contact) return contact.error();
     for (const PagePart& part : parts) dispatch(*contact, part);
     glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
   }
-  auto prog = program("stamp", "stamp.comp.glsl", kind, q.layer);
+  auto prog = program({StampPass::kStamp, q.kind, q.layer, ShaderStage::kCompute});
   if (!prog) return prog.error();
   for (const PagePart& part : parts) dispatch(*prog, part);
   return {};
@@ -451,9 +479,8 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b,
   const RectI pulse{ceil_div(q.center_x - b.support_q8, 256), ceil_div(q.center_y - b.support_q8, 256),
                     floor_div(q.center_x + b.support_q8, 256) + 1,
                     floor_div(q.center_y + b.support_q8, 256) + 1};
-  for (const char* key : {"wave_init", "wave_step", "wave_apply"}) {
-    auto p = program(key, key == std::string("wave_init") ? "stamp.comp.glsl" : "shockwave.comp.glsl",
-                     int(q.kind), q.layer);
+  for (const StampPass pass : {StampPass::kWaveInit, StampPass::kWaveStep, StampPass::kWaveApply}) {
+    auto p = program({pass, q.kind, q.layer, ShaderStage::kCompute});
     if (!p) return p.error();
   }
   const int64_t w = box.width(), h = box.height(), stride = w + 2;
@@ -478,20 +505,20 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b,
   u.d0y = int32_t(init.y0 * 256 - q.center_y);
   u.shift = b.shift;
   u.radius_r = b.radius_r;
-  u.aux0 = int32_t(stride);
-  u.aux1 = int32_t(init.x0 - box.x0);
-  u.aux2 = int32_t(init.y0 - box.y0);
+  u.wave_stride = int32_t(stride);
+  u.wave_origin_x = int32_t(init.x0 - box.x0);
+  u.wave_origin_y = int32_t(init.y0 - box.y0);
   std::copy(b.table.begin(), b.table.end(), u.table);
   glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
   glBindBufferBase(GL_UNIFORM_BUFFER, 0, params_buf_.get());
   GLuint cur = wave_a_.get(), prev = wave_b_.get();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cur);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, prev);
-  glUseProgram(*program("wave_init", "stamp.comp.glsl", int(q.kind), q.layer));
+  glUseProgram(*program({StampPass::kWaveInit, q.kind, q.layer, ShaderStage::kCompute}));
   if (!init.empty()) glDispatchCompute(groups(init.width()), groups(init.height(), kGroup * kComputeRows), 1);
   glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
 
-  const GLuint step = *program("wave_step", "shockwave.comp.glsl", int(q.kind), q.layer);
+  const GLuint step = *program({StampPass::kWaveStep, q.kind, q.layer, ShaderStage::kCompute});
   glUseProgram(step);
   glProgramUniform1i(step, glGetUniformLocation(step, "stride"), GLint(stride));
   glProgramUniform1i(step, glGetUniformLocation(step, "nu2_q16"), nu2);
@@ -513,7 +540,7 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b,
   }
 
   // The final field applied page by page: each part's cells (box-local) into its page.
-  const GLuint apply = *program("wave_apply", "shockwave.comp.glsl", int(q.kind), q.layer);
+  const GLuint apply = *program({StampPass::kWaveApply, q.kind, q.layer, ShaderStage::kCompute});
   glUseProgram(apply);
   glProgramUniform1i(apply, glGetUniformLocation(apply, "stride"), GLint(stride));
   const GLint apply_rect = glGetUniformLocation(apply, "active_rect");

@@ -47,6 +47,7 @@
 #include <vector>
 
 #include "gpu/gl_handle.h"
+#include "gpu/stamp_program.h"
 #include "gpu/stamp_results.h"
 #include "gpu/tile_pages.h"
 #include "protocol/geometry.h"
@@ -162,7 +163,7 @@ class GpuStamper {
   Result<std::vector<PagePart>> resident_parts(Layer layer, const RectI& rect);
   void release(Layer layer, const std::vector<PagePart>& parts);
   void fill_page(Layer layer, int32_t page, int32_t tx, int32_t ty);
-  Result<GLuint> program(const std::string& key, const std::string& file, int kind, Layer layer);
+  Result<GLuint> program(const ProgramKey& key);
   Status build_programs();
   Status stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b, const std::vector<PagePart>& parts);
   void bind_vertex_pass(Layer layer, const PagePart& part);
@@ -192,7 +193,7 @@ class GpuStamper {
   int64_t old_coarse_w_ = 0, old_coarse_h_ = 0, old_detail_w_ = 0, old_detail_h_ = 0;
   GlFramebuffer empty_fbo_;
   GlVertexArray empty_vao_;
-  std::map<std::string, GlProgram> programs_;
+  std::map<ProgramKey, GlProgram> programs_;
   std::unordered_map<uint64_t, GlTexture> stamp_textures_;
   std::deque<Pending> pending_;
   std::vector<Pending> free_pbos_;

@@ -36,7 +36,7 @@ shared int group_contact;
 void main() {
   const Stamp s = load_stamp();
 #if defined(PASS_WAVE_INIT)
-  const int stride = p_misc.w, ox = p_aux.x, oy = p_aux.y;
+  const int stride = p_wave.x, ox = p_wave.y, oy = p_wave.z;
   for (int j = 0; j < STAMP_ROWS; ++j) {
     ivec2 l = ivec2(gl_GlobalInvocationID.x, int(gl_GlobalInvocationID.y) * STAMP_ROWS + j);
     int u = radial_u(s, l);
@@ -60,7 +60,7 @@ void main() {
   barrier();
   if (gl_LocalInvocationIndex == 0u && group_contact != kNoContact) atomicMax(contact_q8, group_contact);
 #else
-#if KIND == 3
+#if KIND_NEEDS_CONTACT
   const int contact = contact_q8;
 #else
   const int contact = kNoContact;

@@ -42,7 +42,7 @@ void main() {
   }
   if (best != kNoContact) atomicMax(contact_q8, best);
 #else
-#if KIND == 3
+#if KIND_NEEDS_CONTACT
   const int contact = contact_q8;
 #else
   const int contact = kNoContact;

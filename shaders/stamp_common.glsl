@@ -10,7 +10,9 @@
 // before anything diverges (llvmpipe turns a uniform-block read under a per-lane mask into a
 // per-lane gather).
 //
-// Defines: KIND (StampKind value), LAYER_DETAIL (int8 layer; coarse uint16 otherwise).
+// Defines, generated from the kinds table (protocol/stamps/stamp_kinds.h): KIND (the program's
+// StampKind value), KIND_<NAME> for every kind, KIND_NEEDS_CONTACT (0 or 1); and LAYER_DETAIL
+// (int8 layer; coarse uint16 otherwise).
 
 // Per-stamp constants (gpu/gpu_stamper.cpp, StampUniforms): consecutive int32 in five ivec4
 // and the profile table packed four entries to an ivec4, so std140 adds no padding and the
@@ -19,10 +21,8 @@ layout(std140, binding = 0) uniform StampParams {
   ivec4 p_rect;    // texel of the rect's first sample (layer texture coordinates), width, height
   ivec4 p_reduce;  // d0x, d0y = rect.x0 * 256 - center (Q8), reduction shift, reduced radius
   ivec4 p_shade;   // cos_q15, sin_q15, intensity, target
-  ivec4 p_misc;    // blend, texture width, texture height, aux0
-  ivec4 p_aux;     // aux1, aux2, -, -
-  // aux0..2: shockwave init: wave field row stride (width + 2), rect origin in its interior;
-  // vertex stage: runs of samples per row (aux0).
+  ivec4 p_misc;    // blend, texture width, texture height, the vertex pass's runs per row
+  ivec4 p_wave;    // shockwave init: wave field row stride (width + 2), rect origin in its interior, -
   ivec4 table4[257];  // profile table entry i = table4[i >> 2][i & 3], i = 0..1024
 };
 
@@ -137,7 +137,7 @@ int blend_value(const Stamp s, int old, int delta) {
   return s.blend == 0 ? add : (s.blend == 1 ? sub : towards);
 }
 
-#if KIND == 0
+#if KIND == KIND_TEXTURE
 layout(binding = 0) uniform usampler2D stamp_texture;  // R16UI, read with texelFetch only
 
 // texture_value(): bilinear with Q8 integer weights; 0..65535. ur, vr in (-rr, rr), so
@@ -167,7 +167,7 @@ uint texture_value(const Stamp s, int ur, int vr, int rr) {
 // outside the support). `contact` is the footprint's first point of contact (kNoContact:
 // none); other kinds ignore it.
 int stamp_sample(const Stamp s, ivec2 l, int old, int contact) {
-#if KIND == 0
+#if KIND == KIND_TEXTURE
   // Image axes are the stamp axes rotated counter-clockwise: the offset rotated clockwise.
   ivec2 d = reduced_offset(s, l);
   int rr = s.radius_r;
@@ -180,11 +180,11 @@ int stamp_sample(const Stamp s, ivec2 l, int old, int contact) {
 #else
   int u = radial_u(s, l);
   int w = table_lookup(u);
-#if KIND == 1 || KIND == 2
+#if KIND == KIND_GAUSSIAN || KIND == KIND_CRATER
   int nv = blend_value(s, old, round_q8(w));
-#elif KIND == 3
+#elif KIND == KIND_FOOTPRINT
   int nv = contact != kNoContact ? min(old, saturate_layer(round_q8(contact - s.intensity + w))) : old;
-#elif KIND == 4
+#elif KIND == KIND_FLATTEN
   int nv = old + (((s.target - old) * w + 8192) >> 14);  // w: Q14 weight
 #else
   int nv = old;

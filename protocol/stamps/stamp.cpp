@@ -1,17 +1,12 @@
 #include "protocol/stamps/stamp.h"
 
+#include "protocol/stamps/stamp_kinds.h"
+
 namespace loam {
 
 const char* to_string(StampKind kind) {
-  switch (kind) {
-    case StampKind::kTexture: return "texture";
-    case StampKind::kGaussian: return "gaussian";
-    case StampKind::kCrater: return "crater";
-    case StampKind::kFootprint: return "footprint";
-    case StampKind::kFlatten: return "flatten";
-    case StampKind::kShockwave: return "shockwave";
-  }
-  return "?";
+  // The names are string literals, so the views are terminated.
+  return size_t(kind) < kStampKinds.size() ? stamp_kind(kind).name.data() : "?";
 }
 
 const char* to_string(BlendMode mode) {

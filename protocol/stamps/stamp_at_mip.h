@@ -19,6 +19,7 @@
 #include "protocol/result.h"
 #include "protocol/stamps/stamp.h"
 #include "protocol/stamps/stamp_kernel.h"
+#include "protocol/stamps/stamp_kinds.h"
 #include "protocol/stamps/texture_registry.h"
 
 namespace loam {
@@ -27,7 +28,7 @@ class World;
 
 // True for kinds whose every sample depends only on its position and old value (all but the
 // shockwave, a simulation on the grid that only mip 0 can run).
-constexpr bool is_per_sample(StampKind kind) { return kind != StampKind::kShockwave; }
+constexpr bool is_per_sample(StampKind kind) { return stamp_kind(kind).per_sample; }
 
 // Measures a footprint's contact on `world` (the same integers as the kernel's pre-pass).
 FootprintContact footprint_contact_of(const BakedStamp& b, const World& world);

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <string>
 
+#include "protocol/stamps/stamp_kinds.h"
+
 namespace loam {
 
 namespace {
@@ -22,17 +24,13 @@ int64_t round_i64(double v) { return int64_t(std::llround(v)); }
 
 // Whether the target height means anything (docs/stamps.md: else it must be 0).
 bool uses_target(StampKind k, BlendMode b) {
-  return k == StampKind::kFlatten || b == BlendMode::kMin || b == BlendMode::kMax;
+  return stamp_kind(k).uses_target || b == BlendMode::kMin || b == BlendMode::kMax;
 }
 
 // Crater rim, footprint and flatten edge softness (docs/stamps.md: else 0).
-bool has_shape(StampKind k) {
-  return k == StampKind::kCrater || k == StampKind::kFootprint || k == StampKind::kFlatten;
-}
+bool has_shape(StampKind k) { return stamp_kind(k).uses_shape; }
 
-bool own_combination(StampKind k) {
-  return k == StampKind::kFootprint || k == StampKind::kFlatten || k == StampKind::kShockwave;
-}
+bool own_combination(StampKind k) { return stamp_kind(k).own_combination; }
 
 // Half side of the final shockwave box in layer samples (radius + every sub-step + margin).
 int64_t shockwave_half_side(uint32_t radius_q8, uint16_t steps, uint16_t speed) {
@@ -147,7 +145,7 @@ Result<QuantizedStamp> validate_stamp(const StampParams& p, const WorldParams& w
     if (p.shape < 0.0 || p.shape > 1.0) return bad("shape", "must be in [0, 1]");
     q.shape = uint16_t(std::min<int64_t>(65535, round_i64(p.shape * 65536.0)));
   }
-  if (p.kind == StampKind::kShockwave) {
+  if (stamp_kind(p.kind).uses_wave) {
     if (p.damping < 0.0 || p.damping > 1.0) return bad("damping", "must be in [0, 1]");
     q.damping = uint16_t(std::min<int64_t>(65535, round_i64(p.damping * 65536.0)));
     if (!(p.speed > 0.0 && p.speed < 1.0)) {
@@ -160,7 +158,7 @@ Result<QuantizedStamp> validate_stamp(const StampParams& p, const WorldParams& w
     }
     q.steps = uint16_t(p.steps);
   }
-  if (p.kind == StampKind::kTexture) {
+  if (stamp_kind(p.kind).uses_texture) {
     if (textures == nullptr || !textures->contains(p.texture_id)) {
       return bad("texture_id", "no registered texture has this id", ErrorCode::kNotFound);
     }
@@ -211,19 +209,19 @@ Status check_quantized(const QuantizedStamp& q, const WorldParams& world, const 
   // The kind-specific fields are 0 on the other kinds (validate_stamp never sets them there).
   if (!has_shape(q.kind) && q.shape != 0)
     return bad("shape", "must be 0: only crater, footprint and flatten have one");
-  if (q.kind != StampKind::kShockwave) {
+  if (!stamp_kind(q.kind).uses_wave) {
     if (q.damping != 0) return bad("damping", "must be 0: only a shockwave has one");
     if (q.speed != 0) return bad("speed", "must be 0: only a shockwave has one");
     if (q.steps != 0) return bad("steps", "must be 0: only a shockwave has them");
   }
-  if (q.kind != StampKind::kTexture && q.texture_id != 0)
+  if (!stamp_kind(q.kind).uses_texture && q.texture_id != 0)
     return bad("texture_id", "must be 0: only a texture stamp has one");
   if ((q.flags & kStampFlagVolumeConserving) != 0 &&
       (q.kind != StampKind::kCrater || (q.blend != BlendMode::kAdd && q.blend != BlendMode::kSubtract))) {
     return bad("flags", "volume conservation needs a crater with the add or subtract blend");
   }
   if (own_combination(q.kind) && q.blend != BlendMode::kAdd) return bad("blend", "must be add for this kind");
-  if (q.kind == StampKind::kTexture && (textures == nullptr || !textures->contains(q.texture_id))) {
+  if (stamp_kind(q.kind).uses_texture && (textures == nullptr || !textures->contains(q.texture_id))) {
     return bad("texture_id", "no registered texture has this id", ErrorCode::kNotFound);
   }
   if (q.kind == StampKind::kShockwave) {
