@@ -1,6 +1,7 @@
 #include "gpu/gpu_stamper.h"
 
 #include <algorithm>
+#include <cctype>
 #include <climits>
 #include <cstring>
 #include <tuple>
@@ -39,8 +40,8 @@ constexpr int kVertexRun = 4;    // samples per vertex-pass point (STAMP_RUN), a
 
 GLuint groups(int64_t n, int64_t per_group = kGroup) { return GLuint((n + per_group - 1) / per_group); }
 
-GLenum pixel_type(Layer l) { return l == Layer::kCoarse ? GL_UNSIGNED_SHORT : GL_BYTE; }
-size_t pixel_size(Layer l) { return l == Layer::kCoarse ? 2 : 1; }
+GLenum pixel_type(Layer l) { return GLenum(layer_info(l).gl_type); }
+size_t pixel_size(Layer l) { return size_t(layer_info(l).bytes_per_sample); }
 
 // First and last index in [0, n) where a and b differ ({-1, -1}: none). b == nullptr: an
 // implicit zero tile.
@@ -134,11 +135,14 @@ Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const
                                                        const StampLimits& limits,
                                                        const GpuStamperOptions& options) {
   install_gl_debug_output();
-  auto coarse = TilePages::create(Layer::kCoarse, options.max_coarse_pages);
-  if (!coarse) return coarse.error();
-  auto detail = TilePages::create(Layer::kDetail, options.max_detail_pages);
-  if (!detail) return detail.error();
-  std::unique_ptr<GpuStamper> s(new GpuStamper(std::move(*coarse), std::move(*detail)));
+  std::vector<GpuLayer> made;
+  for (const Layer l : kLayers) {
+    auto pages = TilePages::create(l, options.max_pages[l]);
+    if (!pages) return pages.error();
+    made.push_back({std::move(*pages), layer_sample_rect(world.params(), l), {}, 0, 0});
+  }
+  static_assert(kLayerCount == 2, "one GpuLayer per row of the layer table");
+  std::unique_ptr<GpuStamper> s(new GpuStamper(PerLayer<GpuLayer>{{std::move(made[0]), std::move(made[1])}}));
   s->mirror_ = &world;
   s->textures_ = textures;
   s->limits_ = limits;
@@ -157,8 +161,6 @@ Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const
                           std::to_string(buffers) + " storage buffers; the vertex pass needs 2 and 1");
   }
   s->params_ = world.params();
-  s->coarse_rect_ = world.params().sample_rect();
-  s->detail_rect_ = world.params().detail_sample_rect();
   if (Status st = s->build_programs(); !st.ok()) return st.error();
 
   s->params_buf_ = make_buffer();
@@ -227,7 +229,11 @@ Result<GLuint> GpuStamper::program(const ProgramKey& key) {
   if (file == nullptr)
     return make_error(ErrorCode::kInvalidArgument, "program", "the pass has no such stage");
   std::vector<ShaderDefine> defines = kind_defines(key.kind);
-  if (key.layer == Layer::kDetail) defines.push_back({"LAYER_DETAIL", "1"});
+  // LAYER_<NAME>: the shaders' sample type and range.
+  std::string layer_define = "LAYER_";
+  for (const char* n = layer_info(key.layer).name; *n != 0; ++n)
+    layer_define += char(std::toupper(uint8_t(*n)));
+  defines.push_back({layer_define, "1"});
   defines.push_back({pass.define, "1"});
   defines.push_back({"STAMP_ROWS", std::to_string(kComputeRows)});
   defines.push_back({"STAMP_RUN", std::to_string(kVertexRun)});
@@ -294,18 +300,16 @@ void GpuStamper::fill_page(Layer layer, int32_t page, int32_t tx, int32_t ty) {
   const PageFormat f = page_format(layer);
   const GLuint tex = pages(layer).texture();
   glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-  if (layer == Layer::kCoarse) {
-    const std::span<const uint16_t> tile = mirror_->coarse_tile(0, tx, ty);
-    glTextureSubImage3D(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, tile.data());
-    return;
-  }
-  const std::span<const int8_t> tile = mirror_->detail_tile(tx, ty);
-  if (tile.empty()) {
-    const GLbyte zero = 0;  // an unstored detail tile is all zero
-    glClearTexSubImage(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, &zero);
-  } else {
-    glTextureSubImage3D(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, tile.data());
-  }
+  visit_layer(layer, [&](auto row) {
+    using R = decltype(row);
+    const auto tile = mirror_->tile_samples<R>(TileCoord{R::kLayer, 0, tx, ty});
+    if (tile.empty()) {
+      const typename R::Sample zero{};  // an unstored tile (detail) is all zero
+      glClearTexSubImage(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, &zero);
+    } else {
+      glTextureSubImage3D(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, tile.data());
+    }
+  });
 }
 
 Result<std::vector<GpuStamper::PagePart>> GpuStamper::resident_parts(Layer layer, const RectI& rect) {
@@ -438,10 +442,10 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b
 // Before a vertex pass over a part: copies the part into the texture the pass reads the old
 // samples from (part-local texels) and binds both images (the page as a 2D image).
 void GpuStamper::bind_vertex_pass(Layer layer, const PagePart& part) {
-  const bool coarse = layer == Layer::kCoarse;
-  GlTexture& old = coarse ? old_coarse_ : old_detail_;
-  int64_t& old_w = coarse ? old_coarse_w_ : old_detail_w_;
-  int64_t& old_h = coarse ? old_coarse_h_ : old_detail_h_;
+  GpuLayer& g = layers_[layer];
+  GlTexture& old = g.old;
+  int64_t& old_w = g.old_w;
+  int64_t& old_h = g.old_h;
   const GLenum format = page_format(layer).internal_format;
   if (part.rect.width() > old_w || part.rect.height() > old_h) {
     old_w = std::max(old_w, part.rect.width());
@@ -640,9 +644,10 @@ std::vector<StampReadback> GpuStamper::collect(World& world) {
       // The mirror holds the state before this stamp (earlier tickets are already written),
       // so the samples that differ from it are exactly those the stamp changed. An empty
       // result is RectI{} exactly, as the reference returns it.
-      done.changed = p.layer == Layer::kCoarse
-                         ? write_readback(world, p.layer, p.rect, static_cast<const uint16_t*>(base))
-                         : write_readback(world, p.layer, p.rect, static_cast<const int8_t*>(base));
+      done.changed = visit_layer(p.layer, [&](auto row) {
+        using S = typename decltype(row)::Sample;
+        return write_readback(world, p.layer, p.rect, static_cast<const S*>(base));
+      });
       glUnmapNamedBuffer(p.pbo.get());
     }
     // The mirror now holds what these pages hold: they may be evicted.
@@ -680,17 +685,19 @@ void GpuStamper::upload(World& world, Layer layer, const RectI& rect) {
       if (!page) continue;  // filled from the mirror when next needed
       const RectI tile = tile_rect(int32_t(tx), int32_t(ty));
       const RectI part = r.intersect(tile);
-      if (layer == Layer::kCoarse) {
-        std::vector<uint16_t> data(size_t(part.area()));
-        world.read_coarse(part, data);
+      visit_layer(layer, [&](auto row) {
+        using R = decltype(row);
+        // The part's rows of the tile (an unstored tile: zeros).
+        const auto samples = world.tile_samples<R>(TileCoord{R::kLayer, 0, int32_t(tx), int32_t(ty)});
+        std::vector<typename R::Sample> data(size_t(part.area()));
+        if (!samples.empty()) {
+          for (int64_t y = part.y0; y < part.y1; ++y)
+            std::copy_n(samples.data() + (y - tile.y0) * kTileSize + (part.x0 - tile.x0), part.width(),
+                        data.data() + (y - part.y0) * part.width());
+        }
         glTextureSubImage3D(p.texture(), 0, GLint(part.x0 - tile.x0), GLint(part.y0 - tile.y0), *page,
                             GLsizei(part.width()), GLsizei(part.height()), 1, f.format, f.type, data.data());
-      } else {
-        std::vector<int8_t> data(size_t(part.area()));
-        world.read_detail(part, data);
-        glTextureSubImage3D(p.texture(), 0, GLint(part.x0 - tile.x0), GLint(part.y0 - tile.y0), *page,
-                            GLsizei(part.width()), GLsizei(part.height()), 1, f.format, f.type, data.data());
-      }
+      });
     }
   }
 }
@@ -712,27 +719,19 @@ std::vector<int32_t> GpuStamper::read_gpu(Layer layer, const RectI& rect) {
   out.resize(size_t(r.area()));
   for (const PagePart& part : *parts) {
     const size_t n = size_t(part.rect.area());
-    std::vector<uint16_t> coarse;
-    std::vector<int8_t> detail;
     const GLint x = GLint(part.rect.x0 - part.tile.x0), y = GLint(part.rect.y0 - part.tile.y0);
-    if (layer == Layer::kCoarse) {
-      coarse.resize(n);
+    visit_layer(layer, [&](auto row) {
+      std::vector<typename decltype(row)::Sample> samples(n);
       glGetTextureSubImage(pages(layer).texture(), 0, x, y, part.page, GLsizei(part.rect.width()),
-                           GLsizei(part.rect.height()), 1, GL_RED_INTEGER, GL_UNSIGNED_SHORT, GLsizei(n * 2),
-                           coarse.data());
-    } else {
-      detail.resize(n);
-      glGetTextureSubImage(pages(layer).texture(), 0, x, y, part.page, GLsizei(part.rect.width()),
-                           GLsizei(part.rect.height()), 1, GL_RED_INTEGER, GL_BYTE, GLsizei(n),
-                           detail.data());
-    }
-    for (int64_t yy = 0; yy < part.rect.height(); ++yy) {
-      for (int64_t xx = 0; xx < part.rect.width(); ++xx) {
-        const size_t k = size_t(yy * part.rect.width() + xx);
-        out[size_t((part.rect.y0 - r.y0 + yy) * r.width() + (part.rect.x0 - r.x0 + xx))] =
-            layer == Layer::kCoarse ? int32_t(coarse[k]) : int32_t(detail[k]);
+                           GLsizei(part.rect.height()), 1, GL_RED_INTEGER, pixel_type(layer),
+                           GLsizei(n * pixel_size(layer)), samples.data());
+      for (int64_t yy = 0; yy < part.rect.height(); ++yy) {
+        for (int64_t xx = 0; xx < part.rect.width(); ++xx) {
+          out[size_t((part.rect.y0 - r.y0 + yy) * r.width() + (part.rect.x0 - r.x0 + xx))] =
+              int32_t(samples[size_t(yy * part.rect.width() + xx)]);
+        }
       }
-    }
+    });
   }
   release(layer, *parts);
   return out;
@@ -754,14 +753,15 @@ bool GpuStamper::copy_to(Layer layer, const RectI& rect, GLuint dst_texture, int
 
 GpuStamperMemory GpuStamper::memory() const {
   GpuStamperMemory m;
-  m.page_bytes = coarse_.bytes() + detail_.bytes();
-  m.scratch_bytes =
-      2 * wave_capacity_ + size_t(old_coarse_w_ * old_coarse_h_) * 2 + size_t(old_detail_w_ * old_detail_h_);
+  m.scratch_bytes = 2 * wave_capacity_;
+  layers_.for_each([&](Layer l, const GpuLayer& g) {
+    m.page_bytes += g.pages.bytes();
+    m.scratch_bytes += size_t(g.old_w * g.old_h) * pixel_size(l);
+    m.resident_pages[l] = g.pages.resident();
+    m.evictions += g.pages.evictions();
+  });
   for (const Pending& p : pending_) m.scratch_bytes += p.capacity;
   for (const Pending& p : free_pbos_) m.scratch_bytes += p.capacity;
-  m.coarse_pages = coarse_.resident();
-  m.detail_pages = detail_.resident();
-  m.evictions = coarse_.evictions() + detail_.evictions();
   return m;
 }
 

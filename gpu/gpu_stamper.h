@@ -51,6 +51,7 @@
 #include "gpu/stamp_results.h"
 #include "gpu/tile_pages.h"
 #include "protocol/geometry.h"
+#include "protocol/layer.h"
 #include "protocol/result.h"
 #include "protocol/stamps/stamp.h"
 #include "protocol/stamps/stamp_kernel.h"
@@ -73,10 +74,10 @@ enum class StampPath {
 
 struct GpuStamperOptions {
   StampPath path = StampPath::kAuto;
-  // Page budgets (pages of 256x256 samples): 1024 coarse pages are 128 MiB, 1024 detail pages
-  // 64 MiB. A stamp reaching more tiles of a layer than its budget is refused (kOversize).
-  int32_t max_coarse_pages = 1024;
-  int32_t max_detail_pages = 1024;
+  // Page budgets per layer (pages of 256x256 samples): 1024 coarse pages are 128 MiB, 1024
+  // detail pages 64 MiB. A stamp reaching more tiles of a layer than its budget is refused
+  // (kOversize).
+  PerLayer<int32_t> max_pages{{1024, 1024}};
 };
 
 class GpuStamper {
@@ -132,15 +133,23 @@ class GpuStamper {
   // they cannot be made resident (collect first).
   bool copy_to(Layer layer, const RectI& rect, GLuint dst_texture, int32_t dst_x, int32_t dst_y);
 
-  RectI layer_rect(Layer layer) const { return layer == Layer::kCoarse ? coarse_rect_ : detail_rect_; }
-  const TilePages& pages(Layer layer) const { return layer == Layer::kCoarse ? coarse_ : detail_; }
+  RectI layer_rect(Layer layer) const { return layers_[layer].rect; }
+  const TilePages& pages(Layer layer) const { return layers_[layer].pages; }
   GpuStamperMemory memory() const;
 
   // The stage that runs a per-sample stamp whose rect has `samples` samples.
   StampPath path_for(int64_t samples) const;
 
  private:
-  GpuStamper(TilePages coarse, TilePages detail) : coarse_(std::move(coarse)), detail_(std::move(detail)) {}
+  // What the stamper holds for one layer: its page cache, its samples (global rect), and the
+  // vertex path's copy of the rect a pass reads (in the layer's format, grown on demand).
+  struct GpuLayer {
+    TilePages pages;
+    RectI rect;
+    GlTexture old;
+    int64_t old_w = 0, old_h = 0;
+  };
+  explicit GpuStamper(PerLayer<GpuLayer> layers) : layers_(std::move(layers)) {}
   // The part of a rect inside one resident tile.
   struct PagePart {
     int32_t page = 0;
@@ -157,7 +166,7 @@ class GpuStamper {
     GlSync fence;
     std::vector<int32_t> pinned;  // pages of `layer` kept until the readback is collected
   };
-  TilePages& pages_mut(Layer layer) { return layer == Layer::kCoarse ? coarse_ : detail_; }
+  TilePages& pages_mut(Layer layer) { return layers_[layer].pages; }
   // Makes every tile under `rect` resident (filling fresh pages from the mirror) and pins
   // their pages; the caller unpins them (release) or hands them to a readback.
   Result<std::vector<PagePart>> resident_parts(Layer layer, const RectI& rect);
@@ -183,14 +192,10 @@ class GpuStamper {
   bool vertex_path_ = false;  // the vertex stage has what the vertex pass needs
   const World* mirror_ = nullptr;
   WorldParams params_;
-  RectI coarse_rect_, detail_rect_;
-  TilePages coarse_, detail_;
+  PerLayer<GpuLayer> layers_;
   GlBuffer params_buf_, result_buf_, wave_a_, wave_b_;
   size_t wave_capacity_ = 0;
-  // Vertex path: the copy of the rect it reads (one per layer format, grown on demand), and
-  // an empty framebuffer and vertex array to draw with.
-  GlTexture old_coarse_, old_detail_;
-  int64_t old_coarse_w_ = 0, old_coarse_h_ = 0, old_detail_w_ = 0, old_detail_h_ = 0;
+  // Vertex path: an empty framebuffer and vertex array to draw with.
   GlFramebuffer empty_fbo_;
   GlVertexArray empty_vao_;
   std::map<ProgramKey, GlProgram> programs_;

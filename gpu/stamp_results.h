@@ -7,6 +7,7 @@
 #include <cstdint>
 
 #include "protocol/geometry.h"
+#include "protocol/layer.h"
 
 namespace loam::gpu {
 
@@ -19,9 +20,9 @@ struct StampReadback {
 
 // What the stamper holds on the GPU.
 struct GpuStamperMemory {
-  size_t page_bytes = 0;                       // both layers' page arrays
-  size_t scratch_bytes = 0;                    // wave fields, vertex-pass copies, readback buffers
-  int32_t coarse_pages = 0, detail_pages = 0;  // resident tiles
+  size_t page_bytes = 0;               // both layers' page arrays
+  size_t scratch_bytes = 0;            // wave fields, vertex-pass copies, readback buffers
+  PerLayer<int32_t> resident_pages{};  // resident tiles of each layer
   uint64_t evictions = 0;
   size_t total() const { return page_bytes + scratch_bytes; }
 };

@@ -202,7 +202,8 @@ ViewerStats ViewerSession::stats() const {
   s.display = display_->counters();
   const DisplayMemory m = display_->memory();
   s.gpu_page_bytes = m.gpu.total();
-  s.gpu_pages_resident = m.gpu.coarse_pages + m.gpu.detail_pages;
+  s.gpu_pages_resident = 0;
+  for (const int32_t n : m.gpu.resident_pages) s.gpu_pages_resident += n;
   s.gpu_terrain_bytes = m.gpu.total() + renderer_->gpu_bytes();
   s.cpu_terrain_bytes = m.cpu_bytes + store.held_bytes();
   s.rtt_ms = client_.rtt_ms().value_or(-1.0);

@@ -112,13 +112,13 @@ TEST(GpuTilePages, WorldWiderThanMaxTextureSizeStampsLikeTheCpu) {
       "world of %lld samples across: %d stamps, %lld mismatches; %d coarse + %d detail pages resident, "
       "%.1f MiB of pages\n",
       static_cast<long long>(p.sample_rect().width()), run.stamps, static_cast<long long>(run.mismatches),
-      m.coarse_pages, m.detail_pages, double(m.page_bytes) / (1 << 20));
+      m.resident_pages[Layer::kCoarse], m.resident_pages[Layer::kDetail], double(m.page_bytes) / (1 << 20));
   EXPECT_GT(p.sample_rect().width(), max_size);
   EXPECT_GE(run.stamps, 100);
   EXPECT_EQ(run.mismatches, 0);
   EXPECT_EQ(cpu.world_hash(), gpu_world.world_hash());
   // Pages follow what was stamped, not the world: far fewer than its 144 coarse tiles.
-  EXPECT_LT(m.coarse_pages, p.tiles_x * p.tiles_y);
+  EXPECT_LT(m.resident_pages[Layer::kCoarse], p.tiles_x * p.tiles_y);
 }
 
 // Four pages per layer over a 6x6-tile world: nearly every stamp evicts and reloads tiles from
@@ -134,8 +134,8 @@ TEST(GpuTilePages, EvictedPagesReloadFromTheMirrorExactly) {
   World cpu = hills(p);
   World gpu_world = cpu;
   GpuStamperOptions o;
-  o.max_coarse_pages = 4;
-  o.max_detail_pages = 4;
+  o.max_pages[Layer::kCoarse] = 4;
+  o.max_pages[Layer::kDetail] = 4;
   auto g = GpuStamper::create(gpu_world, nullptr, {}, o);
   ASSERT_TRUE(g.ok()) << g.error().describe();
   const PageRun run = run_paged(cpu, gpu_world, **g, 300, 4242);
@@ -148,7 +148,7 @@ TEST(GpuTilePages, EvictedPagesReloadFromTheMirrorExactly) {
   EXPECT_GT(m.evictions, 100u);
   EXPECT_EQ(run.mismatches, 0);
   EXPECT_EQ(cpu.world_hash(), gpu_world.world_hash());
-  EXPECT_LE(m.coarse_pages, 4);
+  EXPECT_LE(m.resident_pages[Layer::kCoarse], 4);
   EXPECT_LE(m.page_bytes, size_t(4) * kTileSamples * 3);
 }
 
@@ -172,7 +172,7 @@ TEST(GpuTilePages, FullCacheOfUncollectedStampsAnswersBusyUntilCollected) {
   World cpu = hills(p);
   World gpu_world = cpu;
   GpuStamperOptions o;
-  o.max_coarse_pages = 2;
+  o.max_pages[Layer::kCoarse] = 2;
   auto g = GpuStamper::create(gpu_world, nullptr, {}, o);
   ASSERT_TRUE(g.ok()) << g.error().describe();
   const QuantizedStamp a = gaussian(256, 100, 20);  // tiles 0 and 1
@@ -198,7 +198,7 @@ TEST(GpuTilePages, PageBudgetBeyondArrayLayersIsRefused) {
   LOAM_REQUIRE_GL();
   World w(WorldParams{}, 0);
   GpuStamperOptions o;
-  o.max_coarse_pages = 1 << 30;
+  o.max_pages[Layer::kCoarse] = 1 << 30;
   auto g = GpuStamper::create(w, nullptr, {}, o);
   ASSERT_FALSE(g.ok());
   EXPECT_EQ(g.error().field, "gpu.max_pages");
