@@ -30,6 +30,21 @@ struct StampUniforms {
 };
 static_assert(sizeof(StampUniforms) == (20 + kProfileEntries + 4) * 4);
 
+constexpr GLuint kWaveBinding = 4;
+const UniformBlockMember kWaveMembers[] = {
+    LOAM_UNIFORM_MEMBER(WaveBlock, active_rect, "active_rect"),
+    LOAM_UNIFORM_MEMBER(WaveBlock, texel_origin, "texel_origin"),
+    LOAM_UNIFORM_MEMBER(WaveBlock, stride, "stride"),
+    LOAM_UNIFORM_MEMBER(WaveBlock, nu2_q16, "nu2_q16"),
+    LOAM_UNIFORM_MEMBER(WaveBlock, damping_q16, "damping_q16"),
+    {"w_pad0", offsetof(WaveBlock, pad) + 0},
+    {"w_pad1", offsetof(WaveBlock, pad) + 4},
+    {"w_pad2", offsetof(WaveBlock, pad) + 8},
+};
+void set_rect(int32_t (&out)[4], const RectI& r) {
+  out[0] = int32_t(r.x0), out[1] = int32_t(r.y0), out[2] = int32_t(r.x1), out[3] = int32_t(r.y1);
+}
+
 // Mirrors StampResult: the footprint's first point of contact; INT_MIN (kNoContact in the
 // shaders) when no sample lies under the foot.
 constexpr int32_t kNoContact = INT_MIN;
@@ -244,6 +259,11 @@ Result<GLuint> GpuStamper::program(const ProgramKey& key) {
     return build_compute_program_from(files, defines);
   }();
   if (!built) return built.error();
+  if (!pass.with_common) {
+    // The wave step and apply read their parameters from the checked block alone.
+    LOAM_TRY(verify_uniform_block(built->get(), "WaveParams", sizeof(WaveBlock), kWaveMembers));
+    LOAM_TRY(verify_no_loose_uniforms(built->get()));
+  }
   const GLuint name = built->get();
   programs_.emplace(key, std::move(*built));
   return name;
@@ -524,10 +544,11 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b,
 
   const GLuint step = *program({StampPass::kWaveStep, q.kind, q.layer, ShaderStage::kCompute});
   glUseProgram(step);
-  glProgramUniform1i(step, glGetUniformLocation(step, "stride"), GLint(stride));
-  glProgramUniform1i(step, glGetUniformLocation(step, "nu2_q16"), nu2);
-  glProgramUniform1i(step, glGetUniformLocation(step, "damping_q16"), GLint(q.damping));
-  const GLint active_loc = glGetUniformLocation(step, "active_rect");
+  WaveBlock wb{};
+  wb.stride = int32_t(stride);
+  wb.nu2_q16 = nu2;
+  wb.damping_q16 = int32_t(q.damping);
+  wave_block_.bind(kWaveBinding);
   const RectI local_pulse = pulse.translated(-box.x0, -box.y0);
   for (int64_t n = 1; n <= total; ++n) {
     const RectI a =
@@ -536,7 +557,8 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b,
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cur);
     glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, prev);
     if (!a.empty()) {
-      glProgramUniform4i(step, active_loc, GLint(a.x0), GLint(a.y0), GLint(a.x1), GLint(a.y1));
+      set_rect(wb.active_rect, a);
+      wave_block_.write(0, wb);
       glDispatchCompute(groups(a.width()), groups(a.height()), 1);
       glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     }
@@ -546,16 +568,15 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b,
   // The final field applied page by page: each part's cells (box-local) into its page.
   const GLuint apply = *program({StampPass::kWaveApply, q.kind, q.layer, ShaderStage::kCompute});
   glUseProgram(apply);
-  glProgramUniform1i(apply, glGetUniformLocation(apply, "stride"), GLint(stride));
-  const GLint apply_rect = glGetUniformLocation(apply, "active_rect");
-  const GLint apply_origin = glGetUniformLocation(apply, "texel_origin");
+  wave_block_.bind(kWaveBinding);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cur);
   const GLuint pages_tex = pages(q.layer).texture();
   for (const PagePart& part : parts) {
     const RectI cells = part.rect.translated(-box.x0, -box.y0);
-    glProgramUniform4i(apply, apply_rect, GLint(cells.x0), GLint(cells.y0), GLint(cells.x1), GLint(cells.y1));
+    set_rect(wb.active_rect, cells);
     // The page texel of box cell (0, 0) (outside the page for parts not at the box's corner).
-    glProgramUniform2i(apply, apply_origin, GLint(box.x0 - part.tile.x0), GLint(box.y0 - part.tile.y0));
+    wb.texel_origin[0] = int32_t(box.x0 - part.tile.x0), wb.texel_origin[1] = int32_t(box.y0 - part.tile.y0);
+    wave_block_.write(0, wb);
     glBindImageTexture(0, pages_tex, 0, GL_FALSE, part.page, GL_READ_WRITE,
                        page_format(q.layer).internal_format);
     glDispatchCompute(groups(cells.width()), groups(cells.height()), 1);

@@ -50,6 +50,7 @@
 #include "gpu/stamp_program.h"
 #include "gpu/stamp_results.h"
 #include "gpu/tile_pages.h"
+#include "gpu/uniform_block.h"
 #include "protocol/geometry.h"
 #include "protocol/layer.h"
 #include "protocol/result.h"
@@ -194,6 +195,7 @@ class GpuStamper {
   WorldParams params_;
   PerLayer<GpuLayer> layers_;
   GlBuffer params_buf_, result_buf_, wave_a_, wave_b_;
+  UniformBuffer<WaveBlock> wave_block_;
   size_t wave_capacity_ = 0;
   // Vertex path: an empty framebuffer and vertex array to draw with.
   GlFramebuffer empty_fbo_;

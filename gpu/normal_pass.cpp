@@ -5,6 +5,41 @@
 
 namespace loam::gpu {
 
+namespace {
+
+constexpr GLuint kNormalBinding = 3;  // NormalParams' binding in fd4_normal.glsl
+
+const UniformBlockMember kNormalMembers[] = {
+    LOAM_UNIFORM_MEMBER(NormalBlock, rect, "n_rect"),
+    LOAM_UNIFORM_MEMBER(NormalBlock, world_lo, "n_world_lo"),
+    LOAM_UNIFORM_MEMBER(NormalBlock, world_size, "n_world_size"),
+    LOAM_UNIFORM_MEMBER(NormalBlock, region_lo, "n_region_lo"),
+    LOAM_UNIFORM_MEMBER(NormalBlock, region_base, "n_region_base"),
+    LOAM_UNIFORM_MEMBER(NormalBlock, tex_size, "n_tex_size"),
+    LOAM_UNIFORM_MEMBER(NormalBlock, pad0, "n_pad0"),
+    LOAM_UNIFORM_MEMBER(NormalBlock, height_offset, "n_height_offset"),
+    LOAM_UNIFORM_MEMBER(NormalBlock, meters_per_unit, "n_meters_per_unit"),
+    LOAM_UNIFORM_MEMBER(NormalBlock, spacing, "n_spacing"),
+};
+
+// A normal pass's program: its parameters in the checked block, nothing looked up by name.
+Result<GlProgram> build_normal_program(std::string_view file) {
+  const std::string_view files[] = {"fd4_normal.glsl", file};
+  auto program = build_compute_program_from(files);
+  if (!program) return program.error();
+  LOAM_TRY(verify_uniform_block(program->get(), "NormalParams", sizeof(NormalBlock), kNormalMembers));
+  LOAM_TRY(verify_no_loose_uniforms(program->get()));
+  return program;
+}
+
+void dispatch(GLuint program, const UniformBuffer<NormalBlock>& block, const RectI& rect) {
+  glUseProgram(program);
+  block.bind(kNormalBinding);
+  glDispatchCompute(GLuint((rect.width() + 7) / 8), GLuint((rect.height() + 7) / 8), 1);
+}
+
+}  // namespace
+
 RectI normals_rect_for(const WorldParams& params, const RectI& changed) {
   if (changed.empty()) return {};
   return RectI{changed.x0 - 4, changed.y0 - 4, changed.x1 + 4, changed.y1 + 4}.intersect(
@@ -16,8 +51,7 @@ Result<std::unique_ptr<NormalPass>> NormalPass::create(const WorldParams& params
   std::unique_ptr<NormalPass> n(new NormalPass());
   n->params_ = params;
   n->world_ = params.sample_rect();
-  const std::string_view files[] = {"fd4_normal.glsl", "normals.comp.glsl"};
-  auto program = build_compute_program_from(files);
+  auto program = build_normal_program("normals.comp.glsl");
   if (!program) return program.error();
   n->program_ = std::move(*program);
   n->normals_ = make_texture(GL_TEXTURE_2D);
@@ -28,19 +62,20 @@ Result<std::unique_ptr<NormalPass>> NormalPass::create(const WorldParams& params
 void NormalPass::update(GLuint heights, const RectI& rect) {
   const RectI r = rect.intersect(world_);
   if (r.empty()) return;
-  const GLuint p = program_.get();
-  glUseProgram(p);
-  glProgramUniform2i(p, glGetUniformLocation(p, "world_size"), GLint(world_.width()), GLint(world_.height()));
-  glProgramUniform4i(p, glGetUniformLocation(p, "rect"), GLint(r.x0 - world_.x0), GLint(r.y0 - world_.y0),
-                     GLint(r.x1 - world_.x0), GLint(r.y1 - world_.y0));
-  glProgramUniform1d(p, glGetUniformLocation(p, "height_offset"), params_.height_offset);
-  glProgramUniform1d(p, glGetUniformLocation(p, "meters_per_unit"), params_.meters_per_unit);
-  glProgramUniform1d(p, glGetUniformLocation(p, "spacing"), params_.meters_per_sample);
+  NormalBlock b{};
+  const RectI local = r.translated(-world_.x0, -world_.y0);
+  b.rect[0] = int32_t(local.x0), b.rect[1] = int32_t(local.y0), b.rect[2] = int32_t(local.x1),
+  b.rect[3] = int32_t(local.y1);
+  b.world_size[0] = int32_t(world_.width()), b.world_size[1] = int32_t(world_.height());
+  b.height_offset = params_.height_offset;
+  b.meters_per_unit = params_.meters_per_unit;
+  b.spacing = params_.meters_per_sample;
+  block_.write(0, b);
   // Heights written by image stores must be visible to texelFetch.
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
   glBindTextureUnit(0, heights);
   glBindImageTexture(1, normals_.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_R32UI);
-  glDispatchCompute(GLuint((r.width() + 7) / 8), GLuint((r.height() + 7) / 8), 1);
+  dispatch(program_.get(), block_, r);
 }
 
 std::vector<uint32_t> NormalPass::read(const RectI& rect) {
@@ -56,8 +91,7 @@ std::vector<uint32_t> NormalPass::read(const RectI& rect) {
 }
 
 Result<LevelNormalPass> LevelNormalPass::create() {
-  const std::string_view files[] = {"fd4_normal.glsl", "level_normals.comp.glsl"};
-  auto program = build_compute_program_from(files);
+  auto program = build_normal_program("level_normals.comp.glsl");
   if (!program) return program.error();
   LevelNormalPass pass;
   pass.program_ = std::move(*program);
@@ -66,24 +100,24 @@ Result<LevelNormalPass> LevelNormalPass::create() {
 
 void LevelNormalPass::update(GLuint heights, GLuint normals, int32_t tex_size, const RectI& region,
                              const RectI& rect, const RectI& world, const WorldParams& params,
-                             double spacing_m) const {
+                             double spacing_m) {
   if (rect.empty() || world.empty()) return;
-  const GLuint p = program_.get();
-  glUseProgram(p);
-  glProgramUniform1i(p, glGetUniformLocation(p, "tex_size"), tex_size);
-  glProgramUniform2i(p, glGetUniformLocation(p, "region_lo"), GLint(region.x0), GLint(region.y0));
-  glProgramUniform2i(p, glGetUniformLocation(p, "region_base"), GLint(floor_mod(region.x0, tex_size)),
-                     GLint(floor_mod(region.y0, tex_size)));
-  glProgramUniform4i(p, glGetUniformLocation(p, "rect"), GLint(rect.x0), GLint(rect.y0), GLint(rect.x1),
-                     GLint(rect.y1));
-  glProgramUniform2i(p, glGetUniformLocation(p, "world_lo"), GLint(world.x0), GLint(world.y0));
-  glProgramUniform2i(p, glGetUniformLocation(p, "world_size"), GLint(world.width()), GLint(world.height()));
-  glProgramUniform1d(p, glGetUniformLocation(p, "height_offset"), params.height_offset);
-  glProgramUniform1d(p, glGetUniformLocation(p, "meters_per_unit"), params.meters_per_unit);
-  glProgramUniform1d(p, glGetUniformLocation(p, "spacing"), spacing_m);
+  NormalBlock b{};
+  b.rect[0] = int32_t(rect.x0), b.rect[1] = int32_t(rect.y0), b.rect[2] = int32_t(rect.x1),
+  b.rect[3] = int32_t(rect.y1);
+  b.world_lo[0] = int32_t(world.x0), b.world_lo[1] = int32_t(world.y0);
+  b.world_size[0] = int32_t(world.width()), b.world_size[1] = int32_t(world.height());
+  b.region_lo[0] = int32_t(region.x0), b.region_lo[1] = int32_t(region.y0);
+  b.region_base[0] = int32_t(floor_mod(region.x0, tex_size)),
+  b.region_base[1] = int32_t(floor_mod(region.y0, tex_size));
+  b.tex_size = tex_size;
+  b.height_offset = params.height_offset;
+  b.meters_per_unit = params.meters_per_unit;
+  b.spacing = spacing_m;
+  block_.write(0, b);
   glBindTextureUnit(0, heights);
   glBindImageTexture(1, normals, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG16_SNORM);
-  glDispatchCompute(GLuint((rect.width() + 7) / 8), GLuint((rect.height() + 7) / 8), 1);
+  dispatch(program_.get(), block_, rect);
 }
 
 }  // namespace loam::gpu

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "gpu/gl_handle.h"
+#include "gpu/uniform_block.h"
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 
@@ -25,6 +26,22 @@ namespace loam::gpu {
 // The samples whose normals depend on samples in `changed` (global coarse samples),
 // clipped to the world.
 RectI normals_rect_for(const WorldParams& params, const RectI& changed);
+
+// Mirrors the NormalParams block both normal passes read (shaders/fd4_normal.glsl, std140);
+// checked member by member when a pass's program is built.
+struct NormalBlock {
+  int32_t rect[4];  // samples [x0, y0, x1, y1) to compute
+  int32_t world_lo[2];
+  int32_t world_size[2];
+  int32_t region_lo[2];    // the level pass's region ...
+  int32_t region_base[2];  // ... and its texel in the toroidal texture
+  int32_t tex_size;
+  int32_t pad0;
+  double height_offset;
+  double meters_per_unit;
+  double spacing;
+};
+static_assert(sizeof(NormalBlock) == 80);
 
 class NormalPass {
  public:
@@ -44,6 +61,7 @@ class NormalPass {
   RectI world_;
   GlTexture normals_;
   GlProgram program_;
+  UniformBuffer<NormalBlock> block_;
 };
 
 // The same FD4 normals for one clipmap level (client/render): the level's heights live in a
@@ -59,10 +77,11 @@ class LevelNormalPass {
   // world's edges. `world` is the world's sample rect in the level's grid (one-sided stencils
   // at its edges), `spacing_m` meters per level sample.
   void update(GLuint heights, GLuint normals, int32_t tex_size, const RectI& region, const RectI& rect,
-              const RectI& world, const WorldParams& params, double spacing_m) const;
+              const RectI& world, const WorldParams& params, double spacing_m);
 
  private:
   GlProgram program_;
+  UniformBuffer<NormalBlock> block_;
 };
 
 }  // namespace loam::gpu

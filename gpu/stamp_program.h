@@ -30,6 +30,17 @@ struct ProgramKey {
   auto operator<=>(const ProgramKey&) const = default;
 };
 
+// The shockwave step and apply passes' parameters: mirrors the WaveParams block of
+// shaders/shockwave.comp.glsl (std140), checked member by member when those programs are built.
+struct WaveBlock {
+  int32_t active_rect[4];   // interior cells [x0, y0, x1, y1)
+  int32_t texel_origin[2];  // apply: the page texel of interior cell (0, 0)
+  int32_t stride;           // width + 2
+  int32_t nu2_q16, damping_q16;
+  int32_t pad[3];
+};
+static_assert(sizeof(WaveBlock) == 48);
+
 // One value per pass, indexed by StampPass.
 template <class T>
 struct PerStampPass {

@@ -7,12 +7,25 @@
 // unpackSnorm2x16 reads it back, nz = sqrt(1 - nx^2 - ny^2).
 double height_m(ivec2 p);
 
-uniform double spacing;  // meters between samples
+// The normal passes' parameters (gpu/normal_pass.h, NormalBlock; std140, checked member by
+// member when the program is built). The world pass leaves the level fields 0.
+layout(std140, binding = 3) uniform NormalParams {
+  ivec4 n_rect;           // samples [x0, x1) x [y0, y1) to compute
+  ivec2 n_world_lo;       // the world's first sample (level pass; world pass: 0)
+  ivec2 n_world_size;     // the world in samples
+  ivec2 n_region_lo;      // level pass: the region's first sample
+  ivec2 n_region_base;    // level pass: its texel, region_lo mod tex_size
+  int n_tex_size;         // level pass: the toroidal texture's side
+  int n_pad0;
+  double n_height_offset; // meters at unit 0
+  double n_meters_per_unit;
+  double n_spacing;       // meters between samples
+};
 
 // fd4_derivative along `axis` at index i on [0, n).
 double fd4(ivec2 p, ivec2 axis, int i, int n) {
   precise double r;
-  precise double den = 12.0 * spacing;
+  precise double den = 12.0 * n_spacing;
   if (i - 2 >= 0 && i + 2 < n) {
     precise double a = height_m(p - 2 * axis), b = height_m(p - axis), c = height_m(p + axis), d = height_m(p + 2 * axis);
     r = (a - 8.0 * b + 8.0 * c - d) / den;

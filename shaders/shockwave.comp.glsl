@@ -10,10 +10,15 @@
 #extension GL_ARB_gpu_shader_int64 : require
 layout(local_size_x = 8, local_size_y = 8) in;
 
-uniform ivec4 active_rect;  // interior cells [x0, x1) x [y0, y1)
-uniform int stride;    // width + 2
-uniform int nu2_q16;
-uniform int damping_q16;
+// The pass's parameters (gpu/gpu_stamper.cpp, WaveBlock; std140, checked when built).
+layout(std140, binding = 4) uniform WaveParams {
+  ivec4 active_rect;    // interior cells [x0, x1) x [y0, y1)
+  ivec2 texel_origin;   // apply: page texel of interior cell (0, 0)
+  int stride;           // width + 2
+  int nu2_q16;          // step
+  int damping_q16;      // step
+  int w_pad0, w_pad1, w_pad2;
+};
 
 #ifdef PASS_STEP
 layout(std430, binding = 2) readonly buffer WaveCur { int cur[]; };
@@ -49,7 +54,7 @@ void store_sample(ivec2 p, int v) { imageStore(layer_image, p, uvec4(uint(v), 0u
 const int kLayerMin = 0, kLayerMax = 65535;
 #endif
 layout(std430, binding = 2) readonly buffer WaveCur { int cur[]; };
-uniform ivec2 texel_origin;  // page texel of interior cell (0, 0); active_rect: the cells in this page
+// active_rect: the cells in this page.
 
 void main() {
   ivec2 c = active_rect.xy + ivec2(gl_GlobalInvocationID.xy);

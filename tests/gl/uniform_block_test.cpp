@@ -10,6 +10,7 @@
 
 #include "client/render/clipmap_blocks.h"
 #include "gl_test_context.h"
+#include "gpu/normal_pass.h"
 #include "gpu/shader_library.h"
 
 namespace loam::gpu {
@@ -71,14 +72,18 @@ TEST(UniformBlock, AMisspeltMemberAWrongOffsetOrAMissingMemberIsNamed) {
 
 TEST(UniformBlock, AUniformOutsideABlockIsNamed) {
   LOAM_REQUIRE_GL();
-  // The world normal pass (gpu/normal_pass.h) sets its uniforms by name.
-  const std::string_view files[] = {"fd4_normal.glsl", "normals.comp.glsl"};
-  auto p = build_compute_program_from(files);
+  // The stamp helpers' test shader sets `count` by name; the product's passes read blocks.
+  const std::string_view files[] = {"stamp_common.glsl", "stamp_helpers_test.comp.glsl"};
+  const ShaderDefine defines[] = {{"KIND", "1"}, {"MODE", "0"}};
+  auto p = build_compute_program_from(files, defines);
   ASSERT_TRUE(p.ok()) << p.error().describe();
   const Status st = verify_no_loose_uniforms(p->get());
   ASSERT_FALSE(st.ok());
   EXPECT_NE(st.error().describe().find("outside a uniform block"), std::string::npos)
       << st.error().describe();
+  EXPECT_NE(st.error().describe().find("count"), std::string::npos) << st.error().describe();
+  // Both normal passes and the shockwave passes have none: they build (the builds check it).
+  EXPECT_TRUE(LevelNormalPass::create().ok());
 }
 
 TEST(UniformBlock, EachCopyOfABufferBindsAtAnAllowedOffset) {
