@@ -12,6 +12,7 @@
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/tile_hash.h"
 #include "protocol/tile_rect.h"
+#include "protocol/world_layers.h"
 
 namespace loam::client {
 
@@ -23,52 +24,44 @@ void ConfirmedStore::forget(const TileCoord& c) {
   wanted_.erase(c);
   versions_.erase(c);
   mip_tiles_.erase(c);
-  if (c.layer == Layer::kCoarse && c.mip == 0) initial_.erase({c.tx, c.ty});
+  if (layer_info(c.layer).has_base && c.mip == 0) initial_.erase({c.tx, c.ty});  // kept base samples
   // The mirror keeps only what is held: memory follows the subscription.
   if (c.mip == 0) mirror_.discard_tile(c.layer, c.tx, c.ty);
 }
 
-Status ConfirmedStore::replace_coarse(const TileCoord& c, uint64_t version,
-                                      std::span<const uint16_t> samples) {
+namespace {
+
+// Whether c is a tile of row R's layer in the world (at a mip the layer has).
+template <class R>
+bool in_layer(const WorldParams& p, const TileCoord& c) {
+  return c.layer == R::kLayer && R::tile_range(p, c.mip).contains(c.tx, c.ty);
+}
+
+template <class R>
+Error not_in_layer(const TileCoord& c) {
+  return make_error(ErrorCode::kInvalidArgument, "region.tile",
+                    to_string(c) + " is not a " + R::kName + " tile of the world");
+}
+
+}  // namespace
+
+template <class R>
+Status ConfirmedStore::replace(const TileCoord& c, uint64_t version,
+                               std::span<const typename R::Sample> samples) {
   if (samples.size() != size_t(kTileSamples))
     return make_error(ErrorCode::kInvalidArgument, "region", "not a whole tile");
-  if (c.layer != Layer::kCoarse)
-    return make_error(ErrorCode::kInvalidArgument, "region.layer", "not a coarse tile");
-  const WorldParams& p = mirror_.params();
-  if (c.mip >= p.mip_count() || !p.tile_range(c.mip).contains(c.tx, c.ty)) {
-    return make_error(ErrorCode::kInvalidArgument, "region.tile", to_string(c) + " is not in the world");
-  }
+  if (!in_layer<R>(mirror_.params(), c)) return not_in_layer<R>(c);
   if (!wanted_.count(c)) {  // sent before our Unsubscribe reached the server: not ours to hold
     ++counters_.regions_unwanted;
     return {};
   }
   if (c.mip == 0) {
     if (version != 0) keep_initial_of(c);
-    mirror_.write_coarse(tile_rect(c.tx, c.ty), samples);
+    (void)LayerOps<R>::write(mirror_, tile_rect(c.tx, c.ty), samples);
     mirror_.commit(version);
-  } else {
+  } else if constexpr (R::kHasMips) {
     mip_tiles_[c].assign(samples.begin(), samples.end());
   }
-  versions_[c] = version;
-  record_region(c, version, {0, 0, kTileSize, kTileSize});
-  after_region(version);
-  return {};
-}
-
-Status ConfirmedStore::replace_detail(const TileCoord& c, uint64_t version, std::span<const int8_t> samples) {
-  if (samples.size() != size_t(kTileSamples))
-    return make_error(ErrorCode::kInvalidArgument, "region", "not a whole tile");
-  if (c.layer != Layer::kDetail || c.mip != 0 ||
-      !tiles_overlapping(mirror_.params().detail_sample_rect()).contains(c.tx, c.ty)) {
-    return make_error(ErrorCode::kInvalidArgument, "region.tile",
-                      to_string(c) + " is not a detail tile of the world");
-  }
-  if (!wanted_.count(c)) {
-    ++counters_.regions_unwanted;
-    return {};
-  }
-  mirror_.write_detail(tile_rect(c.tx, c.ty), samples);
-  mirror_.commit(version);
   versions_[c] = version;
   record_region(c, version, {0, 0, kTileSize, kTileSize});
   after_region(version);
@@ -103,17 +96,18 @@ Status ConfirmedStore::check_patch(const TileCoord& c, const RectI& rect, uint64
   return {};
 }
 
-Status ConfirmedStore::patch_coarse(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
-                                    std::span<const uint16_t> samples) {
+template <class R>
+Status ConfirmedStore::patch(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
+                             std::span<const typename R::Sample> samples) {
   LOAM_TRY(check_patch(c, rect, base, version, samples.size()));
-  if (c.layer != Layer::kCoarse)
-    return make_error(ErrorCode::kInvalidArgument, "region.layer", "not a coarse tile");
+  if (!in_layer<R>(mirror_.params(), c)) return not_in_layer<R>(c);
   if (c.mip == 0) {
     keep_initial_of(c);
-    mirror_.write_coarse(rect.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize), samples);
+    (void)LayerOps<R>::write(mirror_, rect.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize),
+                             samples);
     mirror_.commit(version);
-  } else {
-    std::vector<uint16_t>& tile = mip_tiles_.at(c);
+  } else if constexpr (R::kHasMips) {
+    std::vector<typename R::Sample>& tile = mip_tiles_.at(c);
     for (int64_t y = rect.y0; y < rect.y1; ++y) {
       std::copy_n(samples.begin() + (y - rect.y0) * rect.width(), rect.width(),
                   tile.begin() + (y * kTileSize + rect.x0));
@@ -126,62 +120,29 @@ Status ConfirmedStore::patch_coarse(const TileCoord& c, const RectI& rect, uint6
   return {};
 }
 
-Status ConfirmedStore::patch_detail(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
-                                    std::span<const int8_t> samples) {
-  LOAM_TRY(check_patch(c, rect, base, version, samples.size()));
-  if (c.layer != Layer::kDetail)
-    return make_error(ErrorCode::kInvalidArgument, "region.layer", "not a detail tile");
-  mirror_.write_detail(rect.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize), samples);
-  mirror_.commit(version);
-  versions_[c] = version;
-  record_region(c, version, rect);
-  ++counters_.regions_partial;
-  after_region(version);
-  return {};
-}
-
-std::vector<uint16_t> ConfirmedStore::coarse_rect(const TileCoord& c, const RectI& rect) const {
-  const std::span<const uint16_t> tile = coarse_samples(c);
-  if (tile.empty()) return {};  // not held: no base to decode against
-  return copy_tile_rect(tile, rect);
-}
-
-std::vector<int8_t> ConfirmedStore::detail_rect(const TileCoord& c, const RectI& rect) const {
-  // An unstored detail tile of the mirror is all zero, which copy_tile_rect gives for it.
-  return copy_tile_rect(mirror_.detail_tile(c.tx, c.ty), rect);
-}
-
-namespace {
-
-// The store's entry points of each layer, for apply_region.
 template <class R>
-struct StoreOps;
-template <>
-struct StoreOps<CoarseLayer> {
-  static std::vector<uint16_t> held(const ConfirmedStore& s, const TileCoord& c, const RectI& r) {
-    return s.coarse_rect(c, r);
+std::vector<typename R::Sample> ConfirmedStore::held_rect(const TileCoord& c, const RectI& rect) const {
+  if (!versions_.count(c) || c.layer != R::kLayer) return {};  // not held: no base to decode against
+  if (c.mip == 0) {
+    // An unstored tile of the mirror (detail) is all zero, which copy_tile_rect gives for it.
+    return copy_tile_rect(mirror_.tile_samples<R>(c), rect);
   }
-  static Status replace(ConfirmedStore& s, const TileCoord& c, uint64_t v, std::span<const uint16_t> x) {
-    return s.replace_coarse(c, v, x);
+  if constexpr (R::kHasMips) {
+    return copy_tile_rect(std::span<const typename R::Sample>(mip_tiles_.at(c)), rect);
+  } else {
+    return {};
   }
-  static Status patch(ConfirmedStore& s, const wire::RegionUpdate& r, std::span<const uint16_t> x) {
-    return s.patch_coarse(r.tile, r.rect, r.base_version, r.new_version, x);
-  }
-};
-template <>
-struct StoreOps<DetailLayer> {
-  static std::vector<int8_t> held(const ConfirmedStore& s, const TileCoord& c, const RectI& r) {
-    return s.detail_rect(c, r);
-  }
-  static Status replace(ConfirmedStore& s, const TileCoord& c, uint64_t v, std::span<const int8_t> x) {
-    return s.replace_detail(c, v, x);
-  }
-  static Status patch(ConfirmedStore& s, const wire::RegionUpdate& r, std::span<const int8_t> x) {
-    return s.patch_detail(r.tile, r.rect, r.base_version, r.new_version, x);
-  }
-};
+}
 
-}  // namespace
+// The rows' instances (the layer table's rows, each with these entry points).
+template Status ConfirmedStore::replace<CoarseLayer>(const TileCoord&, uint64_t, std::span<const uint16_t>);
+template Status ConfirmedStore::replace<DetailLayer>(const TileCoord&, uint64_t, std::span<const int8_t>);
+template Status ConfirmedStore::patch<CoarseLayer>(const TileCoord&, const RectI&, uint64_t, uint64_t,
+                                                   std::span<const uint16_t>);
+template Status ConfirmedStore::patch<DetailLayer>(const TileCoord&, const RectI&, uint64_t, uint64_t,
+                                                   std::span<const int8_t>);
+template std::vector<uint16_t> ConfirmedStore::held_rect<CoarseLayer>(const TileCoord&, const RectI&) const;
+template std::vector<int8_t> ConfirmedStore::held_rect<DetailLayer>(const TileCoord&, const RectI&) const;
 
 Status ConfirmedStore::apply_region(const wire::RegionUpdate& r, std::span<const uint8_t> payload) {
   return visit_layer(r.tile.layer, [&](auto row) -> Status {
@@ -197,13 +158,13 @@ Status ConfirmedStore::apply_region(const wire::RegionUpdate& r, std::span<const
       if (!payload.empty()) std::memcpy(samples.data(), payload.data(), payload.size());
     } else {
       // A patch is coded against what this store holds: decoded here, nothing handed around.
-      const std::vector<T> base = r.patch ? StoreOps<R>::held(*this, r.tile, r.rect) : std::vector<T>{};
+      const std::vector<T> base = r.patch ? held_rect<R>(r.tile, r.rect) : std::vector<T>{};
       auto decoded = decode_samples<T>(payload, w, h, RegionRefs<T>{.base = base, .coarser = {}});
       if (!decoded) return decoded.error();
       samples = std::move(*decoded);
     }
-    if (!r.patch) return StoreOps<R>::replace(*this, r.tile, r.new_version, samples);
-    return StoreOps<R>::patch(*this, r, samples);
+    if (!r.patch) return replace<R>(r.tile, r.new_version, samples);
+    return patch<R>(r.tile, r.rect, r.base_version, r.new_version, samples);
   });
 }
 
@@ -360,7 +321,7 @@ std::optional<uint64_t> ConfirmedStore::version(const TileCoord& c) const {
 }
 
 void ConfirmedStore::keep_initial_of(const TileCoord& c) {
-  if (!keep_initial_ || c.layer != Layer::kCoarse || c.mip != 0) return;
+  if (!keep_initial_ || !layer_info(c.layer).has_base || c.mip != 0) return;  // only a base's tiles
   const auto v = version(c);
   if (!v || *v != 0 || initial_.count({c.tx, c.ty})) return;
   const auto samples = mirror_.coarse_tile(0, c.tx, c.ty);
@@ -385,9 +346,13 @@ std::span<const uint16_t> ConfirmedStore::coarse_samples(const TileCoord& c) con
 
 uint64_t ConfirmedStore::hash(const TileCoord& c) const {
   if (!versions_.count(c)) return 0;
-  if (c.layer == Layer::kCoarse) return hash_coarse_tile(coarse_samples(c));
-  const auto d = mirror_.detail_tile(c.tx, c.ty);
-  return d.empty() ? zero_detail_tile_hash() : hash_detail_tile(d);
+  return visit_layer(c.layer, [&](auto row) {
+    using R = decltype(row);
+    if constexpr (R::kHasMips) {
+      if (c.mip != 0) return LayerOps<R>::hash(mip_tiles_.at(c));
+    }
+    return LayerOps<R>::hash(mirror_.tile_samples<R>(c));
+  });
 }
 
 std::vector<TileCoord> ConfirmedStore::wanted() const {

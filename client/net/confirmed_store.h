@@ -19,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include "protocol/layer.h"
 #include "protocol/result.h"
 #include "protocol/stamps/texture_registry.h"
 #include "protocol/wire/messages.h"
@@ -61,21 +62,22 @@ class ConfirmedStore {
   bool wanted_tile(const TileCoord& c) const { return wanted_.count(c) != 0; }
   void forget(const TileCoord& c);
 
-  // Replaces a whole tile with decoded samples at `version` (coarse: 65536 uint16; detail:
-  // 65536 int8 reinterpreted from the span of uint8).
-  Status replace_coarse(const TileCoord& c, uint64_t version, std::span<const uint16_t> samples);
-  Status replace_detail(const TileCoord& c, uint64_t version, std::span<const int8_t> samples);
+  // Replaces a whole tile of row R's layer (CoarseLayer, DetailLayer: protocol/layer.h) with
+  // decoded samples at `version` (65536 of the row's samples). Errors: not a whole tile, not a
+  // tile of that layer in the world.
+  template <class R>
+  Status replace(const TileCoord& c, uint64_t version, std::span<const typename R::Sample> samples);
 
   // Replaces the samples `rect` (tile-local) of a tile held at exactly `base`, which then is at
   // `version` (a region that sends only what changed). Errors: not held at `base`, a rect
-  // outside the tile, the wrong sample count.
-  Status patch_coarse(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
-                      std::span<const uint16_t> samples);
-  Status patch_detail(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
-                      std::span<const int8_t> samples);
-  // The held samples of `rect` (tile-local) of a tile (the base a delta-coded region needs).
-  std::vector<uint16_t> coarse_rect(const TileCoord& c, const RectI& rect) const;
-  std::vector<int8_t> detail_rect(const TileCoord& c, const RectI& rect) const;
+  // outside the tile, the wrong sample count, not a tile of row R's layer.
+  template <class R>
+  Status patch(const TileCoord& c, const RectI& rect, uint64_t base, uint64_t version,
+               std::span<const typename R::Sample> samples);
+  // The held samples of `rect` (tile-local) of a tile (the base a delta-coded region needs);
+  // empty when the tile is not held.
+  template <class R>
+  std::vector<typename R::Sample> held_rect(const TileCoord& c, const RectI& rect) const;
   // A whole region (its chunks assembled into `payload`): decoded, a patch against the
   // samples this store holds, then replace_* or patch_* of the region's layer.
   Status apply_region(const wire::RegionUpdate& r, std::span<const uint8_t> payload);

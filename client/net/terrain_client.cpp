@@ -106,23 +106,19 @@ Status TerrainClient::subscribe(const std::vector<TileCoord>& tiles, std::option
   wire::Subscribe sub;
   sub.focus = focus;
   if (tiles.empty() && focus) return connection_->send(sub);  // the focus alone moved
-  std::vector<uint16_t> samples;
   for (const TileCoord& c : tiles) {
     store_->want(c);
     const WorldParams& w = welcome_.world;
-    if (base_ && c.layer == Layer::kCoarse && c.mip < w.mip_count() &&
-        w.tile_range(c.mip).contains(c.tx, c.ty) && !store_->version(c).has_value()) {
-      // Version 0 of this tile is the base's: generate it and claim it, nothing to download.
-      samples.resize(size_t(kTileSamples));
-      base_->coarse_tile(c.mip, c.tx, c.ty, samples);
-      LOAM_TRY(store_->replace_coarse(c, 0, samples));
-      ++tiles_generated_;
-    } else if (base_ && c.layer == Layer::kDetail && c.mip == 0 &&
-               tiles_overlapping(w.detail_sample_rect()).contains(c.tx, c.ty) &&
-               !store_->version(c).has_value()) {
-      // Where version 0 is the base's, a detail tile's version 0 is all zeros.
-      static const std::vector<int8_t> zeros(size_t(kTileSamples), 0);
-      LOAM_TRY(store_->replace_detail(c, 0, zeros));
+    if (base_ && layer_tile_range(w, c.layer, c.mip).contains(c.tx, c.ty) &&
+        !store_->version(c).has_value()) {
+      // Version 0 is the base's: this tile's is generated (a layer without a base: all zero,
+      // as over a base) and claimed, nothing to download.
+      LOAM_TRY(visit_layer(c.layer, [&](auto row) -> Status {
+        using R = decltype(row);
+        std::vector<typename R::Sample> samples(static_cast<size_t>(kTileSamples));
+        if constexpr (R::kHasBase) base_->coarse_tile(c.mip, c.tx, c.ty, samples);
+        return store_->replace<R>(c, 0, samples);
+      }));
       ++tiles_generated_;
     }
     const auto held = store_->version(c);

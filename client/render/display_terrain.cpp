@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "protocol/stamps/stamp_apply.h"
+#include "protocol/world_layers.h"
 
 namespace loam::render {
 
@@ -16,21 +17,11 @@ bool intersects_any(const std::vector<RectI>& rects, const RectI& r) {
   return std::any_of(rects.begin(), rects.end(), [&](const RectI& s) { return intersects(s, r); });
 }
 
-size_t layer_index(Layer l) { return l == Layer::kCoarse ? 0 : 1; }
+size_t layer_index(Layer l) { return size_t(l); }
 
 // Samples of a layer over `rect` as int32 (either layer), for comparisons.
 std::vector<int32_t> read_layer(const World& w, Layer layer, const RectI& rect) {
-  std::vector<int32_t> out(size_t(rect.area()));
-  if (layer == Layer::kCoarse) {
-    std::vector<uint16_t> s(out.size());
-    w.read_coarse(rect, s);
-    std::copy(s.begin(), s.end(), out.begin());
-  } else {
-    std::vector<int8_t> s(out.size());
-    w.read_detail(rect, s);
-    std::copy(s.begin(), s.end(), out.begin());
-  }
-  return out;
+  return read_rect_i32(w, layer, rect);
 }
 
 }  // namespace
@@ -50,11 +41,12 @@ Result<std::unique_ptr<DisplayTerrain>> DisplayTerrain::create(const client::Con
   // tiles, nothing else (the display, like the store, follows the subscription).
   for (const TileCoord& c : store.held()) {
     if (c.mip != 0) continue;
-    if (c.layer == Layer::kCoarse) {
-      d->display_.write_coarse(tile_rect(c.tx, c.ty), store.mirror().coarse_tile(0, c.tx, c.ty));
-    } else if (const auto t = store.mirror().detail_tile(c.tx, c.ty); !t.empty()) {
-      d->display_.write_detail(tile_rect(c.tx, c.ty), t);
-    }
+    visit_layer(c.layer, [&](auto row) {
+      using R = decltype(row);
+      // An unstored tile (detail) is all zero, as the display's is already.
+      if (const auto t = store.mirror().tile_samples<R>(c); !t.empty())
+        (void)LayerOps<R>::write(d->display_, tile_rect(c.tx, c.ty), t);
+    });
   }
   d->display_.commit(0);
   if (gpu) {
@@ -107,18 +99,9 @@ void DisplayTerrain::finish(std::vector<DisplayDirty>& dirty) {
 }
 
 void DisplayTerrain::copy_from_store(Layer layer, const RectI& rect) {
-  const RectI r = rect.intersect(layer == Layer::kCoarse ? display_.params().sample_rect()
-                                                         : display_.params().detail_sample_rect());
+  const RectI r = rect.intersect(layer_sample_rect(display_.params(), layer));
   if (r.empty()) return;
-  if (layer == Layer::kCoarse) {
-    std::vector<uint16_t> s(size_t(r.area()));
-    store_->mirror().read_coarse(r, s);
-    display_.write_coarse(r, s);
-  } else {
-    std::vector<int8_t> s(size_t(r.area()));
-    store_->mirror().read_detail(r, s);
-    display_.write_detail(r, s);
-  }
+  (void)copy_rect(store_->mirror(), display_, layer, r);
   counters_.texels_copied += uint64_t(r.area());
   if (stamper_) stamper_->upload(display_, layer, r);
 }
@@ -141,7 +124,7 @@ std::vector<int32_t> DisplayTerrain::expected_after(const Pending& p,
   if (others.empty()) return read_layer(display_, p.stamp.layer, p.reach);
   // Apply them to a small copy of the displayed tiles holding every reach involved.
   const WorldParams& wp = display_.params();
-  const int64_t k = p.stamp.layer == Layer::kCoarse ? 1 : wp.detail_factor;
+  const int64_t k = visit_layer(p.stamp.layer, [&](auto row) { return decltype(row)::resolution(wp); });
   const RectI coarse{floor_div(reach.x0, k), floor_div(reach.y0, k), ceil_div(reach.x1, k),
                      ceil_div(reach.y1, k)};
   const RectI tiles = tiles_overlapping(coarse).intersect(wp.tile_range(0));
@@ -151,16 +134,7 @@ std::vector<int32_t> DisplayTerrain::expected_after(const Pending& p,
   cp.tiles_x = int32_t(tiles.width());
   cp.tiles_y = int32_t(tiles.height());
   World crop(cp, 0);
-  const RectI layer_rect = p.stamp.layer == Layer::kCoarse ? cp.sample_rect() : cp.detail_sample_rect();
-  if (p.stamp.layer == Layer::kCoarse) {
-    std::vector<uint16_t> s(size_t(layer_rect.area()));
-    display_.read_coarse(layer_rect, s);
-    crop.write_coarse(layer_rect, s);
-  } else {
-    std::vector<int8_t> s(size_t(layer_rect.area()));
-    display_.read_detail(layer_rect, s);
-    crop.write_detail(layer_rect, s);
-  }
+  (void)copy_rect(display_, crop, p.stamp.layer, layer_sample_rect(cp, p.stamp.layer));
   for (const client::StoreChange* c : others) (void)apply_stamp(crop, c->stamp, textures_);
   return read_layer(crop, p.stamp.layer, p.reach);
 }
@@ -393,12 +367,13 @@ void DisplayTerrain::set_initial_base(std::shared_ptr<const TileBase> base) {
 }
 
 bool DisplayTerrain::may_have_changed(int32_t tx, int32_t ty) const {
-  const auto v = store_->version({Layer::kCoarse, 0, tx, ty});
+  const TileCoord c{Layer::kCoarse, 0, tx, ty};
+  const auto v = store_->version(c);
   if (v && *v > 0) return true;
-  const RectI tile{int64_t(tx) * kTileSize, int64_t(ty) * kTileSize, int64_t(tx + 1) * kTileSize,
-                   int64_t(ty + 1) * kTileSize};
+  const RectI tile = tile_rect(tx, ty);
+  // A prediction on this tile's layer reaching into it.
   for (const Pending& p : pending_) {
-    if (p.stamp.layer == Layer::kCoarse && !p.reach.intersect(tile).empty()) return true;
+    if (p.stamp.layer == c.layer && !p.reach.intersect(tile).empty()) return true;
   }
   return false;
 }

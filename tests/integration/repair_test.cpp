@@ -35,7 +35,7 @@ void flip_sample(client::ConfirmedStore& store, const TileCoord& t, int32_t x, i
   std::vector<uint16_t> samples(held.begin(), held.end());
   ASSERT_EQ(samples.size(), size_t(kTileSamples));
   samples[size_t(y) * kTileSize + size_t(x)] ^= 0x0101;
-  ASSERT_TRUE(store.replace_coarse(t, *store.version(t), samples).ok());
+  ASSERT_TRUE(store.replace<CoarseLayer>(t, *store.version(t), samples).ok());
 }
 
 // A gaussian bump in the middle of the world's first tile.

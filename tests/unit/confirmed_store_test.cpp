@@ -41,7 +41,7 @@ TEST(ConfirmedStore, ChangeLogListsRegionsAndAppliedEventsInOrderWithTheirRects)
   const TileCoord t00{Layer::kCoarse, 0, 0, 0};
   store.want(t00);
   const std::vector<uint16_t> flat(kTileSamples, 1000);
-  ASSERT_TRUE(store.replace_coarse(t00, 5, flat).ok());
+  ASSERT_TRUE(store.replace<CoarseLayer>(t00, 5, flat).ok());
 
   wire::DeformEvent e;
   e.global_seq = 6;
@@ -75,7 +75,7 @@ TEST(ConfirmedStore, RegionForATileNoLongerWantedIsDroppedNotHeld) {
   store.want(t10);
   store.forget(t10);
   const std::vector<uint16_t> flat(kTileSamples, 7);
-  ASSERT_TRUE(store.replace_coarse(t10, 9, flat).ok());
+  ASSERT_TRUE(store.replace<CoarseLayer>(t10, 9, flat).ok());
   EXPECT_FALSE(store.holds(t10));
   EXPECT_EQ(store.counters().regions_unwanted, 1u);
   EXPECT_EQ(store.counters().regions, 0u);
@@ -116,7 +116,7 @@ TEST(ConfirmedStore, StoreHoldingOnlyCoarseMipsFollowsEventsAndMatchesTheServers
       for (int32_t tx = int32_t(tiles.x0); tx < tiles.x1; ++tx) {
         const TileCoord c{Layer::kCoarse, uint8_t(m), tx, ty};
         store.want(c);
-        ASSERT_TRUE(store.replace_coarse(c, 0, server.coarse_tile(m, tx, ty)).ok());
+        ASSERT_TRUE(store.replace<CoarseLayer>(c, 0, server.coarse_tile(m, tx, ty)).ok());
         held.push_back(c);
       }
     }
@@ -165,7 +165,7 @@ TEST(ConfirmedStore, MirrorHoldsOnlyHeldTilesAfterForgetAndAfterEventsOverUnheld
   const std::vector<uint16_t> flat(kTileSamples, 1000);
   for (const TileCoord& c : {t00, t10}) {
     store.want(c);
-    ASSERT_TRUE(store.replace_coarse(c, 5, flat).ok());
+    ASSERT_TRUE(store.replace<CoarseLayer>(c, 5, flat).ok());
   }
   EXPECT_EQ(store.held_bytes(), size_t(2) * kTileSamples * 2);
   store.forget(t10);
@@ -204,11 +204,11 @@ TEST(ConfirmedStore, KeepsTheVersionZeroOfTilesThatChangeWhileHeld) {
   for (size_t i = 0; i < initial.size(); ++i) initial[i] = uint16_t(1000 + i % 977);
   for (const TileCoord& c : {t00, t10, t01}) {
     store.want(c);
-    ASSERT_TRUE(store.replace_coarse(c, 0, initial).ok());
+    ASSERT_TRUE(store.replace<CoarseLayer>(c, 0, initial).ok());
   }
   store.want(t11);
   const std::vector<uint16_t> edited(kTileSamples, 4321);
-  ASSERT_TRUE(store.replace_coarse(t11, 9, edited).ok());  // first held already edited
+  ASSERT_TRUE(store.replace<CoarseLayer>(t11, 9, edited).ok());  // first held already edited
 
   const auto same = [&](std::span<const uint16_t> s) {
     return std::vector<uint16_t>(s.begin(), s.end()) == initial;
@@ -223,9 +223,9 @@ TEST(ConfirmedStore, KeepsTheVersionZeroOfTilesThatChangeWhileHeld) {
   e.stamp = bump(w, 100, 100);
   e.base_versions = {{t00, 0}};
   ASSERT_EQ(store.on_event(e), EventOutcome::kApplied);
-  ASSERT_TRUE(store.replace_coarse(t10, 11, edited).ok());
+  ASSERT_TRUE(store.replace<CoarseLayer>(t10, 11, edited).ok());
   const std::vector<uint16_t> patch(16, 7);
-  ASSERT_TRUE(store.patch_coarse(t01, {0, 0, 4, 4}, 0, 12, patch).ok());
+  ASSERT_TRUE(store.patch<CoarseLayer>(t01, {0, 0, 4, 4}, 0, 12, patch).ok());
   EXPECT_EQ(store.initial_tiles_kept(), 3u);
   EXPECT_EQ(store.held_bytes(), size_t(4 + 3) * kTileSamples * 2);  // the copies count
   for (const auto& [tx, ty] : {std::pair{0, 0}, {1, 0}, {0, 1}}) {
@@ -245,8 +245,8 @@ TEST(ConfirmedStore, KeepsTheVersionZeroOfTilesThatChangeWhileHeld) {
   // Off (the default): nothing is kept.
   ConfirmedStore plain(w);
   plain.want(t00);
-  ASSERT_TRUE(plain.replace_coarse(t00, 0, initial).ok());
-  ASSERT_TRUE(plain.replace_coarse(t00, 3, edited).ok());
+  ASSERT_TRUE(plain.replace<CoarseLayer>(t00, 0, initial).ok());
+  ASSERT_TRUE(plain.replace<CoarseLayer>(t00, 3, edited).ok());
   EXPECT_TRUE(plain.initial_coarse(0, 0).empty());
 }
 

@@ -57,7 +57,7 @@ TEST(HeightSource, ACoarseTileHolderReadsWhatTheWorldReadsPastEveryEdge) {
         for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
           const TileCoord c{Layer::kCoarse, uint8_t(held), int32_t(tx), int32_t(ty)};
           store.want(c);
-          ASSERT_TRUE(store.replace_coarse(c, 1, world.coarse_tile(held, c.tx, c.ty)).ok());
+          ASSERT_TRUE(store.replace<CoarseLayer>(c, 1, world.coarse_tile(held, c.tx, c.ty)).ok());
         }
       }
       auto display = DisplayTerrain::create(store, {});
