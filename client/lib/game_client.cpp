@@ -307,8 +307,7 @@ void Client::Impl::step() {
     e.own = ch.origin_client_id == client_id;
     e.stamp = from_quantized(ch.stamp, params);
     if (!ch.rect.empty()) {
-      const double sp =
-          ch.layer == loam::Layer::kDetail ? params.detail_meters_per_sample() : params.meters_per_sample;
+      const double sp = loam::layer_meters_per_sample(params, ch.layer);
       e.x0 = double(ch.rect.x0) * sp;
       e.y0 = double(ch.rect.y0) * sp;
       e.x1 = double(ch.rect.x1 - 1) * sp;
