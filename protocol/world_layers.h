@@ -18,6 +18,12 @@ template <class R>
 struct LayerOps;
 template <>
 struct LayerOps<CoarseLayer> {
+  static uint16_t sample(const World& w, int64_t x, int64_t y) { return w.coarse(x, y); }
+  // Mip 0's tile (generated from the base where never edited; empty outside the world).
+  static std::span<const uint16_t> tile(const World& w, int32_t tx, int32_t ty) {
+    return w.coarse_tile(0, tx, ty);
+  }
+  static std::span<uint16_t> tile_mut(World& w, int32_t tx, int32_t ty) { return w.coarse_tile_mut(tx, ty); }
   static void read(const World& w, const RectI& r, std::span<uint16_t> out) { w.read_coarse(r, out); }
   static int64_t write(World& w, const RectI& r, std::span<const uint16_t> in) {
     return w.write_coarse(r, in);
@@ -26,6 +32,12 @@ struct LayerOps<CoarseLayer> {
 };
 template <>
 struct LayerOps<DetailLayer> {
+  static int8_t sample(const World& w, int64_t x, int64_t y) { return w.detail(x, y); }
+  // Empty where the tile is not stored (all zero).
+  static std::span<const int8_t> tile(const World& w, int32_t tx, int32_t ty) {
+    return w.detail_tile(tx, ty);
+  }
+  static std::span<int8_t> tile_mut(World& w, int32_t tx, int32_t ty) { return w.detail_tile_mut(tx, ty); }
   static void read(const World& w, const RectI& r, std::span<int8_t> out) { w.read_detail(r, out); }
   static int64_t write(World& w, const RectI& r, std::span<const int8_t> in) { return w.write_detail(r, in); }
   // An unstored tile (empty span) is all zero.

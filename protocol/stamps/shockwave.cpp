@@ -5,6 +5,7 @@
 #include "protocol/stamps/stamp_kernel.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
+#include "protocol/world_layers.h"
 
 namespace loam {
 
@@ -85,17 +86,16 @@ Result<RectI> apply_shockwave(World& world, const QuantizedStamp& q) {
           const int32_t delta = round_q8(f.get(x - box.x0, y - box.y0));
           if (delta == 0) continue;
           const size_t i = size_t((y - ty * kTileSize) * kTileSize + (x - tx * kTileSize));
-          if (q.layer == Layer::kCoarse) {
-            const std::span<uint16_t> tile = world.coarse_tile_mut(int32_t(tx), int32_t(ty));
-            const int32_t nv = std::clamp(int32_t(tile[i]) + delta, 0, 65535);
-            if (nv == tile[i]) continue;
-            tile[i] = uint16_t(nv);
-          } else {
-            const int32_t old = world.detail(x, y);
-            const int32_t nv = std::clamp(old + delta, -128, 127);
-            if (nv == old) continue;
-            world.detail_tile_mut(int32_t(tx), int32_t(ty))[i] = int8_t(nv);
-          }
+          // The tile is only written (a detail tile: stored) where a sample changes.
+          const bool wrote = visit_layer(q.layer, [&](auto row) {
+            using R = decltype(row);
+            const int32_t old = int32_t(LayerOps<R>::sample(world, x, y));
+            const int32_t nv = std::clamp(old + delta, R::kMin, R::kMax);
+            if (nv == old) return false;
+            LayerOps<R>::tile_mut(world, int32_t(tx), int32_t(ty))[i] = typename R::Sample(nv);
+            return true;
+          });
+          if (!wrote) continue;
           changed = changed.unite(RectI{x, y, x + 1, y + 1});
         }
       }

@@ -5,7 +5,9 @@
 
 #include "protocol/stamps/shockwave.h"
 #include "protocol/stamps/stamp_kernel.h"
+#include "protocol/stamps/stamp_kinds.h"
 #include "protocol/world.h"
+#include "protocol/world_layers.h"
 
 namespace loam {
 
@@ -40,36 +42,38 @@ RectI apply_in_tile(const BakedStamp& b, T* tile, int64_t tx, int64_t ty) {
 template <typename InTile>
 RectI walk_tiles(World& world, const BakedStamp& b, const InTile& in_tile) {
   const Layer layer = b.q.layer;
-  RectI touched;
-  const RectI tiles = tiles_overlapping(b.rect);
-  std::vector<int8_t> scratch;
-  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
-    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
-      RectI changed;
-      if (layer == Layer::kCoarse) {
-        const std::span<uint16_t> tile = world.coarse_tile_mut(int32_t(tx), int32_t(ty));
-        if (tile.empty()) continue;
-        changed = in_tile(tile.data(), tx, ty);
-      } else {
-        const std::span<const int8_t> stored = world.detail_tile(int32_t(tx), int32_t(ty));
-        if (!stored.empty()) {
-          changed = in_tile(world.detail_tile_mut(int32_t(tx), int32_t(ty)).data(), tx, ty);
+  return visit_layer(layer, [&](auto row) {
+    using R = decltype(row);
+    using Ops = LayerOps<R>;
+    RectI touched;
+    const RectI tiles = tiles_overlapping(b.rect);
+    std::vector<typename R::Sample> scratch;
+    for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+      for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+        RectI changed;
+        if constexpr (R::kHasBase) {
+          // Every tile of a layer with a base exists (generated where never edited).
+          const auto tile = Ops::tile_mut(world, int32_t(tx), int32_t(ty));
+          if (tile.empty()) continue;
+          changed = in_tile(tile.data(), tx, ty);
+        } else if (!Ops::tile(world, int32_t(tx), int32_t(ty)).empty()) {
+          changed = in_tile(Ops::tile_mut(world, int32_t(tx), int32_t(ty)).data(), tx, ty);
         } else {
           scratch.assign(kTileSamples, 0);
           changed = in_tile(scratch.data(), tx, ty);
           if (!changed.empty()) {
-            const std::span<int8_t> tile = world.detail_tile_mut(int32_t(tx), int32_t(ty));
+            const auto tile = Ops::tile_mut(world, int32_t(tx), int32_t(ty));
             std::copy(scratch.begin(), scratch.end(), tile.begin());
           }
         }
-      }
-      if (!changed.empty()) {
-        world.mark_dirty(layer, changed);
-        touched = touched.unite(changed);
+        if (!changed.empty()) {
+          world.mark_dirty(layer, changed);
+          touched = touched.unite(changed);
+        }
       }
     }
-  }
-  return touched;
+    return touched;
+  });
 }
 
 }  // namespace
@@ -81,7 +85,7 @@ Result<RectI> apply_stamp_reference(World& world, const QuantizedStamp& q, const
   auto baked = bake_stamp(q, world.params(), textures);
   LOAM_TRY(baked);
   BakedStamp& b = baked.value();
-  if (q.kind == StampKind::kFootprint) footprint_contact(b, world);
+  if (stamp_kind(q.kind).needs_contact) footprint_contact(b, world);
   return walk_tiles(world, b,
                     [&](auto* tile, int64_t tx, int64_t ty) { return apply_in_tile(b, tile, tx, ty); });
 }
@@ -93,7 +97,7 @@ Result<RectI> apply_stamp_with(World& world, const QuantizedStamp& q, FastIsa is
   auto baked = bake_stamp(q, world.params(), textures);
   LOAM_TRY(baked);
   BakedStamp& b = baked.value();
-  if (q.kind == StampKind::kFootprint) footprint_contact_fast(b, world);
+  if (stamp_kind(q.kind).needs_contact) footprint_contact_fast(b, world);
   const FastStamp fast(b, isa);
   return walk_tiles(world, b,
                     [&](auto* tile, int64_t tx, int64_t ty) { return fast.apply_in_tile(tile, tx, ty); });
@@ -119,7 +123,7 @@ Result<uint64_t> stamp_cost(const QuantizedStamp& q, const WorldParams& world,
 
 Result<RectI> apply_stamp_with_contact(World& world, const QuantizedStamp& q, const FootprintContact& contact,
                                        const TextureRegistry* textures, const StampLimits& limits) {
-  if (q.kind != StampKind::kFootprint) return apply_stamp(world, q, textures, limits);
+  if (!stamp_kind(q.kind).needs_contact) return apply_stamp(world, q, textures, limits);
   LOAM_TRY(check_quantized(q, world.params(), limits, textures));
   auto baked = bake_stamp(q, world.params(), textures);
   LOAM_TRY(baked);

@@ -6,6 +6,7 @@
 
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
+#include "protocol/world_layers.h"
 
 // The AVX2 kernel is compiled for AVX2 per function (target attribute) and chosen at run
 // time, so the library still runs on any x86-64 and builds anywhere else without it.
@@ -456,37 +457,34 @@ void footprint_contact_fast(BakedStamp& b, const World& world) {
   int32_t best = 0;
   bool any = false;
   const RectI tiles = tiles_overlapping(b.rect);
-  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
-    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
-      const RectI part = b.rect.intersect(tile_rect(int32_t(tx), int32_t(ty)));
-      std::span<const uint16_t> coarse;
-      std::span<const int8_t> detail;
-      if (b.q.layer == Layer::kCoarse) {
-        coarse = world.coarse_tile(0, int32_t(tx), int32_t(ty));
-        if (coarse.empty()) continue;
-      } else {
-        detail = world.detail_tile(int32_t(tx), int32_t(ty));  // empty: all zero
-      }
-      for (int64_t y = part.y0; y < part.y1; ++y) {
-        const int32_t b_abs = reduced_abs(y * 256 - b.q.center_y, b.shift);
-        const Span span = disc_row_span(b, b_abs, part.x0, part.x1);
-        const size_t base = size_t((y - ty * kTileSize) * kTileSize - tx * kTileSize);
-        for (int64_t x = span.x0; x < span.x1; ++x) {
-          const uint32_t ar = uint32_t(reduced_abs(x * 256 - b.q.center_x, b.shift));
-          const int32_t dist = int32_t(isqrt_exact(uint64_t(ar) * ar + uint64_t(b_abs) * uint64_t(b_abs)));
-          const int32_t s = sole.empty()
-                                ? table_lookup(b.table, int32_t((uint32_t(dist) << 16) / uint32_t(rr)))
-                                : sole[size_t(dist)];
-          const int32_t old = b.q.layer == Layer::kCoarse ? int32_t(coarse[base + size_t(x)])
-                              : detail.empty()            ? 0
-                                                          : int32_t(detail[base + size_t(x)]);
-          const int32_t c = old * 256 - s;
-          if (!any || c > best) best = c;
-          any = true;
+  visit_layer(b.q.layer, [&](auto row) {
+    using R = decltype(row);
+    for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+      for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+        const RectI part = b.rect.intersect(tile_rect(int32_t(tx), int32_t(ty)));
+        // A layer with a base has every tile (empty: outside the world); without one, an
+        // unstored tile is all zero.
+        const auto tile = LayerOps<R>::tile(world, int32_t(tx), int32_t(ty));
+        if (R::kHasBase && tile.empty()) continue;
+        for (int64_t y = part.y0; y < part.y1; ++y) {
+          const int32_t b_abs = reduced_abs(y * 256 - b.q.center_y, b.shift);
+          const Span span = disc_row_span(b, b_abs, part.x0, part.x1);
+          const size_t base = size_t((y - ty * kTileSize) * kTileSize - tx * kTileSize);
+          for (int64_t x = span.x0; x < span.x1; ++x) {
+            const uint32_t ar = uint32_t(reduced_abs(x * 256 - b.q.center_x, b.shift));
+            const int32_t dist = int32_t(isqrt_exact(uint64_t(ar) * ar + uint64_t(b_abs) * uint64_t(b_abs)));
+            const int32_t s = sole.empty()
+                                  ? table_lookup(b.table, int32_t((uint32_t(dist) << 16) / uint32_t(rr)))
+                                  : sole[size_t(dist)];
+            const int32_t old = tile.empty() ? 0 : int32_t(tile[base + size_t(x)]);
+            const int32_t c = old * 256 - s;
+            if (!any || c > best) best = c;
+            any = true;
+          }
         }
       }
     }
-  }
+  });
   b.has_contact = any;
   b.contact_q8 = best;
 }

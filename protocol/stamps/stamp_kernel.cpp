@@ -5,6 +5,7 @@
 
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
+#include "protocol/world_layers.h"
 
 namespace loam {
 
@@ -172,17 +173,18 @@ int32_t radial_u_q16(const BakedStamp& b, int64_t gx, int64_t gy) {
 void footprint_contact(BakedStamp& b, const World& world) {
   b.has_contact = false;
   int32_t best = 0;
-  for (int64_t y = b.rect.y0; y < b.rect.y1; ++y) {
-    for (int64_t x = b.rect.x0; x < b.rect.x1; ++x) {
-      const int32_t u = radial_u_q16(b, x, y);
-      if (u < 0) continue;
-      const int32_t old =
-          b.q.layer == Layer::kCoarse ? int32_t(world.coarse(x, y)) : int32_t(world.detail(x, y));
-      const int32_t c = old * 256 - table_lookup(b.table, u);
-      if (!b.has_contact || c > best) best = c;
-      b.has_contact = true;
+  visit_layer(b.q.layer, [&](auto row) {
+    for (int64_t y = b.rect.y0; y < b.rect.y1; ++y) {
+      for (int64_t x = b.rect.x0; x < b.rect.x1; ++x) {
+        const int32_t u = radial_u_q16(b, x, y);
+        if (u < 0) continue;
+        const int32_t old = int32_t(LayerOps<decltype(row)>::sample(world, x, y));
+        const int32_t c = old * 256 - table_lookup(b.table, u);
+        if (!b.has_contact || c > best) best = c;
+        b.has_contact = true;
+      }
     }
-  }
+  });
   b.contact_q8 = best;
 }
 
