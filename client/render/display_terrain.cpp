@@ -17,8 +17,6 @@ bool intersects_any(const std::vector<RectI>& rects, const RectI& r) {
   return std::any_of(rects.begin(), rects.end(), [&](const RectI& s) { return intersects(s, r); });
 }
 
-size_t layer_index(Layer l) { return size_t(l); }
-
 // Samples of a layer over `rect` as int32 (either layer), for comparisons.
 std::vector<int32_t> read_layer(const World& w, Layer layer, const RectI& rect) {
   return read_rect_i32(w, layer, rect);
@@ -159,12 +157,25 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
   std::vector<DisplayDirty> dirty;
   last_changes_ = client.store().take_changes();
   const std::vector<client::StoreChange>& changes = last_changes_;
-  const auto now = std::chrono::steady_clock::now();
+  settle(client, std::chrono::steady_clock::now());
+  SyncRects rects;
+  // The display's CPU mirror must hold everything submitted before it is read or copied into.
+  finish(dirty);
+  const std::vector<Expected> expected = plan_settled(changes, rects);
+  const std::vector<LayerRect> stamped = follow_changes(changes, rects, dirty);
+  finish(dirty);
+  spread_under_overlay(rects);
+  repair_divergence(stamped, rects);
+  copy_and_reapply(rects, dirty);
+  count_and_retire(expected);
+  forget_unheld();
+  return dirty;
+}
 
-  // 1. Which own stamps are settled: rejected, or their event is in (and not waiting).
-  std::vector<bool> retire(pending_.size(), false);
-  for (size_t i = 0; i < pending_.size(); ++i) {
-    Pending& p = pending_[i];
+// 1. Which own stamps are settled: rejected, lost, or their event is in (and not waiting).
+void DisplayTerrain::settle(client::TerrainClient& client, std::chrono::steady_clock::time_point now) {
+  for (Pending& p : pending_) {
+    p.retire = p.reapply = false;
     if (!p.acked) {
       if (const auto a = client.ack(p.client_seq)) {
         p.acked = true;
@@ -179,53 +190,53 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
     if (!p.acked) continue;
     // Acknowledged before a reconnect whose Welcome is at or past it: its event will not come,
     // the tiles the server sends hold it.
-    retire[i] = !p.accepted ||
-                (client.last_event_seq() >= p.global_seq && !client.store().is_buffered(p.global_seq)) ||
-                p.global_seq <= client.welcome().global_sequence || now - p.ack_time > retire_timeout_;
+    p.retire = !p.accepted ||
+               (client.last_event_seq() >= p.global_seq && !client.store().is_buffered(p.global_seq)) ||
+               p.global_seq <= client.welcome().global_sequence || now - p.ack_time > retire_timeout_;
   }
+}
 
-  // 2. What each settled prediction should turn into: what it showed, plus the events of
-  // other stamps that arrive with it (the server may have ordered them either side of ours).
-  std::vector<RectI> stale[2], overlay[2];
-  struct Expected {
-    Layer layer;
-    RectI rect;
-    std::vector<int32_t> samples;
-  };
+// 2. What each settled prediction should turn into: what it showed, plus the events of other
+// stamps that arrive with it (the server may have ordered them either side of ours). Its reach
+// is copied from the store; the others' reaches are the overlay.
+std::vector<DisplayTerrain::Expected> DisplayTerrain::plan_settled(
+    const std::vector<client::StoreChange>& changes, SyncRects& rects) {
   std::vector<Expected> expected;
-  // The display's CPU mirror must hold everything submitted before it is read or copied into.
-  finish(dirty);
-  for (size_t i = 0; i < pending_.size(); ++i) {
-    const Pending& p = pending_[i];
-    if (!retire[i]) {
-      overlay[layer_index(p.stamp.layer)].push_back(p.reach);
+  for (const Pending& p : pending_) {
+    if (!p.retire) {
+      rects.overlay[p.stamp.layer].push_back(p.reach);
       continue;
     }
-    stale[layer_index(p.stamp.layer)].push_back(p.reach);
+    rects.stale[p.stamp.layer].push_back(p.reach);
     // A rejected stamp simply disappears; an accepted one is compared with what happened.
     if (p.accepted) expected.push_back({p.stamp.layer, p.reach, expected_after(p, changes)});
   }
+  return expected;
+}
 
-  // 3. Follow the store's changes: stamp events where the display is confirmed under their
-  // reach; everything else becomes a stale rect, copied from the store below.
-  std::vector<LayerRect> stamped;  // events stamped here, to compare with the store
+// 3. Follow the store's changes: stamp events where the display is confirmed under their
+// reach; everything else becomes a stale rect, copied from the store later. Returns the events
+// stamped here, to compare with the store.
+std::vector<DisplayTerrain::LayerRect> DisplayTerrain::follow_changes(
+    const std::vector<client::StoreChange>& changes, SyncRects& rects, std::vector<DisplayDirty>& dirty) {
+  std::vector<LayerRect> stamped;
   for (const client::StoreChange& c : changes) {
-    const size_t li = layer_index(c.layer);
+    std::vector<RectI>& stale = rects.stale[c.layer];
     if (c.kind == client::StoreChange::Kind::kRegion) {
       if (c.tile.mip == 0) {
-        stale[li].push_back(c.rect);
+        stale.push_back(c.rect);
       } else {
         // Levels reading that mip (where mip 0 is not held) change: the tile's mip-0 extent.
         const int64_t s = int64_t(1) << c.tile.mip;
-        dirty.push_back({Layer::kCoarse, {c.rect.x0 * s, c.rect.y0 * s, c.rect.x1 * s, c.rect.y1 * s}});
+        dirty.push_back({c.layer, {c.rect.x0 * s, c.rect.y0 * s, c.rect.x1 * s, c.rect.y1 * s}});
       }
       continue;
     }
     if (c.rect.empty()) continue;
     auto reach = stamp_reach(c.stamp, display_.params(), textures_);
     const RectI r = reach ? *reach : c.rect;
-    if (intersects_any(stale[li], r) || intersects_any(overlay[li], r)) {
-      stale[li].push_back(c.rect);
+    if (intersects_any(stale, r) || intersects_any(rects.overlay[c.layer], r)) {
+      stale.push_back(c.rect);
       ++counters_.events_copied;
     } else {
       stamp(c.stamp);
@@ -233,32 +244,34 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
       ++counters_.events_stamped;
     }
   }
-  finish(dirty);
+  return stamped;
+}
 
-  // 4. Overlay stamps over a stale rect are rebuilt whole, which makes their reach stale too.
-  std::vector<bool> reapply(pending_.size(), false);
+// 4. Overlay stamps over a stale rect are rebuilt whole, which makes their reach stale too.
+void DisplayTerrain::spread_under_overlay(SyncRects& rects) {
   for (bool grew = true; grew;) {
     grew = false;
-    for (size_t i = 0; i < pending_.size(); ++i) {
-      if (retire[i] || reapply[i]) continue;
-      const size_t li = layer_index(pending_[i].stamp.layer);
-      if (intersects_any(stale[li], pending_[i].reach)) {
-        stale[li].push_back(pending_[i].reach);
-        reapply[i] = true;
+    for (Pending& p : pending_) {
+      if (p.retire || p.reapply) continue;
+      std::vector<RectI>& stale = rects.stale[p.stamp.layer];
+      if (intersects_any(stale, p.reach)) {
+        stale.push_back(p.reach);
+        p.reapply = true;
         grew = true;
       }
     }
   }
+}
 
-  // 5. Stamped events must have given the store's samples: count and repair any difference
-  // (only where no overlay stamp stays on top).
+// 5. Stamped events must have given the store's samples: count and repair any difference
+// (only where no overlay stamp stays on top).
+void DisplayTerrain::repair_divergence(const std::vector<LayerRect>& stamped, SyncRects& rects) {
   for (const LayerRect& s : stamped) {
-    const size_t li = layer_index(s.layer);
-    bool covered = intersects_any(stale[li], s.rect);
-    for (size_t i = 0; i < pending_.size() && !covered; ++i) {
-      covered =
-          !retire[i] && layer_index(pending_[i].stamp.layer) == li && intersects(pending_[i].reach, s.rect);
-    }
+    std::vector<RectI>& stale = rects.stale[s.layer];
+    const bool covered =
+        intersects_any(stale, s.rect) || std::any_of(pending_.begin(), pending_.end(), [&](const Pending& p) {
+          return !p.retire && p.stamp.layer == s.layer && intersects(p.reach, s.rect);
+        });
     if (covered) continue;
     // Only held tiles are compared: the store keeps nothing of the others.
     const RectI tiles = tiles_overlapping(s.rect);
@@ -272,47 +285,45 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
         for (size_t k = 0; k < mine.size(); ++k) diff += mine[k] != theirs[k];
         if (diff != 0) {
           counters_.divergent_texels += diff;
-          stale[li].push_back(part);
+          stale.push_back(part);
         }
       }
     }
   }
+}
 
-  // 6. Copy the confirmed samples in, then re-apply the overlay stamps on top, in order.
-  for (size_t li = 0; li < 2; ++li) {
-    const Layer layer = li == 0 ? Layer::kCoarse : Layer::kDetail;
-    for (const RectI& r : stale[li]) {
+// 6. Copy the confirmed samples in, then re-apply the overlay stamps on top, in order.
+void DisplayTerrain::copy_and_reapply(const SyncRects& rects, std::vector<DisplayDirty>& dirty) {
+  rects.stale.for_each([&](Layer layer, const std::vector<RectI>& stale) {
+    for (const RectI& r : stale) {
       copy_from_store(layer, r);
       dirty.push_back({layer, r});
     }
-  }
-  for (size_t i = 0; i < pending_.size(); ++i) {
-    if (reapply[i]) stamp(pending_[i].stamp);
+  });
+  for (const Pending& p : pending_) {
+    if (p.reapply) stamp(p.stamp);
   }
   finish(dirty);
   display_.commit(0);
+}
 
-  // 7. Corrections: texels where the confirmed result differs from what was expected.
+// 7. Corrections: texels where the confirmed result differs from what was expected; the
+// settled predictions leave the overlay.
+void DisplayTerrain::count_and_retire(const std::vector<Expected>& expected) {
   for (const Expected& e : expected) {
     const auto now_samples = read_layer(display_, e.layer, e.rect);
     for (size_t k = 0; k < now_samples.size(); ++k) counters_.corrections += now_samples[k] != e.samples[k];
   }
-  size_t kept = 0;
-  for (size_t i = 0; i < pending_.size(); ++i) {
-    if (retire[i]) {
-      ++counters_.retired;
-      if (pending_[i].abandoned) {
-        ++counters_.abandoned;
-      } else if (!pending_[i].accepted) {
-        ++counters_.rejected;
-      }
-      continue;
+  std::erase_if(pending_, [&](const Pending& p) {
+    if (!p.retire) return false;
+    ++counters_.retired;
+    if (p.abandoned) {
+      ++counters_.abandoned;
+    } else if (!p.accepted) {
+      ++counters_.rejected;
     }
-    pending_[kept++] = pending_[i];
-  }
-  pending_.resize(kept);
-  forget_unheld();
-  return dirty;
+    return true;
+  });
 }
 
 void DisplayTerrain::forget_unheld() {

@@ -122,10 +122,24 @@ class DisplayTerrain final : public HeightSource {
     bool acked = false, accepted = false, abandoned = false;
     uint64_t global_seq = 0;
     std::chrono::steady_clock::time_point ack_time{};
+    // This sync: it leaves the overlay (settled), or it is stamped again over the copied
+    // confirmed samples (it stays, and a stale rect reached under it).
+    bool retire = false, reapply = false;
   };
   struct LayerRect {
     Layer layer = Layer::kCoarse;
     RectI rect;
+  };
+  // What a settled, accepted prediction should have become (compared after the copy).
+  struct Expected {
+    Layer layer = Layer::kCoarse;
+    RectI rect;
+    std::vector<int32_t> samples;
+  };
+  // One sync's rects per layer: copied from the store (stale), and under the predictions that
+  // stay (overlay).
+  struct SyncRects {
+    PerLayer<std::vector<RectI>> stale, overlay;
   };
   DisplayTerrain(const client::ConfirmedStore& store, const TextureRegistry* textures);
 
@@ -151,6 +165,16 @@ class DisplayTerrain final : public HeightSource {
   // reach with this sync's events of other stamps (in server order) applied on top.
   std::vector<int32_t> expected_after(const Pending& p,
                                       const std::vector<client::StoreChange>& changes) const;
+
+  // sync()'s phases, in order.
+  void settle(client::TerrainClient& client, std::chrono::steady_clock::time_point now);
+  std::vector<Expected> plan_settled(const std::vector<client::StoreChange>& changes, SyncRects& rects);
+  std::vector<LayerRect> follow_changes(const std::vector<client::StoreChange>& changes, SyncRects& rects,
+                                        std::vector<DisplayDirty>& dirty);
+  void spread_under_overlay(SyncRects& rects);
+  void repair_divergence(const std::vector<LayerRect>& stamped, SyncRects& rects);
+  void copy_and_reapply(const SyncRects& rects, std::vector<DisplayDirty>& dirty);
+  void count_and_retire(const std::vector<Expected>& expected);
 
   const client::ConfirmedStore* store_;
   const TextureRegistry* textures_;
