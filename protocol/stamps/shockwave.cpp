@@ -74,38 +74,36 @@ Result<RectI> apply_shockwave(World& world, const QuantizedStamp& q) {
     wave_step(f, RectI{local_pulse.x0 - n, local_pulse.y0 - n, local_pulse.x1 + n, local_pulse.y1 + n}, nu2,
               q.damping);
   }
-  // Apply saturate(old + round(w)) tile by tile.
-  RectI touched;
-  const RectI tiles = tiles_overlapping(box);
-  for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
-    for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
-      const RectI part = box.intersect(tile_rect(int32_t(tx), int32_t(ty)));
-      RectI changed;
-      for (int64_t y = part.y0; y < part.y1; ++y) {
-        for (int64_t x = part.x0; x < part.x1; ++x) {
-          const int32_t delta = round_q8(f.get(x - box.x0, y - box.y0));
-          if (delta == 0) continue;
-          const size_t i = size_t((y - ty * kTileSize) * kTileSize + (x - tx * kTileSize));
-          // The tile is only written (a detail tile: stored) where a sample changes.
-          const bool wrote = visit_layer(q.layer, [&](auto row) {
-            using R = decltype(row);
+  // Apply saturate(old + round(w)) tile by tile (the layer's row chosen once, outside the loops).
+  return visit_layer(q.layer, [&](auto row) {
+    using R = decltype(row);
+    RectI touched;
+    const RectI tiles = tiles_overlapping(box);
+    for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
+      for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
+        const RectI part = box.intersect(tile_rect(int32_t(tx), int32_t(ty)));
+        RectI changed;
+        for (int64_t y = part.y0; y < part.y1; ++y) {
+          for (int64_t x = part.x0; x < part.x1; ++x) {
+            const int32_t delta = round_q8(f.get(x - box.x0, y - box.y0));
+            if (delta == 0) continue;
             const int32_t old = int32_t(LayerOps<R>::sample(world, x, y));
             const int32_t nv = std::clamp(old + delta, R::kMin, R::kMax);
-            if (nv == old) return false;
+            if (nv == old) continue;
+            // The tile is only written (a detail tile: stored) where a sample changes.
+            const size_t i = size_t((y - ty * kTileSize) * kTileSize + (x - tx * kTileSize));
             LayerOps<R>::tile_mut(world, int32_t(tx), int32_t(ty))[i] = typename R::Sample(nv);
-            return true;
-          });
-          if (!wrote) continue;
-          changed = changed.unite(RectI{x, y, x + 1, y + 1});
+            changed = changed.unite(RectI{x, y, x + 1, y + 1});
+          }
+        }
+        if (!changed.empty()) {
+          world.mark_dirty(q.layer, changed);
+          touched = touched.unite(changed);
         }
       }
-      if (!changed.empty()) {
-        world.mark_dirty(q.layer, changed);
-        touched = touched.unite(changed);
-      }
     }
-  }
-  return touched;
+    return touched;
+  });
 }
 
 }  // namespace loam

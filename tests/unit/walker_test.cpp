@@ -25,19 +25,27 @@ WorldParams params() {
   return p;
 }
 
-// A plane rising along +x at `degrees`, from 50 m at x = 0.
-World slope_world(double degrees) {
+// A world whose height at sample (x, y) is height(x, y) metres.
+template <class Height>
+World world_of(const Height& height) {
   const WorldParams p = params();
   World w(p);
   const RectI r = p.sample_rect();
   std::vector<uint16_t> s(size_t(r.area()));
-  const double rise = std::tan(degrees * std::numbers::pi / 180.0);
   for (int64_t y = 0; y < r.y1; ++y) {
-    for (int64_t x = 0; x < r.x1; ++x) s[size_t(y * r.x1 + x)] = quantize_height(p, 50.0 + rise * double(x));
+    for (int64_t x = 0; x < r.x1; ++x)
+      s[size_t(y * r.x1 + x)] = quantize_height(p, height(double(x), double(y)));
   }
   (void)w.write_coarse(r, s);
   (void)w.commit(1);
   return w;
+}
+
+double rise_of(double degrees) { return std::tan(degrees * std::numbers::pi / 180.0); }
+
+// A plane rising along +x at `degrees`, from 50 m at x = 0.
+World slope_world(double degrees) {
+  return world_of([rise = rise_of(degrees)](double x, double) { return 50.0 + rise * x; });
 }
 
 std::shared_ptr<const query::TerrainSnapshot> snap(const World& w) {
@@ -86,18 +94,7 @@ TEST(Walker, SteeperThanItsLimitItSlidesDown) {
 
 // A V valley along y whose two faces rise at `degrees` from x = 128.
 World valley_world(double degrees) {
-  const WorldParams p = params();
-  World w(p);
-  const RectI r = p.sample_rect();
-  std::vector<uint16_t> s(size_t(r.area()));
-  const double rise = std::tan(degrees * std::numbers::pi / 180.0);
-  for (int64_t y = 0; y < r.y1; ++y) {
-    for (int64_t x = 0; x < r.x1; ++x)
-      s[size_t(y * r.x1 + x)] = quantize_height(p, 50.0 + rise * std::abs(double(x) - 128.0));
-  }
-  (void)w.write_coarse(r, s);
-  (void)w.commit(1);
-  return w;
+  return world_of([rise = rise_of(degrees)](double x, double) { return 50.0 + rise * std::abs(x - 128.0); });
 }
 
 // Each face of the valley is too steep to stand on, but together they hold it: it slides into
