@@ -14,13 +14,11 @@ namespace loam {
 static_assert(std::endian::native == std::endian::little,
               "Loam hashes samples in little-endian byte order; big-endian needs a byte swap");
 
-uint64_t hash_coarse_tile(std::span<const uint16_t> samples) {
-  return XXH3_64bits(samples.data(), samples.size_bytes());
-}
+uint64_t hash_sample_bytes(const void* data, size_t bytes) { return XXH3_64bits(data, bytes); }
 
-uint64_t hash_detail_tile(std::span<const int8_t> samples) {
-  return XXH3_64bits(samples.data(), samples.size_bytes());
-}
+uint64_t hash_coarse_tile(std::span<const uint16_t> samples) { return hash_tile(samples); }
+
+uint64_t hash_detail_tile(std::span<const int8_t> samples) { return hash_tile(samples); }
 
 uint64_t zero_detail_tile_hash() {
   static const uint64_t hash = [] {

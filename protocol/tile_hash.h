@@ -4,10 +4,20 @@
 // and replay compares world hashes. docs/world.md states the exact byte layout.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
+#include <type_traits>
 
 namespace loam {
+
+// XXH3-64 of a tile's sample bytes, little-endian: every layer's tiles hash so, whatever their
+// sample type.
+uint64_t hash_sample_bytes(const void* data, size_t bytes);
+template <class T>
+requires std::is_integral_v<T> uint64_t hash_tile(std::span<const T> samples) {
+  return hash_sample_bytes(samples.data(), samples.size_bytes());
+}
 
 uint64_t hash_coarse_tile(std::span<const uint16_t> samples);
 uint64_t hash_detail_tile(std::span<const int8_t> samples);

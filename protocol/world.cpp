@@ -65,7 +65,7 @@ World::CachedTile& World::base_tile(int32_t mip, int32_t tx, int32_t ty) const {
     cache_bytes_ += t.data.size() * sizeof(uint16_t);
     ++base_generated_;
   }
-  t.last_use = ++cache_clock_;
+  t.last_use = ++residency_.clock;
   return t;
 }
 
@@ -95,12 +95,12 @@ const World::EditedTile* World::edited(int32_t mip, int32_t tx, int32_t ty) cons
 
 const std::vector<uint16_t>& World::resident(int32_t mip, int32_t tx, int32_t ty, const EditedTile& e) const {
   auto& t = const_cast<EditedTile&>(e);  // residence is a cache: the content is the same
-  t.last_use = ++cache_clock_;
+  t.last_use = ++residency_.clock;
   if (t.data.empty()) {
     t.data.resize(kTileSamples);
     source_->read_coarse_tile(mip, tx, ty, t.data);
-    persisted_resident_bytes_ += t.data.size() * sizeof(uint16_t);
-    ++edited_loaded_;
+    residency_.persisted_bytes += t.data.size() * sizeof(uint16_t);
+    ++residency_.loaded;
   }
   return t.data;
 }
@@ -126,10 +126,10 @@ void World::set_persisted(EditedTile& e, bool persisted) {
   e.persisted = persisted;
   const size_t bytes = e.data.size() * sizeof(uint16_t);
   if (persisted) {
-    persisted_resident_bytes_ += bytes;
+    residency_.persisted_bytes += bytes;
     --dirty_coarse_;
   } else {
-    persisted_resident_bytes_ -= bytes;
+    residency_.persisted_bytes -= bytes;
     ++dirty_coarse_;
   }
 }
@@ -150,28 +150,12 @@ const uint16_t* World::mip0_tile(int32_t tx, int32_t ty) const {
   return d;
 }
 
-std::vector<int8_t>* World::detail_samples(int64_t k) const {
-  const auto it = detail_.find(k);
-  if (it == detail_.end()) return nullptr;
-  DetailTile& t = it->second;
-  if (t.evicted) {
-    t.data.resize(kTileSamples);
-    source_->read_detail_tile(int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k))), t.data);
-    t.evicted = false;
-    persisted_resident_bytes_ += t.data.size();
-    ++edited_loaded_;
-  }
-  if (t.data.empty()) return nullptr;
-  t.last_use = ++cache_clock_;
-  return &t.data;
-}
-
 void World::trim_base_cache() {
   memo_.data = nullptr;
   // Dirty tiles cannot go, but they count: clean tiles make room for them.
   const size_t dirty = unpersisted_bytes();
   const size_t budget = cache_budget_ > dirty ? cache_budget_ - dirty : 0;
-  if (cache_bytes_ + persisted_resident_bytes_ <= budget) return;
+  if (cache_bytes_ + residency_.persisted_bytes <= budget) return;
   // Trimming sorts every clean tile: go 1/16 under a large budget, so it runs once in many
   // ticks rather than on every one at the budget.
   const size_t target = budget >= 16 * kTileSamples * sizeof(uint16_t) ? budget - budget / 16 : budget;
@@ -188,34 +172,27 @@ void World::trim_base_cache() {
   for (size_t m = 0; m < mips_.size(); ++m) {
     for (const auto& [k, e] : mips_[m].edited) {
       if (e.persisted && !e.data.empty())
-        order.push_back(
-            {e.last_use,
-             1,
-             {Layer::kCoarse, uint8_t(m), int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))}});
+        order.push_back({e.last_use, 1, {Layer::kCoarse, uint8_t(m), tile_key_x(k), tile_key_y(k)}});
     }
   }
-  for (const auto& [k, t] : detail_) {
+  for (const auto& [k, t] : detail_.tiles()) {
     if (t.persisted && !t.data.empty())
-      order.push_back(
-          {t.last_use, 2, {Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))}});
+      order.push_back({t.last_use, 2, {Layer::kDetail, 0, tile_key_x(k), tile_key_y(k)}});
   }
   std::sort(order.begin(), order.end(),
             [](const Candidate& a, const Candidate& b) { return a.last_use < b.last_use; });
   for (const Candidate& o : order) {
-    if (cache_bytes_ + persisted_resident_bytes_ <= target) break;
+    if (cache_bytes_ + residency_.persisted_bytes <= target) break;
     if (o.kind == 0) {
       const auto it = cache_.find(o.c);
       cache_bytes_ -= it->second.data.size() * sizeof(uint16_t);
       cache_.erase(it);
     } else if (o.kind == 1) {
       EditedTile& e = mips_[o.c.mip].edited.at(key(o.c.tx, o.c.ty));
-      persisted_resident_bytes_ -= e.data.size() * sizeof(uint16_t);
+      residency_.persisted_bytes -= e.data.size() * sizeof(uint16_t);
       std::vector<uint16_t>().swap(e.data);
     } else {
-      DetailTile& t = detail_.at(key(o.c.tx, o.c.ty));
-      persisted_resident_bytes_ -= t.data.size();
-      std::vector<int8_t>().swap(t.data);
-      t.evicted = true;
+      detail_.evict(key(o.c.tx, o.c.ty), residency_);
     }
   }
 }
@@ -237,18 +214,13 @@ std::vector<World::EditedTileInfo> World::edited_tiles() const {
   std::vector<EditedTileInfo> out;
   for (size_t m = 0; m < mips_.size(); ++m) {
     for (const auto& [k, e] : mips_[m].edited) {
-      out.push_back({{Layer::kCoarse, uint8_t(m), int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))},
-                     e.state,
-                     e.base_hash,
-                     e.persisted});
+      out.push_back(
+          {{Layer::kCoarse, uint8_t(m), tile_key_x(k), tile_key_y(k)}, e.state, e.base_hash, e.persisted});
     }
   }
-  for (const auto& [k, t] : detail_) {
+  for (const auto& [k, t] : detail_.tiles()) {
     if (t.state.version == 0 && t.data.empty() && !t.evicted) continue;  // never changed
-    out.push_back({{Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))},
-                   t.state,
-                   0,
-                   t.persisted});
+    out.push_back({{Layer::kDetail, 0, tile_key_x(k), tile_key_y(k)}, t.state, 0, t.persisted});
   }
   std::sort(out.begin(), out.end(),
             [](const EditedTileInfo& a, const EditedTileInfo& b) { return a.coord < b.coord; });
@@ -259,68 +231,54 @@ std::vector<TileCoord> World::unpersisted_tiles() const {
   std::vector<TileCoord> out;
   for (size_t m = 0; m < mips_.size(); ++m) {
     for (const auto& [k, e] : mips_[m].edited) {
-      if (!e.persisted)
-        out.push_back(
-            {Layer::kCoarse, uint8_t(m), int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
+      if (!e.persisted) out.push_back({Layer::kCoarse, uint8_t(m), tile_key_x(k), tile_key_y(k)});
     }
   }
-  for (const auto& [k, t] : detail_) {
-    if (!t.persisted)
-      out.push_back({Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
+  for (const auto& [k, t] : detail_.tiles()) {
+    if (!t.persisted) out.push_back({Layer::kDetail, 0, tile_key_x(k), tile_key_y(k)});
   }
   std::sort(out.begin(), out.end());
   return out;
 }
 
 size_t World::unpersisted_bytes() const {
-  return dirty_coarse_ * kTileSamples * sizeof(uint16_t) + dirty_detail_ * kTileSamples;
+  return dirty_coarse_ * kTileSamples * sizeof(uint16_t) + detail_.unpersisted_bytes();
 }
 
 void World::mark_persisted(const TileCoord& c, uint64_t version) {
-  if (c.layer == Layer::kCoarse) {
-    if (size_t(c.mip) >= mips_.size()) return;
-    auto& edited = mips_[c.mip].edited;
-    const auto it = edited.find(key(c.tx, c.ty));
-    if (it != edited.end() && it->second.state.version == version &&
-        (c.mip != 0 || !pending_.count({Layer::kCoarse, 0, c.tx, c.ty})))
-      set_persisted(it->second, true);
-    return;
-  }
-  const auto it = detail_.find(key(c.tx, c.ty));
-  if (it == detail_.end() || it->second.state.version != version || it->second.persisted ||
-      pending_.count({Layer::kDetail, 0, c.tx, c.ty}))
-    return;
-  it->second.persisted = true;
-  persisted_resident_bytes_ += it->second.data.size();
-  --dirty_detail_;
+  const bool pending = pending_.count({c.layer, 0, c.tx, c.ty}) != 0;
+  visit_layer(c.layer, [&](auto row) {
+    using R = decltype(row);
+    if constexpr (R::kHasBase) {
+      if (size_t(c.mip) >= mips_.size()) return;
+      auto& edited = mips_[c.mip].edited;
+      const auto it = edited.find(key(c.tx, c.ty));
+      if (it != edited.end() && it->second.state.version == version && (c.mip != 0 || !pending))
+        set_persisted(it->second, true);
+    } else {
+      sparse<R>().mark_persisted(key(c.tx, c.ty), version, pending, residency_);
+    }
+  });
 }
 
 bool World::adopt_persisted(const TileCoord& c, const TileState& state, uint64_t base_hash) {
-  if (!source_) return false;
-  if (c.layer == Layer::kCoarse) {
-    if (!tile_in_range(c.mip, c.tx, c.ty)) return false;
-    const auto [it, added] = mips_[c.mip].edited.try_emplace(key(c.tx, c.ty));
-    EditedTile& e = it->second;
-    if (e.persisted) persisted_resident_bytes_ -= e.data.size() * sizeof(uint16_t);
-    if (!added && !e.persisted) --dirty_coarse_;
-    std::vector<uint16_t>().swap(e.data);
-    e.state = state;
-    e.base_hash = base_hash;
-    e.persisted = true;
-    if (c.mip == 0) memo_.data = nullptr;
-    return true;
-  }
-  if (c.mip != 0 || !tiles_overlapping(detail_samples_).contains(c.tx, c.ty)) return false;
-  const auto [it, added] = detail_.try_emplace(key(c.tx, c.ty));
-  DetailTile& t = it->second;
-  const bool had = !t.data.empty() || t.evicted;
-  if (t.persisted) persisted_resident_bytes_ -= t.data.size();
-  if (!added && !t.persisted) --dirty_detail_;
-  std::vector<int8_t>().swap(t.data);
-  t.state = state;
-  t.persisted = true;
-  t.evicted = state.hash != zero_detail_tile_hash();
-  detail_stored_ += size_t(t.evicted) - size_t(had);
+  if (!source_ || !layer_tile_range(params_, c.layer, c.mip).contains(c.tx, c.ty)) return false;
+  visit_layer(c.layer, [&](auto row) {
+    using R = decltype(row);
+    if constexpr (R::kHasBase) {
+      const auto [it, added] = mips_[c.mip].edited.try_emplace(key(c.tx, c.ty));
+      EditedTile& e = it->second;
+      if (e.persisted) residency_.persisted_bytes -= e.data.size() * sizeof(uint16_t);
+      if (!added && !e.persisted) --dirty_coarse_;
+      std::vector<uint16_t>().swap(e.data);
+      e.state = state;
+      e.base_hash = base_hash;
+      e.persisted = true;
+      if (c.mip == 0) memo_.data = nullptr;
+    } else {
+      sparse<R>().adopt(key(c.tx, c.ty), state, residency_);
+    }
+  });
   return true;
 }
 
@@ -328,8 +286,7 @@ std::vector<TileCoord> World::edited_coarse_tiles(int32_t mip) const {
   std::vector<TileCoord> out;
   if (mip < 0 || size_t(mip) >= mips_.size()) return out;
   for (const auto& [k, e] : mips_[size_t(mip)].edited)
-    out.push_back(
-        TileCoord{Layer::kCoarse, uint8_t(mip), int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
+    out.push_back(TileCoord{Layer::kCoarse, uint8_t(mip), tile_key_x(k), tile_key_y(k)});
   std::sort(out.begin(), out.end(),
             [](const TileCoord& a, const TileCoord& b) { return a.ty != b.ty ? a.ty < b.ty : a.tx < b.tx; });
   return out;
@@ -346,8 +303,7 @@ size_t World::edited_bytes() const {
   for (const CoarseMip& m : mips_) {
     for (const auto& [k, e] : m.edited) n += e.data.size() * sizeof(uint16_t);
   }
-  for (const auto& [k, t] : detail_) n += t.data.size();
-  return n;
+  return n + detail_.bytes();
 }
 
 uint16_t World::coarse(int64_t gx, int64_t gy) const {
@@ -477,22 +433,6 @@ std::span<const int8_t> World::detail_tile(int32_t tx, int32_t ty) const {
   return *t;
 }
 
-std::vector<int8_t>& World::writable_detail(int32_t tx, int32_t ty) {
-  const auto [it, added] = detail_.try_emplace(key(tx, ty));
-  DetailTile& t = it->second;
-  if (added || t.persisted) ++dirty_detail_;
-  if (t.evicted) detail_samples(key(tx, ty));
-  if (t.data.empty()) {
-    t.data.assign(kTileSamples, int8_t{0});
-    ++detail_stored_;
-  } else if (t.persisted) {
-    persisted_resident_bytes_ -= t.data.size();
-  }
-  t.persisted = false;
-  t.last_use = ++cache_clock_;
-  return t.data;
-}
-
 std::span<int8_t> World::detail_tile_mut(int32_t tx, int32_t ty) {
   const RectI dtiles = tiles_overlapping(detail_samples_);
   if (!dtiles.contains(tx, ty)) return {};
@@ -501,28 +441,23 @@ std::span<int8_t> World::detail_tile_mut(int32_t tx, int32_t ty) {
 
 void World::discard_tile(Layer layer, int32_t tx, int32_t ty) {
   pending_.erase(TileCoord{layer, 0, tx, ty});
-  if (layer == Layer::kDetail) {
-    const auto it = detail_.find(key(tx, ty));
-    if (it == detail_.end()) return;
-    if (!it->second.data.empty() || it->second.evicted) --detail_stored_;
-    if (it->second.persisted) {
-      persisted_resident_bytes_ -= it->second.data.size();
+  visit_layer(layer, [&](auto row) {
+    using R = decltype(row);
+    if constexpr (R::kHasBase) {
+      if (memo_.data && memo_.tx == tx && memo_.ty == ty) memo_.data = nullptr;
+      const auto it = mips_[0].edited.find(key(tx, ty));
+      if (it == mips_[0].edited.end()) return;
+      set_persisted(it->second, false);
+      --dirty_coarse_;
+      mips_[0].edited.erase(it);
     } else {
-      --dirty_detail_;
+      sparse<R>().discard(key(tx, ty), residency_);
     }
-    detail_.erase(it);
-    return;
-  }
-  if (memo_.data && memo_.tx == tx && memo_.ty == ty) memo_.data = nullptr;
-  const auto it = mips_[0].edited.find(key(tx, ty));
-  if (it == mips_[0].edited.end()) return;
-  set_persisted(it->second, false);
-  --dirty_coarse_;
-  mips_[0].edited.erase(it);
+  });
 }
 
 void World::mark_dirty(Layer layer, const RectI& global_rect) {
-  const RectI clipped = global_rect.intersect(layer == Layer::kCoarse ? samples_ : detail_samples_);
+  const RectI clipped = global_rect.intersect(layer_sample_rect(params_, layer));
   const RectI tiles = tiles_overlapping(clipped);
   for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
     for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
@@ -578,13 +513,14 @@ void World::update_mips(const RectI& dirty0, std::unordered_map<TileCoord, RectI
 std::vector<TileChange> World::commit(uint64_t seq) {
   std::unordered_map<TileCoord, RectI, TileCoordHash> changed = std::move(pending_);
   pending_.clear();
-  std::vector<RectI> coarse_dirty;
+  // Mips follow the mip-0 rects of the layer that has them.
+  std::vector<RectI> mip0_dirty;
   for (const auto& [c, r] : changed) {
-    if (c.layer == Layer::kCoarse)
-      coarse_dirty.push_back(r.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize));
+    if (layer_info(c.layer).has_mips)
+      mip0_dirty.push_back(r.translated(int64_t(c.tx) * kTileSize, int64_t(c.ty) * kTileSize));
   }
   if (!mip0_only_) {
-    for (const RectI& r : coarse_dirty) update_mips(r, changed);
+    for (const RectI& r : mip0_dirty) update_mips(r, changed);
   }
 
   if (seq == 0 && !changed.empty()) initial_is_base_ = false;  // version 0 is not the base's
@@ -592,24 +528,18 @@ std::vector<TileChange> World::commit(uint64_t seq) {
   out.reserve(changed.size());
   for (const auto& [c, r] : changed) {
     TileChange change{c, r, 0, seq};
-    if (c.layer == Layer::kCoarse) {
-      EditedTile& e = writable(c.mip, c.tx, c.ty);
-      change.base_version = e.state.version;
-      e.state.version = seq;
-      e.state.hash = hash_coarse_tile(e.data);
-    } else {
-      std::vector<int8_t>& data = writable_detail(c.tx, c.ty);
-      DetailTile& t = detail_.at(key(c.tx, c.ty));
-      change.base_version = t.state.version;
-      t.state.version = seq;
-      if (std::all_of(data.begin(), data.end(), [](int8_t v) { return v == 0; })) {
-        std::vector<int8_t>().swap(data);  // canonical sparse form: zero tiles are not stored
-        --detail_stored_;
-        t.state.hash = zero_detail_tile_hash();
+    change.base_version = visit_layer(c.layer, [&](auto row) -> uint64_t {
+      using R = decltype(row);
+      if constexpr (R::kHasBase) {
+        EditedTile& e = writable(c.mip, c.tx, c.ty);
+        const uint64_t before = e.state.version;
+        e.state.version = seq;
+        e.state.hash = hash_coarse_tile(e.data);
+        return before;
       } else {
-        t.state.hash = hash_detail_tile(data);
+        return sparse<R>().commit(key(c.tx, c.ty), seq, residency_, detail_load());
       }
-    }
+    });
     out.push_back(change);
   }
   std::sort(out.begin(), out.end(),
@@ -618,63 +548,60 @@ std::vector<TileChange> World::commit(uint64_t seq) {
 }
 
 TileState World::tile_state(const TileCoord& c) const {
-  if (c.layer == Layer::kCoarse) {
-    if (!tile_in_range(c.mip, c.tx, c.ty)) return {};
-    if (const EditedTile* e = edited(c.mip, c.tx, c.ty)) return e->state;
-    return TileState{0, base_tile_hash(c.mip, c.tx, c.ty)};
-  }
-  if (c.mip != 0) return {};
-  const auto it = detail_.find(key(c.tx, c.ty));
-  if (it == detail_.end()) return TileState{0, zero_detail_tile_hash()};
-  return it->second.state;
+  if (!layer_has_mip(c.layer, c.mip)) return {};
+  return visit_layer(c.layer, [&](auto row) {
+    using R = decltype(row);
+    if constexpr (R::kHasBase) {
+      if (!tile_in_range(c.mip, c.tx, c.ty)) return TileState{};
+      if (const EditedTile* e = edited(c.mip, c.tx, c.ty)) return e->state;
+      return TileState{0, base_tile_hash(c.mip, c.tx, c.ty)};
+    } else {
+      return sparse<R>().state(key(c.tx, c.ty));  // all zero wherever never written
+    }
+  });
 }
 
 std::optional<TileState> World::known_tile_state(const TileCoord& c) const {
-  if (c.layer == Layer::kCoarse && tile_in_range(c.mip, c.tx, c.ty) && !base_->uniform() &&
+  // Only an untouched tile of a layer with a base may need reading to be hashed.
+  if (layer_info(c.layer).has_base && tile_in_range(c.mip, c.tx, c.ty) && !base_->uniform() &&
       !edited(c.mip, c.tx, c.ty) && !base_hashes_.count(c) && !cache_.count(c))
     return std::nullopt;
   return tile_state(c);
 }
 
 uint64_t World::tile_version(const TileCoord& c) const {
-  if (c.layer == Layer::kCoarse) {
-    if (!tile_in_range(c.mip, c.tx, c.ty)) return 0;
-    const EditedTile* e = edited(c.mip, c.tx, c.ty);
-    return e ? e->state.version : 0;
-  }
-  const auto it = detail_.find(key(c.tx, c.ty));
-  return c.mip != 0 || it == detail_.end() ? 0 : it->second.state.version;
+  if (!layer_tile_range(params_, c.layer, c.mip).contains(c.tx, c.ty)) return 0;
+  return visit_layer(c.layer, [&](auto row) -> uint64_t {
+    using R = decltype(row);
+    if constexpr (R::kHasBase) {
+      const EditedTile* e = edited(c.mip, c.tx, c.ty);
+      return e ? e->state.version : 0;
+    } else {
+      return sparse<R>().version(key(c.tx, c.ty));
+    }
+  });
 }
 
 bool World::restore_version(const TileCoord& c, uint64_t version) {
-  if (c.layer == Layer::kCoarse) {
-    if (!tile_in_range(c.mip, c.tx, c.ty)) return false;
-    if (version == 0 && !edited(c.mip, c.tx, c.ty)) return true;  // untouched stays untouched
-    writable(c.mip, c.tx, c.ty).state.version = version;
-    return true;
-  }
-  if (c.mip != 0 || !tiles_overlapping(detail_samples_).contains(c.tx, c.ty)) return false;
-  const auto [it, added] = detail_.try_emplace(key(c.tx, c.ty));
-  DetailTile& t = it->second;
-  if (t.evicted) detail_samples(key(c.tx, c.ty));
-  t.state.hash = t.data.empty() ? zero_detail_tile_hash() : hash_detail_tile(t.data);
-  t.state.version = version;
-  if (t.persisted) {
-    persisted_resident_bytes_ -= t.data.size();
-    ++dirty_detail_;
-  } else if (added) {
-    ++dirty_detail_;
-  }
-  t.persisted = false;
+  if (!layer_tile_range(params_, c.layer, c.mip).contains(c.tx, c.ty)) return false;
+  visit_layer(c.layer, [&](auto row) {
+    using R = decltype(row);
+    if constexpr (R::kHasBase) {
+      if (version == 0 && !edited(c.mip, c.tx, c.ty)) return;  // untouched stays untouched
+      writable(c.mip, c.tx, c.ty).state.version = version;
+    } else {
+      sparse<R>().restore_version(key(c.tx, c.ty), version, residency_, detail_load());
+    }
+  });
   return true;
 }
 
 std::vector<TileCoord> World::stored_detail_tiles() const {
   std::vector<TileCoord> out;
-  out.reserve(detail_stored_);
-  for (const auto& [k, tile] : detail_) {
+  out.reserve(detail_.stored_count());
+  for (const auto& [k, tile] : detail_.tiles()) {
     if (!tile.data.empty() || tile.evicted)
-      out.push_back(TileCoord{Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))});
+      out.push_back(TileCoord{Layer::kDetail, 0, tile_key_x(k), tile_key_y(k)});
   }
   std::sort(out.begin(), out.end(),
             [](const TileCoord& a, const TileCoord& b) { return a.ty != b.ty ? a.ty < b.ty : a.tx < b.tx; });
@@ -706,11 +633,10 @@ constexpr uint8_t kBaseRecord = 0xB0;
 void World::add_detail_hashes(WorldHasher& h) const {
   // Detail tiles by committed state, so a tile created but never changed counts as absent.
   std::vector<std::pair<TileCoord, uint64_t>> detail;
-  for (const auto& [k, t] : detail_) {
+  for (const auto& [k, t] : detail_.tiles()) {
     const TileState& st = t.state;
     if (st.hash == zero_detail_tile_hash()) continue;
-    detail.push_back(
-        {TileCoord{Layer::kDetail, 0, int32_t(uint64_t(k) >> 32), int32_t(uint32_t(uint64_t(k)))}, st.hash});
+    detail.push_back({TileCoord{Layer::kDetail, 0, tile_key_x(k), tile_key_y(k)}, st.hash});
   }
   std::sort(detail.begin(), detail.end(), [](const auto& a, const auto& b) {
     return a.first.ty != b.first.ty ? a.first.ty < b.first.ty : a.first.tx < b.first.tx;

@@ -24,6 +24,7 @@
 #include <memory>
 #include <optional>
 #include <span>
+#include <type_traits>
 #include <unordered_map>
 #include <vector>
 
@@ -31,6 +32,7 @@
 #include "protocol/geometry.h"
 #include "protocol/layer.h"
 #include "protocol/result.h"
+#include "protocol/sparse_tiles.h"
 
 namespace loam {
 
@@ -45,11 +47,6 @@ class EditedTileSource {
   virtual ~EditedTileSource() = default;
   virtual void read_coarse_tile(int32_t mip, int32_t tx, int32_t ty, std::span<uint16_t> out) const = 0;
   virtual void read_detail_tile(int32_t tx, int32_t ty, std::span<int8_t> out) const = 0;
-};
-
-struct TileState {
-  uint64_t version = 0;  // sequence number of the last stamp that changed the tile
-  uint64_t hash = 0;     // hash of its samples (tile_hash.h)
 };
 
 // One tile changed by a commit: which samples, and its version before and after.
@@ -137,7 +134,7 @@ class World {
   // Loam has written: world or content hash, current or legacy (the legacy ones only for
   // worlds on a uniform base, the only kind older files describe).
   bool matches_recorded_hash(uint64_t recorded) const;
-  size_t detail_tile_count() const { return detail_stored_; }
+  size_t detail_tile_count() const { return detail_.stored_count(); }
   std::vector<TileCoord> stored_detail_tiles() const;
 
   // --- Base and edits ---
@@ -204,8 +201,8 @@ class World {
   // Needs an edit source. Returns false for a tile outside the world.
   bool adopt_persisted(const TileCoord& c, const TileState& state, uint64_t base_hash);
   // Persisted edited tiles in memory, and how many tiles were read back from the store.
-  size_t resident_persisted_bytes() const { return persisted_resident_bytes_; }
-  uint64_t edited_tiles_loaded() const { return edited_loaded_; }
+  size_t resident_persisted_bytes() const { return residency_.persisted_bytes; }
+  uint64_t edited_tiles_loaded() const { return residency_.loaded; }
 
  private:
   struct EditedTile {
@@ -213,13 +210,6 @@ class World {
     TileState state;
     uint64_t base_hash = 0;  // hash of the base's tile: equal content hashes as untouched
     bool persisted = false;  // the store holds this state: evictable
-    uint64_t last_use = 0;
-  };
-  struct DetailTile {
-    std::vector<int8_t> data;  // empty: all zero, or evicted (see `evicted`)
-    TileState state;           // committed state
-    bool persisted = false;
-    bool evicted = false;  // non-zero samples held only by the store
     uint64_t last_use = 0;
   };
   struct CachedTile {
@@ -232,9 +222,7 @@ class World {
     RectI tiles;  // tile range at this mip
     std::unordered_map<int64_t, EditedTile> edited;
   };
-  static int64_t key(int32_t tx, int32_t ty) {
-    return int64_t((uint64_t(uint32_t(tx)) << 32) | uint32_t(ty));
-  }
+  static int64_t key(int32_t tx, int32_t ty) { return tile_key(tx, ty); }
   bool tile_in_range(int32_t mip, int32_t tx, int32_t ty) const;
   void update_mips(const RectI& dirty0, std::unordered_map<TileCoord, RectI, TileCoordHash>& changed);
   // The base's tile, from the cache or generated into it (uniform bases share one tile).
@@ -247,10 +235,25 @@ class World {
   const EditedTile* edited(int32_t mip, int32_t tx, int32_t ty) const;
   // An edited tile's samples, read back from the store if evicted.
   const std::vector<uint16_t>& resident(int32_t mip, int32_t tx, int32_t ty, const EditedTile& e) const;
+  // The store of a sparse layer's tiles (layers without a base: the detail offsets). One
+  // layer is sparse today; a new sparse row gets its own store here.
+  template <class R>
+  SparseTiles<typename R::Sample>& sparse() const {
+    static_assert(std::is_same_v<R, DetailLayer>, "World holds a SparseTiles for the detail layer only");
+    return detail_;
+  }
+  // How a sparse layer's evicted tiles are read back: from the edit source.
+  auto detail_load() const {
+    return [this](int32_t tx, int32_t ty, std::span<int8_t> out) { source_->read_detail_tile(tx, ty, out); };
+  }
   // A detail tile's samples (nullptr: all zero), read back from the store if evicted.
-  std::vector<int8_t>* detail_samples(int64_t k) const;
+  std::vector<int8_t>* detail_samples(int64_t k) const {
+    return detail_.samples(k, residency_, detail_load());
+  }
   // A detail tile's samples about to be written (created as zeros): no longer clean.
-  std::vector<int8_t>& writable_detail(int32_t tx, int32_t ty);
+  std::vector<int8_t>& writable_detail(int32_t tx, int32_t ty) {
+    return detail_.writable(key(tx, ty), residency_, detail_load());
+  }
   void set_persisted(EditedTile& e, bool persisted);
   // Mip-0 samples of a tile in range, edited or base (through the one-tile memo).
   const uint16_t* mip0_tile(int32_t tx, int32_t ty) const;
@@ -265,7 +268,7 @@ class World {
   mutable CachedTile uniform_;  // the one tile of a uniform base
   mutable std::unordered_map<TileCoord, uint64_t, TileCoordHash> base_hashes_;  // never trimmed
   mutable size_t cache_bytes_ = 0;
-  mutable uint64_t cache_clock_ = 0;
+  mutable TileResidency residency_;  // LRU clock, persisted bytes in memory, tiles read back
   mutable uint64_t base_generated_ = 0;
   size_t cache_budget_ = size_t(64) << 20;
   bool initial_is_base_ = true;
@@ -282,13 +285,10 @@ class World {
     }
   };
   mutable Memo memo_;
-  // Detail tiles ever written or changed; `data` empty = all zero (or evicted).
-  mutable std::unordered_map<int64_t, DetailTile> detail_;
-  size_t detail_stored_ = 0;  // tiles with non-zero samples (resident or evicted)
+  // Detail tiles ever written, changed or adopted.
+  mutable SparseTiles<int8_t> detail_;
   std::shared_ptr<const EditedTileSource> source_;
-  mutable size_t persisted_resident_bytes_ = 0;
-  size_t dirty_coarse_ = 0, dirty_detail_ = 0;  // edited tiles no store holds at their state
-  mutable uint64_t edited_loaded_ = 0;
+  size_t dirty_coarse_ = 0;  // edited coarse tiles no store holds at their state
   // Pending dirty rects per mip-0 tile (tile-local coordinates), merged per tile.
   std::unordered_map<TileCoord, RectI, TileCoordHash> pending_;
 };

@@ -4,10 +4,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
+#include <span>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include "protocol/sparse_tiles.h"
 
 namespace loam {
 namespace {
@@ -162,6 +167,52 @@ TEST(LayerTable, AThirdLayerIsOneRowThatTheGenericCodeTakesAsItIs) {
   EXPECT_EQ(s.coarse, std::vector<uint16_t>(4, 65535));
   EXPECT_EQ(s.detail, std::vector<int8_t>(4, 127));
   EXPECT_EQ(s.material, std::vector<uint8_t>(4, 255));
+}
+
+// A sparse row (no base) is stored as World stores the detail layer: the same SparseTiles,
+// at the row's sample type, with no code of its own.
+TEST(LayerTable, AThirdSparseLayersTilesLiveInTheStoreTheDetailLayerUses) {
+  static_assert(!MaterialLayer::kHasBase);
+  SparseTiles<MaterialLayer::Sample> store;
+  TileResidency r;
+  std::vector<std::pair<int32_t, int32_t>> reads;
+  std::vector<uint8_t> persisted;  // what the "store" holds of tile (3, -2)
+  const auto load = [&](int32_t tx, int32_t ty, std::span<uint8_t> out) {
+    reads.push_back({tx, ty});
+    std::copy(persisted.begin(), persisted.end(), out.begin());
+  };
+  const int64_t k = tile_key(3, -2);
+  EXPECT_EQ(store.state(k).hash, SparseTiles<uint8_t>::zero_hash());
+  EXPECT_EQ(store.samples(k, r, load), nullptr);  // never written: all zero
+
+  store.writable(k, r, load)[5] = 200;
+  EXPECT_EQ(store.commit(k, 7, r, load), 0u);
+  EXPECT_EQ(store.version(k), 7u);
+  EXPECT_EQ(store.stored_count(), 1u);
+  EXPECT_EQ(store.unpersisted_bytes(), size_t(kTileSamples));
+  persisted = *store.samples(k, r, load);
+  EXPECT_EQ(store.state(k).hash, hash_tile(std::span<const uint8_t>(persisted)));
+
+  // Persisted, evicted, and read back on the next use, with the key's coordinates.
+  store.mark_persisted(k, 7, false, r);
+  EXPECT_EQ(store.dirty_count(), 0u);
+  EXPECT_EQ(r.persisted_bytes, size_t(kTileSamples));
+  store.evict(k, r);
+  EXPECT_EQ(r.persisted_bytes, 0u);
+  EXPECT_EQ(store.bytes(), 0u);
+  ASSERT_NE(store.samples(k, r, load), nullptr);
+  EXPECT_EQ((*store.samples(k, r, load))[5], 200);
+  EXPECT_EQ(reads, (std::vector<std::pair<int32_t, int32_t>>{{3, -2}}));
+  EXPECT_EQ(r.loaded, 1u);
+
+  // Written back to zeros, the tile is no longer stored and hashes as absent.
+  store.writable(k, r, load)[5] = 0;
+  EXPECT_EQ(store.commit(k, 9, r, load), 7u);
+  EXPECT_EQ(store.stored_count(), 0u);
+  EXPECT_EQ(store.state(k).hash, SparseTiles<uint8_t>::zero_hash());
+  store.discard(k, r);
+  EXPECT_EQ(store.version(k), 0u);
+  EXPECT_TRUE(store.tiles().empty());
 }
 
 }  // namespace
