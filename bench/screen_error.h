@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "client/render/camera.h"
+#include "client/scene/camera.h"
 #include "protocol/world.h"
 
 namespace loam::bench {

@@ -7,12 +7,12 @@
 #include <optional>
 #include <thread>
 
+#include "client/controls/roam_path.h"
+#include "client/lod/clipmap_interest.h"
 #include "client/net/terrain_client.h"
-#include "client/render/clipmap_interest.h"
-#include "client/view/roam_path.h"
 #include "dem/refined_default.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "protocol/stamps/stamp_validate.h"
-#include "tests/support/random_stamps.h"
 
 namespace loam::client {
 
@@ -24,28 +24,28 @@ using namespace std::chrono_literals;
 // with any compiler and standard library): craters 4 in 10, gaussians (add or subtract) 4 in
 // 10 with one of them on the detail layer, footprints and shockwaves 1 in 10 each; radii
 // 2-32 m (footprints 1.5 m, shockwaves 6 m); anywhere in the world, or within 150 m of `near`.
-QuantizedStamp bot_stamp(test::StampRng& rng, const WorldParams& w,
+QuantizedStamp bot_stamp(StampRng& rng, const WorldParams& w,
                          std::optional<std::pair<double, double>> near = std::nullopt) {
-  test::RandomStampOptions o = test::random_stamp_options(w);
+  RandomStampOptions o = random_stamp_options(w);
   o.kinds = {StampKind::kCrater,    StampKind::kCrater,   StampKind::kCrater,   StampKind::kCrater,
              StampKind::kGaussian,  StampKind::kGaussian, StampKind::kGaussian, StampKind::kGaussian,
              StampKind::kFootprint, StampKind::kShockwave};
   o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
   o.detail_one_in = 4;  // of the gaussians: the other kinds stay on the coarse layer
-  o.detail_kinds = {StampKind::kGaussian};
+  o.layer_kinds[Layer::kDetail] = {StampKind::kGaussian};
   o.min_radius = 2.0;
   o.max_radius = 32.0;
   o.max_radius_of_kind[size_t(StampKind::kFootprint)] = 1.5;
   o.max_radius_of_kind[size_t(StampKind::kShockwave)] = 6.0;
-  o.coarse_max_intensity = 2.5;
-  o.coarse_min_intensity = 0.2;
-  o.detail_max_intensity = 0.25;
+  o.max_intensity[Layer::kCoarse] = 2.5;
+  o.min_intensity[Layer::kCoarse] = 0.2;
+  o.max_intensity[Layer::kDetail] = 0.25;
   if (near) {
     o.x0 = std::max(o.x0, near->first - 150.0), o.x1 = std::min(o.x1, near->first + 150.0);
     o.y0 = std::max(o.y0, near->second - 150.0), o.y1 = std::min(o.y1, near->second + 150.0);
   }
   for (;;) {
-    if (auto q = test::random_valid_stamp(rng, o, w)) return *q;
+    if (auto q = random_valid_stamp(rng, o, w)) return *q;
   }
 }
 
@@ -105,7 +105,7 @@ int run_bot(const BotOptions& o) {
     }
     return false;
   };
-  test::StampRng rng(seed);
+  StampRng rng(seed);
   std::vector<uint32_t> sent;
   const auto period = std::chrono::duration<double>(1.0 / rate);
   auto next = std::chrono::steady_clock::now();

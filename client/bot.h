@@ -2,7 +2,7 @@
 // world, deforms it with seeded random stamps at a steady rate, checks its confirmed store
 // against the server's TileHashes and reports. The main job runs two; tests and load runs more.
 // With a roaming speed it walks a loop across the world instead, subscribing as a viewer
-// does (client/render/clipmap_interest.h: mips by distance, with its focus) and stamping
+// does (client/lod/clipmap_interest.h: mips by distance, with its focus) and stamping
 // near itself: the load that streaming is measured under.
 #pragma once
 

@@ -1,7 +1,7 @@
 // loam-client: the client program.
 //   view     the viewer: a window over a live session (GLFW, HUD), or --headless (EGL)
 //   render   draw one frame or a camera path headless through EGL into PNGs, from a live
-//            session, a DEM, a snapshot or the embedded terrain (client/render/headless.h)
+//            session, a DEM, a snapshot or the embedded terrain (client/render_command.h)
 //   bot      the headless bot (no GL): joins, deforms with seeded random stamps, checks hashes
 //   probe    the health check: joins as a spectator, asks for Stats, prints one line or JSON
 #include <CLI/CLI.hpp>
@@ -12,7 +12,7 @@
 #include "client/connect_options.h"
 #include "client/probe.h"
 #ifdef LOAM_HAVE_RENDER
-#include "client/render/headless.h"
+#include "client/render_command.h"
 #endif
 #ifdef LOAM_HAVE_VIEWER
 #include "client/view/viewer_app.h"

@@ -1,4 +1,4 @@
-// The geomipmap program's uniform block (client/render/geomipmap_renderer.h), mirrored by
+// The geomipmap program's uniform block (bench/lod/geomipmap_renderer.h), mirrored by
 // GeomipmapFrameBlock and checked against the linked program at creation.
 layout(std140, binding = 0) uniform GeomipmapFrame {
   mat4 g_view_proj;

@@ -16,7 +16,7 @@
 #include "bench/harness.h"
 #include "bench/screen_error.h"
 #include "client/render/clipmap_renderer.h"
-#include "client/render/headless.h"
+#include "client/render/offscreen_target.h"
 #include "dem/default_terrain.h"
 #include "gpu/egl_context.h"
 #include "protocol/surface.h"

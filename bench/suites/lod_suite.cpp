@@ -32,12 +32,12 @@
 #include <vector>
 
 #include "bench/harness.h"
+#include "bench/lod/geomipmap_renderer.h"
+#include "bench/lod/quadtree_renderer.h"
 #include "bench/screen_error.h"
 #include "client/render/clipmap_renderer.h"
 #include "client/render/error_clipmap_renderer.h"
-#include "client/render/geomipmap_renderer.h"
-#include "client/render/headless.h"
-#include "client/render/quadtree_renderer.h"
+#include "client/render/offscreen_target.h"
 #include "dem/default_terrain.h"
 #include "dem/dem_import.h"
 #include "gpu/egl_context.h"

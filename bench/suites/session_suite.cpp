@@ -26,9 +26,9 @@
 #include "bench/harness.h"
 #include "bench/server_stats.h"
 #include "client/net/terrain_client.h"
+#include "protocol/stamps/stamp_mix.h"  // the integration tests' child-process server
 #include "protocol/stamps/stamp_validate.h"
 #include "tests/integration/server_process.h"
-#include "tests/support/random_stamps.h"  // the integration tests' child-process server
 
 namespace loam::bench {
 namespace {
@@ -39,8 +39,8 @@ using namespace std::chrono_literals;
 // Gaussians and craters of 3..23 m on the coarse layer, clear of the world's edge. Each one
 // changes the terrain (no min / max blend that may leave it as it was), so every accepted
 // stamp reaches every client as an event, which the convergence check counts on.
-QuantizedStamp session_stamp(test::StampRng& rng, const WorldParams& w) {
-  test::RandomStampOptions o = test::random_stamp_options(w);
+QuantizedStamp session_stamp(StampRng& rng, const WorldParams& w) {
+  RandomStampOptions o = random_stamp_options(w);
   o.kinds = {StampKind::kGaussian, StampKind::kCrater};
   o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
   o.detail_one_in = 0;
@@ -48,9 +48,9 @@ QuantizedStamp session_stamp(test::StampRng& rng, const WorldParams& w) {
   o.x0 += inset, o.y0 += inset, o.x1 -= inset, o.y1 -= inset;
   o.min_radius = 3.0;
   o.max_radius = 23.0;
-  o.coarse_max_intensity = 2.0;
+  o.max_intensity[Layer::kCoarse] = 2.0;
   for (;;) {
-    if (auto q = test::random_valid_stamp(rng, o, w)) return *q;
+    if (auto q = random_valid_stamp(rng, o, w)) return *q;
   }
 }
 
@@ -88,7 +88,7 @@ void record_events(ClientRun& r) {
 void run_sender(ClientRun& r, uint32_t seed, double rate, clock_type::time_point start,
                 clock_type::time_point end) {
   std::mt19937 rng(seed);
-  test::StampRng stamps(seed);
+  StampRng stamps(seed);
   // Poisson arrivals: a fixed period would lock to the tick's phase and measure one point of it.
   std::exponential_distribution<double> gap(rate);
   auto next_gap = [&] {

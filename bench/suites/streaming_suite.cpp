@@ -25,13 +25,13 @@
 
 #include "bench/harness.h"
 #include "bench/server_stats.h"
+#include "client/controls/roam_path.h"
+#include "client/lod/clipmap_interest.h"
 #include "client/net/terrain_client.h"
-#include "client/render/clipmap_interest.h"
-#include "client/view/roam_path.h"
 #include "dem/dem_export.h"
+#include "protocol/stamps/stamp_mix.h"  // the integration tests' child-process server
 #include "protocol/stamps/stamp_validate.h"
 #include "tests/integration/server_process.h"
-#include "tests/support/random_stamps.h"  // the integration tests' child-process server
 
 namespace loam::bench {
 namespace {
@@ -89,8 +89,8 @@ std::unique_ptr<client::TerrainClient> join(uint16_t port, const std::string& na
 
 // A per-sample stamp (gaussian, crater, footprint, flatten; add and subtract blends) or a
 // shockwave, radius 4..40 samples, somewhere in `area` (samples): the shared test generator.
-QuantizedStamp random_stamp(test::StampRng& rng, const WorldParams& w, const RectI& area, bool shockwave) {
-  test::RandomStampOptions o = test::random_stamp_options(w);
+QuantizedStamp random_stamp(StampRng& rng, const WorldParams& w, const RectI& area, bool shockwave) {
+  RandomStampOptions o = random_stamp_options(w);
   const double mps = w.meters_per_sample;
   o.kinds = shockwave ? std::vector<StampKind>{StampKind::kShockwave}
                       : std::vector<StampKind>{StampKind::kGaussian, StampKind::kCrater,
@@ -100,9 +100,9 @@ QuantizedStamp random_stamp(test::StampRng& rng, const WorldParams& w, const Rec
   o.x0 = double(area.x0) * mps, o.y0 = double(area.y0) * mps;
   o.x1 = double(area.x1) * mps, o.y1 = double(area.y1) * mps;
   o.min_radius = 4.0 * mps, o.max_radius = (shockwave ? 8.0 : 40.0) * mps;
-  o.coarse_min_intensity = 0.5, o.min_flatten_strength = 0.2;
+  o.min_intensity[Layer::kCoarse] = 0.5, o.min_flatten_strength = 0.2;
   for (;;) {
-    auto q = test::random_valid_stamp(rng, o, w);
+    auto q = random_valid_stamp(rng, o, w);
     if (q) return *q;
   }
 }
@@ -148,7 +148,7 @@ bool bytes_per_stamp(const Context& ctx, int n, BytesRow& row) {
           cs, [&](client::TerrainClient& c) { return c.store().held().size() >= tiles; }, 120s))
     return false;
   row.clients = n;
-  test::StampRng rng(uint64_t(7 + n));
+  StampRng rng(uint64_t(7 + n));
   const RectI area = w.sample_rect();
   const auto run = [&](int stamps, bool shock, double& bytes_out, double& encodes_out) -> bool {
     const auto before = server_stats(server.process.port());
@@ -242,7 +242,7 @@ World wide_world(int32_t tiles_x, int32_t tiles_y) {
 }
 
 // The height a client shows at mip-0 sample (x, y) holding mip `m` there: the mip sample at or
-// below it (client/render/display_terrain.cpp reads the same way); error against mip 0.
+// below it (client/terrain/display_terrain.cpp reads the same way); error against mip 0.
 double shown_error_m(const World& w, int64_t x, int64_t y, int32_t m) {
   const int64_t s = int64_t(1) << m;
   const uint16_t shown = w.coarse(floor_div(x, s) * s, floor_div(y, s) * s);
@@ -382,7 +382,7 @@ bool join_storm(const World& world, uint16_t port, int storm, double phase_s, St
     editors.emplace_back([&, e] {
       auto c = join(port, "editor" + std::to_string(e), wire::Role::kPlayer);
       if (!c) return void(failed = true);
-      test::StampRng rng(uint64_t(100 + e));
+      StampRng rng(uint64_t(100 + e));
       const RectI area{r.x0 + r.width() / 3, r.y0 + r.height() / 3, r.x1 - r.width() / 3,
                        r.y1 - r.height() / 3};
       std::map<uint32_t, std::pair<int, clock_type::time_point>> sent;
@@ -463,7 +463,7 @@ bool resume_after_stamps(const Context& ctx, ResumeResult& out) {
     return false;
   const uint64_t whole_all = away->connection().bytes_in_of(wire::MessageType::kRegionUpdate);
   away->connection().close();
-  test::StampRng rng(11);
+  StampRng rng(11);
   const int stamps = ctx.quick ? 30 : 100;
   uint64_t last = 0;
   for (int i = 0; i < stamps; ++i) {
@@ -509,7 +509,7 @@ bool roam(const World& world, uint16_t port, int n, double seconds, RoamResult& 
         return;
       }
       render::ClipmapInterest interest(w, render::InterestConfig{});
-      test::StampRng rng(uint64_t(i + 1));
+      StampRng rng(uint64_t(i + 1));
       const auto t0 = clock_type::now();
       std::optional<wire::Focus> sent_focus;
       std::vector<uint32_t> stamps;
@@ -622,7 +622,7 @@ int run_streaming(const Context& ctx, Report& report) {
     report.paragraph(
         "**A client joining at 128 KiB/s** (the default budget) with a clipmap viewer's subscription (mips "
         "by distance, "
-        "client/render/clipmap_interest.h) and its focus at the world's center. Regions leave the coarsest "
+        "client/lod/clipmap_interest.h) and its focus at the world's center. Regions leave the coarsest "
         "subscribed level first, then nearest the focus (finer first among equals, docs/streaming.md). The "
         "error is the height the client can show at 4000 probes over its view (the "
         "finest mip it "

@@ -6,11 +6,11 @@
 #include <filesystem>
 #include <fstream>
 
-#include "client/view/roam_path.h"
+#include "client/controls/roam_path.h"
 #include "protocol/log/log_format.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "server/storage.h"
 #include "tests/support/child_process.h"
-#include "tests/support/random_stamps.h"
 
 namespace loam::bench {
 namespace {
@@ -128,28 +128,28 @@ SnapshotBench bench_snapshots(const Context& ctx, uint64_t stamps, uint64_t ever
     const WorldParams& w = world.params();
     // 16 players walking loops at 30 m/s, 2 stamps a second each (the bots' mix and radii).
     constexpr int kPlayers = 16;
-    test::RandomStampOptions o = test::random_stamp_options(w);
+    RandomStampOptions o = random_stamp_options(w);
     o.kinds = {StampKind::kCrater, StampKind::kGaussian, StampKind::kGaussian, StampKind::kFootprint};
     o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
     o.detail_one_in = 4;
-    o.detail_kinds = {StampKind::kGaussian};
+    o.layer_kinds[Layer::kDetail] = {StampKind::kGaussian};
     o.min_radius = 2.0;
     o.max_radius = 32.0;
     o.max_radius_of_kind[size_t(StampKind::kFootprint)] = 1.5;
-    o.coarse_max_intensity = 2.5;
-    o.coarse_min_intensity = 0.2;
-    o.detail_max_intensity = 0.25;
-    test::StampRng rng(2026);
+    o.max_intensity[Layer::kCoarse] = 2.5;
+    o.min_intensity[Layer::kCoarse] = 0.2;
+    o.max_intensity[Layer::kDetail] = 0.25;
+    StampRng rng(2026);
     const auto t0 = std::chrono::steady_clock::now();
     uint64_t tick = 0;
     for (uint64_t i = 1; i <= stamps; ++i) {
       const int player = int(i % kPlayers);
       const double t = double(i / kPlayers) * 0.5;  // each player stamps every 0.5 s
       const auto [x, y] = client::roam_position(w, uint32_t(player + 1), 30.0, t);
-      test::RandomStampOptions near = o;
+      RandomStampOptions near = o;
       near.x0 = std::max(o.x0, x - 150.0), near.x1 = std::min(o.x1, x + 150.0);
       near.y0 = std::max(o.y0, y - 150.0), near.y1 = std::min(o.y1, y + 150.0);
-      auto q = test::random_valid_stamp(rng, near, w);
+      auto q = random_valid_stamp(rng, near, w);
       if (!q) continue;
       const uint64_t seq = terrain.last_seq() + 1;
       if (i % 64 == 0) ++tick;

@@ -17,7 +17,7 @@
 #include "client/net/terrain_client.h"
 #include "client/query/snapshot_builder.h"
 #include "client/query/terrain_query.h"
-#include "client/render/display_terrain.h"
+#include "client/terrain/display_terrain.h"
 #include "dem/refined_default.h"
 #include "protocol/stamps/stamp.h"
 #include "protocol/stamps/stamp_validate.h"

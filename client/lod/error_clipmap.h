@@ -38,7 +38,7 @@
 #include <vector>
 
 #include "client/lod/geomipmap.h"
-#include "client/render/mesh_check.h"
+#include "client/lod/mesh_check.h"
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 

@@ -1,8 +1,9 @@
 // Geomipmapping (de Boer 2000; Wagner's vertex-shader geomorphing, ShaderX2 2003) as pure
 // logic: the patch grid, each patch's maximum vertical error per level, the level and morph
 // factor a camera needs for a screen-space error budget, and the triangles of a patch whose
-// borders adapt to coarser neighbours. No GL: the renderer (client/render/) draws what this
-// decides, and the tests check it on a CPU replica (watertight, geomorph, error bound).
+// borders adapt to coarser neighbours. No GL: the `lod` suite's renderer
+// (bench/lod/geomipmap_renderer.h) draws what this decides, and the tests check it on a CPU
+// replica (watertight, geomorph, error bound).
 //
 // Patches: square blocks of patch_size = 2^k + 1 vertices (17, 33, 65) sharing their border
 // samples, so patch (px, py) covers mip-0 samples [px * c, px * c + c] x [py * c, py * c + c],
@@ -37,7 +38,7 @@
 #include <span>
 #include <vector>
 
-#include "client/render/mesh_check.h"
+#include "client/lod/mesh_check.h"
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 

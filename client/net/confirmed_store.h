@@ -30,7 +30,7 @@ namespace loam::client {
 enum class EventOutcome { kApplied, kBuffered, kIgnored };
 
 // One change to the store's samples, in the order they happened, for a display that mirrors
-// the store (client/render/display_terrain.h). Recorded only when enabled.
+// the store (client/terrain/display_terrain.h). Recorded only when enabled.
 struct StoreChange {
   enum class Kind : uint8_t { kEvent, kRegion };
   Kind kind = Kind::kEvent;

@@ -23,7 +23,7 @@ struct ClipmapFrameBlock {
   int32_t detail_size, detail_factor, debug_morph, pad0;
   float meters_per_sample, meters_per_unit, height_base, band;
   float skirt_z, detail_meters_per_unit, pad1, pad2;
-  float light_view_proj[16];  // render frame -> the sun's shadow map (client/render/sun_shadow.h)
+  float light_view_proj[16];  // render frame -> the sun's shadow map (client/scene/sun_shadow.h)
   float tex_phase[4];         // material texture phases of the anchor: scale A (xy), scale B (zw)
   float macro_phase[2], shadow_texel;
   int32_t shadows_on;

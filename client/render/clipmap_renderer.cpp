@@ -11,11 +11,11 @@
 #include <string>
 
 #include "client/render/clipmap_blocks.h"
-#include "client/render/frustum.h"
-#include "client/render/material_textures.h"
 #include "client/render/reversed_depth.h"
-#include "client/render/sun_shadow.h"
 #include "client/render/toroidal_upload.h"
+#include "client/scene/frustum.h"
+#include "client/scene/material_textures.h"
+#include "client/scene/sun_shadow.h"
 #include "gpu/egl_context.h"
 #include "gpu/shader_library.h"
 

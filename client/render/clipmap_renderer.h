@@ -31,11 +31,11 @@
 #include <span>
 #include <vector>
 
-#include "client/render/camera.h"
+#include "client/lod/clipmap_mesh.h"
 #include "client/render/clipmap_blocks.h"
-#include "client/render/clipmap_mesh.h"
-#include "client/render/frustum.h"
-#include "client/render/height_source.h"
+#include "client/scene/camera.h"
+#include "client/scene/frustum.h"
+#include "client/terrain/height_source.h"
 #include "gpu/gl_handle.h"
 #include "gpu/normal_pass.h"
 #include "protocol/world.h"

@@ -2,7 +2,7 @@
 // GL 4.5 context current for every call.
 #pragma once
 
-#include "client/render/display_stamper.h"
+#include "client/terrain/display_stamper.h"
 #include "gpu/gpu_stamper.h"
 
 namespace loam::render {

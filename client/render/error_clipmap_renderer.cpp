@@ -5,10 +5,10 @@
 #include <chrono>
 #include <cmath>
 
-#include "client/render/clipmap_mesh.h"
-#include "client/render/frustum.h"
+#include "client/lod/clipmap_mesh.h"
 #include "client/render/reversed_depth.h"
 #include "client/render/toroidal_upload.h"
+#include "client/scene/frustum.h"
 
 namespace loam::render {
 

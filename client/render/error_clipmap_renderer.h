@@ -25,10 +25,9 @@
 #include <vector>
 
 #include "client/lod/error_clipmap.h"
-#include "client/render/camera.h"
 #include "client/render/clipmap_renderer.h"
-#include "client/render/geomipmap_renderer.h"
 #include "client/render/patch_draw.h"
+#include "client/scene/camera.h"
 #include "gpu/gl_handle.h"
 #include "gpu/uniform_block.h"
 

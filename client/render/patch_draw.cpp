@@ -4,7 +4,7 @@
 #include <cmath>
 #include <glm/gtc/type_ptr.hpp>
 
-#include "client/render/geomipmap_renderer.h"
+#include "client/terrain/height_source.h"
 #include "gpu/shader_library.h"
 #include "gpu/uniform_block.h"
 

@@ -1,11 +1,13 @@
-// What the patch renderers (geomipmap_renderer.h, error_clipmap_renderer.h) share: the
-// instanced per-patch attributes, their vertex array, the index buffer that holds each patch
-// triangulation once (built on first use, in one growing GL buffer), the frame block's fill,
-// and the upload of a frame's instances. Needs the GL 4.5 context current.
+// What the patch renderers (error_clipmap_renderer.h here; the `lod` suite's geomipmap and
+// quadtree renderers in bench/lod/) share: the frame block and its fill, the instanced
+// per-patch attributes, their vertex array, the index buffer that holds each patch
+// triangulation once (built on first use, in one growing GL buffer), and the upload of a
+// frame's instances. Needs the GL 4.5 context current.
 #pragma once
 
 #include <array>
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -14,14 +16,34 @@
 #include <vector>
 
 #include "client/lod/geomipmap.h"
-#include "client/render/camera.h"
+#include "client/scene/camera.h"
 #include "gpu/gl_handle.h"
+#include "gpu/uniform_block.h"
 #include "protocol/result.h"
 
 namespace loam::render {
 
-struct GeomipmapFrameBlock;
 class HeightSource;
+
+// The frame block of every patch renderer's vertex stage (shaders/geomipmap_blocks.glsl).
+struct GeomipmapFrameBlock {
+  float view_proj[16];
+  int32_t grid[4];  // patch size, levels, world width, world height
+  float scale[4];   // meters per sample, meters per unit, height offset minus the camera's z, -
+  float sun[4];
+  float height_range[4];
+};
+static_assert(offsetof(GeomipmapFrameBlock, grid) == 64);
+static_assert(sizeof(GeomipmapFrameBlock) == 128);
+
+// shaders/geomipmap_blocks.glsl's GeomipmapFrame, member by member (also the quadtree's).
+inline constexpr std::array kGeomipmapFrameMembers = {
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, view_proj, "g_view_proj"),
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, grid, "g_grid"),
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, scale, "g_scale"),
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, sun, "g_sun"),
+    LOAM_UNIFORM_MEMBER(GeomipmapFrameBlock, height_range, "g_height_range"),
+};
 
 // Milliseconds since t0: the renderers' CPU timings.
 inline double ms_since(std::chrono::steady_clock::time_point t0) {

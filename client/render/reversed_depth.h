@@ -5,7 +5,7 @@
 
 #include <epoxy/gl.h>
 
-#include "client/render/camera.h"
+#include "client/scene/camera.h"
 
 namespace loam::render {
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "client/render/display_gpu_stamper.h"
-#include "client/render/start_view.h"
+#include "client/scene/start_view.h"
 #include "dem/refined_default.h"
 
 namespace loam::render {

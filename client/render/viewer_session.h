@@ -10,11 +10,11 @@
 #include <optional>
 #include <string>
 
+#include "client/lod/clipmap_interest.h"
 #include "client/net/terrain_client.h"
 #include "client/query/snapshot_builder.h"
-#include "client/render/clipmap_interest.h"
 #include "client/render/clipmap_renderer.h"
-#include "client/render/display_terrain.h"
+#include "client/terrain/display_terrain.h"
 #include "protocol/result.h"
 
 namespace loam::render {
@@ -60,9 +60,9 @@ struct LevelCoverage {
 class ViewerSession {
  public:
   // Connects, subscribes to the coarsest mip and waits for it (it sets the material range),
-  // then creates the renderer and subscribes what `camera` needs (a renderer view distance of 0 takes the world's,
-  // start_view.h) (default: the start view, start_view.h: the
-  // orbit's eye east of the world's centre, over the coarsest tiles' ground).
+  // then creates the renderer and subscribes what `camera` needs (a renderer view distance of 0 takes the
+  // world's, start_view.h) (default: the start view, start_view.h: the orbit's eye east of the world's
+  // centre, over the coarsest tiles' ground).
   static Result<std::unique_ptr<ViewerSession>> connect(const std::string& host, uint16_t port,
                                                         const ViewerOptions& options,
                                                         std::optional<Camera> camera = std::nullopt);

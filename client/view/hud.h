@@ -1,6 +1,6 @@
 // The viewer's HUD, drawn with ImGui between NewFrame and Render: the status panel (frame,
 // session: round trip, bytes/s against the client's budget, the server's tick; tiles, events,
-// memory), the minimap (client/view/minimap.h) with its legend, and the tool panel, which edits
+// memory), the minimap (client/terrain/minimap.h) with its legend, and the tool panel, which edits
 // every field of the stamp tool for every kind (texture stamps pick one of the server's
 // registered images by its preview; craters can conserve volume). The panels take plain data,
 // so a test draws them from made-up numbers and compares the picture.
@@ -9,11 +9,11 @@
 #include <span>
 #include <string>
 
+#include "client/controls/stamp_tool.h"
 #include "client/render/viewer_session.h"
-#include "client/view/minimap.h"
+#include "client/terrain/minimap.h"
+#include "client/terrain/tile_states.h"
 #include "client/view/stamp_previews.h"
-#include "client/view/stamp_tool.h"
-#include "client/view/tile_states.h"
 #include "protocol/wire/messages.h"
 
 namespace loam::view {

@@ -10,9 +10,9 @@
 
 #include <algorithm>
 
-#include "client/render/camera.h"
-#include "client/render/height_source.h"
 #include "client/render/reversed_depth.h"
+#include "client/scene/camera.h"
+#include "client/terrain/height_source.h"
 
 namespace loam::view {
 

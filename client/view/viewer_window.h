@@ -10,14 +10,14 @@
 #include <span>
 #include <vector>
 
-#include "client/render/start_view.h"
+#include "client/controls/fly_camera.h"
+#include "client/controls/stamp_tool.h"
 #include "client/render/viewer_session.h"
-#include "client/view/fly_camera.h"
+#include "client/scene/start_view.h"
+#include "client/terrain/minimap.h"
+#include "client/terrain/tile_states.h"
 #include "client/view/hud.h"
-#include "client/view/minimap.h"
 #include "client/view/stamp_previews.h"
-#include "client/view/stamp_tool.h"
-#include "client/view/tile_states.h"
 
 struct GLFWwindow;
 

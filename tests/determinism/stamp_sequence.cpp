@@ -3,15 +3,11 @@
 #include <vector>
 
 #include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
-#include "tests/support/random_stamps.h"
 
 namespace loam::determinism {
-
-using test::random_stamp_params;
-using test::RandomStampOptions;
-using test::StampRng;
 
 uint64_t golden_stamp_sequence_hash(std::string* error) {
   WorldParams p;
@@ -28,7 +24,7 @@ uint64_t golden_stamp_sequence_hash(std::string* error) {
   TextureRegistry reg;
   const std::vector<uint16_t> img = {0, 0, 65535, 65535, 0, 0, 65535, 65535};  // left black, right white
   const uint64_t tex = reg.add(4, 2, img).value();
-  // The generator's default options are this sequence's (tests/support/random_stamps.h).
+  // The generator's default options are this sequence's (protocol/stamps/stamp_mix.h).
   RandomStampOptions options;
   options.texture_id = tex;
   StampRng rng(0x2545F4914F6CDD1Dull);

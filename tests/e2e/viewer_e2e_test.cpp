@@ -9,7 +9,7 @@
 #include <random>
 #include <thread>
 
-#include "client/render/headless.h"
+#include "client/render/offscreen_target.h"
 #include "client/render/viewer_session.h"
 #include "gl/gl_test_context.h"
 #include "integration/integration_util.h"

@@ -14,10 +14,10 @@
 #include <span>
 #include <string>
 
+#include "client/controls/walker.h"
 #include "client/query/snapshot_builder.h"
 #include "client/render/clipmap_renderer.h"
-#include "client/render/headless.h"
-#include "client/view/walker.h"
+#include "client/render/offscreen_target.h"
 #include "dem/default_terrain.h"
 #include "dem/refined_default.h"
 #include "gl_test_context.h"

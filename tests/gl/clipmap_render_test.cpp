@@ -9,7 +9,7 @@
 #include <cstdio>
 
 #include "client/render/clipmap_renderer.h"
-#include "client/render/headless.h"
+#include "client/render/offscreen_target.h"
 #include "dem/default_terrain.h"
 #include "gl_test_context.h"
 #include "protocol/normal_map.h"

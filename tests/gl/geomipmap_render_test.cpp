@@ -10,10 +10,10 @@
 #include <cmath>
 #include <type_traits>
 
+#include "bench/lod/geomipmap_renderer.h"
+#include "bench/lod/quadtree_renderer.h"
 #include "client/render/error_clipmap_renderer.h"
-#include "client/render/geomipmap_renderer.h"
-#include "client/render/headless.h"
-#include "client/render/quadtree_renderer.h"
+#include "client/render/offscreen_target.h"
 #include "gl_test_context.h"
 #include "protocol/world.h"
 

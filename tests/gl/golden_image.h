@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "client/render/headless.h"
+#include "client/render/offscreen_target.h"
 #include "gl_test_context.h"
 
 namespace loam::render::test {

@@ -11,9 +11,9 @@
 #include "gpu/gpu_stamper.h"
 #include "protocol/stamps/stamp_apply.h"
 #include "protocol/stamps/stamp_kernel.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
-#include "tests/support/random_stamps.h"
 
 namespace loam::gpu {
 namespace {
@@ -156,14 +156,14 @@ void expect_random_stamps_match_cpu(StampPath path, const char* what) {
   World gpu_world = cpu;
   auto g = GpuStamper::create(gpu_world, &fx.textures, {}, GpuStamperOptions{path});
   ASSERT_TRUE(g.ok()) << g.error().describe();
-  loam::test::StampRng rng(20240611);
+  loam::StampRng rng(20240611);
   std::vector<QuantizedStamp> stamps;
   // LOAM_GPU_CONFORMANCE_STAMPS shortens the run while debugging; CI runs the full count.
   const char* env = std::getenv("LOAM_GPU_CONFORMANCE_STAMPS");
   const size_t count = env ? size_t(std::strtoul(env, nullptr, 10)) : 1200;
   int vertex_stamps = 0;
   while (stamps.size() < count) {
-    QuantizedStamp q = loam::test::random_quantized_stamp(rng, cpu.params(), fx.texture_ids, true);
+    QuantizedStamp q = loam::random_quantized_stamp(rng, cpu.params(), fx.texture_ids, true);
     if (!check_quantized(q, cpu.params(), {}, &fx.textures).ok()) continue;
     stamps.push_back(q);
     const auto baked = bake_stamp(q, cpu.params(), &fx.textures);

@@ -9,9 +9,9 @@
 #include "gl_test_context.h"
 #include "gpu/gpu_stamper.h"
 #include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
-#include "tests/support/random_stamps.h"
 
 namespace loam::gpu {
 namespace {
@@ -66,10 +66,10 @@ struct PageRun {
 // GPU; a stamp reaching more tiles than the page budget must be refused with kOversize.
 PageRun run_paged(World& cpu, World& gpu_world, GpuStamper& g, int count, uint64_t seed) {
   PageRun run;
-  loam::test::StampRng rng(seed);
+  loam::StampRng rng(seed);
   uint64_t seq = 1;
   while (run.stamps + run.refused_oversize < count) {
-    const QuantizedStamp q = loam::test::random_quantized_stamp(rng, cpu.params(), {}, true);
+    const QuantizedStamp q = loam::random_quantized_stamp(rng, cpu.params(), {}, true);
     if (q.kind == StampKind::kTexture || !check_quantized(q, cpu.params()).ok()) continue;
     auto got = g.apply(gpu_world, q);
     if (!got) {

@@ -12,11 +12,11 @@
 #include <cmath>
 #include <functional>
 
-#include "client/render/headless.h"
+#include "client/render/offscreen_target.h"
+#include "client/terrain/minimap.h"
+#include "client/terrain/tile_states.h"
 #include "client/view/hud.h"
-#include "client/view/minimap.h"
 #include "client/view/stamp_previews.h"
-#include "client/view/tile_states.h"
 #include "gl_test_context.h"
 #include "golden_image.h"
 

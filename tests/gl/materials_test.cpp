@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "client/render/clipmap_renderer.h"
-#include "client/render/headless.h"
+#include "client/render/offscreen_target.h"
 #include "dem/default_terrain.h"
 #include "gl_test_context.h"
 #include "golden_image.h"

@@ -11,10 +11,10 @@
 
 #include "gl_test_context.h"
 #include "gpu/stamp_backend.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
 #include "server/terrain_state.h"
-#include "tests/support/random_stamps.h"
 
 namespace loam::server {
 namespace {
@@ -48,11 +48,11 @@ TEST(TerrainStateGpu, StampsOnTheGpuBackendMatchTheCpuAfterTheStateIsMovedAndFro
   TerrainState served = std::move(*recovered);
   recovered.reset();
 
-  loam::test::StampRng rng(916);
+  loam::StampRng rng(916);
   int applied = 0;
   uint64_t seq = 0;
   while (applied < 60) {
-    const QuantizedStamp q = loam::test::random_quantized_stamp(rng, cpu.world().params(), {}, false);
+    const QuantizedStamp q = loam::random_quantized_stamp(rng, cpu.world().params(), {}, false);
     if (!cpu.check(q).ok()) continue;
     ++seq;
     const auto want = cpu.apply(q, seq, 1);

@@ -127,7 +127,7 @@ TEST(AccessTokens, SighupReadsARotatedTokensFileAndKeepsTheOldOnesWhenTheNewFile
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, ErrorCode::kUnauthorized);
   // A client that joined before keeps its role: its stamp is accepted.
-  test::StampRng rng(3);
+  StampRng rng(3);
   const auto sent = before.deform(test::random_stamp(rng, before.welcome().world));
   ASSERT_TRUE(sent.ok());
   ASSERT_TRUE(before.wait_until([&] { return before.ack(*sent).has_value(); }, std::chrono::seconds(30)));

@@ -10,10 +10,10 @@
 #include "client/net/terrain_client.h"
 #include "dem/default_terrain.h"
 #include "dem/dem_export.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "server/replay.h"
 #include "server/storage.h"
-#include "tests/support/random_stamps.h"
 
 namespace loam::test {
 
@@ -49,12 +49,12 @@ inline QuantizedStamp random_stamp(StampRng& rng, const WorldParams& w) {
   o.min_radius = 2.0;
   o.max_radius = 30.5;
   o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
-  o.coarse_max_intensity = 2.0;
-  o.detail_max_intensity = 0.25;
-  o.coarse_min_intensity = 0.1;
-  o.detail_min_intensity = 0.02;
+  o.max_intensity[Layer::kCoarse] = 2.0;
+  o.max_intensity[Layer::kDetail] = 0.25;
+  o.min_intensity[Layer::kCoarse] = 0.1;
+  o.min_intensity[Layer::kDetail] = 0.02;
   o.min_flatten_strength = 0.2;
-  o.detail_kinds = {StampKind::kGaussian};
+  o.layer_kinds[Layer::kDetail] = {StampKind::kGaussian};
   o.max_radius_of_kind[size_t(StampKind::kShockwave)] = 6.0;
   o.max_radius_of_kind[size_t(StampKind::kFootprint)] = 3.0;
   auto q = random_valid_stamp(rng, o, w);

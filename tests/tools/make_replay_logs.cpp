@@ -1,15 +1,15 @@
 // Writes the small deformation logs committed under tests/golden/replay/: one log per seed,
 // each a segment 0 over the embedded default terrain holding seeded random stamps of every
-// kind (the same stamps a session would log), and prints `name legacy_content legacy_world content world` hash lines for
-// expected.txt. Run through tests/golden/replay/regenerate.sh.
+// kind (the same stamps a session would log), and prints `name legacy_content legacy_world content world`
+// hash lines for expected.txt. Run through tests/golden/replay/regenerate.sh.
 #include <cstdio>
 #include <filesystem>
 #include <string>
 
 #include "protocol/log/log_file.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "server/replay.h"
 #include "server/terrain_source.h"
-#include "tests/support/random_stamps.h"
 
 using namespace loam;
 
@@ -17,11 +17,11 @@ namespace {
 
 // Stamp i is of the i-th kind in turn (every kind but texture: no image is registered), drawn
 // by the tests' generator; shockwaves stay small.
-Result<QuantizedStamp> make_stamp(test::StampRng& rng, const WorldParams& w, int i) {
-  test::RandomStampOptions o = test::random_stamp_options(w);
+Result<QuantizedStamp> make_stamp(StampRng& rng, const WorldParams& w, int i) {
+  RandomStampOptions o = random_stamp_options(w);
   o.kinds = {o.kinds[size_t(i) % o.kinds.size()]};
   o.max_radius_of_kind[size_t(StampKind::kShockwave)] = 6.0;
-  return test::random_valid_stamp(rng, o, w);
+  return random_valid_stamp(rng, o, w);
 }
 
 }  // namespace
@@ -53,7 +53,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s\n", writer.error().describe().c_str());
       return 1;
     }
-    test::StampRng rng(seed);
+    StampRng rng(seed);
     const int count = 40 + int(seed) * 10;
     for (int i = 0; i < count; ++i) {
       const auto stamp = make_stamp(rng, world->params(), i);
@@ -77,7 +77,8 @@ int main(int argc, char** argv) {
     std::printf("%s %016llx %016llx %016llx %016llx\n", name.c_str(),
                 (unsigned long long)replayed->world.legacy_content_hash(),
                 (unsigned long long)replayed->world.legacy_world_hash(),
-                (unsigned long long)replayed->world.content_hash(), (unsigned long long)replayed->world.world_hash());
+                (unsigned long long)replayed->world.content_hash(),
+                (unsigned long long)replayed->world.world_hash());
   }
   return 0;
 }

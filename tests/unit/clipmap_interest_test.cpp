@@ -1,11 +1,11 @@
-// Which tiles a clipmap viewer subscribes to (client/render/clipmap_interest.h): every tile a
+// Which tiles a clipmap viewer subscribes to (client/lod/clipmap_interest.h): every tile a
 // level reads is in the set, the coarsest mip always is, and a camera moving back and forth
 // over a tile border keeps its subscriptions (hysteresis) while a far move drops the old ones.
-#include "client/render/clipmap_interest.h"
+#include "client/lod/clipmap_interest.h"
 
 #include <gtest/gtest.h>
 
-#include "client/render/clipmap_mesh.h"
+#include "client/lod/clipmap_mesh.h"
 
 namespace loam::render {
 namespace {

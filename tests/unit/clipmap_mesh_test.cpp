@@ -1,7 +1,7 @@
 // The clipmap mesh the renderer draws, checked on its CPU replica: no cracks, overlaps or
 // T-junctions across levels, for several sizes, level counts and camera positions (negative
 // and far from the origin), and the placement invariants the geomorph band relies on.
-#include "client/render/clipmap_mesh.h"
+#include "client/lod/clipmap_mesh.h"
 
 #include <gtest/gtest.h>
 

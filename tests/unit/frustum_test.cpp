@@ -1,13 +1,13 @@
-// Frustum culling (client/render/frustum.h): the planes of the renderer's own view-projection,
+// Frustum culling (client/scene/frustum.h): the planes of the renderer's own view-projection,
 // and boxes kept or culled as a camera sees them. Conservative: a box any visible point of
 // which lies inside is never culled.
-#include "client/render/frustum.h"
+#include "client/scene/frustum.h"
 
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "client/render/camera.h"
+#include "client/scene/camera.h"
 
 namespace loam::render {
 namespace {

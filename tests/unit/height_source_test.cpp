@@ -1,8 +1,8 @@
-// What a clipmap level reads past the world's edge (client/render/height_source.h): a client
+// What a clipmap level reads past the world's edge (client/terrain/height_source.h): a client
 // holding coarse mip tiles alone reads exactly what the whole world gives there, so a live
 // view and a render of the same state from a snapshot draw the same picture; and an edit
 // reaching a level's edge sample is known to change the samples past that edge.
-#include "client/render/height_source.h"
+#include "client/terrain/height_source.h"
 
 #include <gtest/gtest.h>
 
@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "client/net/confirmed_store.h"
-#include "client/render/display_terrain.h"
+#include "client/terrain/display_terrain.h"
 
 namespace loam::render {
 namespace {

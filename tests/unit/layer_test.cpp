@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <span>
 #include <sstream>
@@ -213,6 +214,37 @@ TEST(LayerTable, AThirdSparseLayersTilesLiveInTheStoreTheDetailLayerUses) {
   store.discard(k, r);
   EXPECT_EQ(store.version(k), 0u);
   EXPECT_TRUE(store.tiles().empty());
+}
+
+// Product code asks the layer table rather than naming a layer in a branch: the places that
+// still do are the few where a layer means itself (the coarse heights' mips, the minimap's
+// colours), at most five.
+TEST(LayerTable, ProductCodeBranchesOnANamedLayerInAtMostFivePlaces) {
+  namespace fs = std::filesystem;
+  const std::vector<std::string> patterns = {"Layer::kCoarse ?",  "Layer::kDetail ?",  "== Layer::kCoarse",
+                                             "!= Layer::kCoarse", "== Layer::kDetail", "!= Layer::kDetail"};
+  std::vector<std::string> places;
+  for (const char* folder : {"protocol", "server", "client", "gpu", "dem", "app"}) {
+    for (const auto& e : fs::recursive_directory_iterator(fs::path(LOAM_SOURCE_DIR) / folder)) {
+      const std::string ext = e.path().extension().string();
+      if (!e.is_regular_file() || (ext != ".h" && ext != ".cpp")) continue;
+      if (e.path().filename() == "layer.h" && e.path().parent_path().filename() == "protocol") continue;
+      std::ifstream f(e.path());
+      int n = 0;
+      for (std::string line; std::getline(f, line);) {
+        ++n;
+        for (const std::string& p : patterns) {
+          if (line.find(p) != std::string::npos) {
+            places.push_back(e.path().string() + ":" + std::to_string(n));
+            break;
+          }
+        }
+      }
+    }
+  }
+  std::string list;
+  for (const std::string& p : places) list += "\n  " + p;
+  EXPECT_LE(places.size(), 5u) << "branches on a named layer:" << list;
 }
 
 }  // namespace

@@ -1,13 +1,13 @@
 // The generated material textures: seamless, half-bright on average, distinct, the same bytes
 // every time; and the sun's shadow frame.
-#include "client/render/material_textures.h"
+#include "client/scene/material_textures.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <glm/glm.hpp>
 
-#include "client/render/sun_shadow.h"
+#include "client/scene/sun_shadow.h"
 
 namespace loam::render {
 namespace {

@@ -1,12 +1,12 @@
 // The HUD's cache view: tile states across frames and the minimap's layout.
-#include "client/view/minimap.h"
+#include "client/terrain/minimap.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 
-#include "client/view/tile_states.h"
+#include "client/terrain/tile_states.h"
 
 namespace loam::view {
 namespace {

@@ -13,10 +13,10 @@
 #include "protocol/base/tile_base.h"
 #include "protocol/snapshot/snapshot.h"
 #include "protocol/stamps/stamp_apply.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "protocol/stamps/texture_registry.h"
 #include "protocol/tile_hash.h"
 #include "protocol/world.h"
-#include "tests/support/random_stamps.h"
 #include "tests/support/small_refined.h"
 #include "tests/support/world_compare.h"
 
@@ -49,15 +49,15 @@ struct Fixture {
   // `n` random stamps (both layers) with centers in [x0, x1) x [y0, y1) metres, committed one
   // sequence each from `seq` + 1.
   void stamp(World& w, uint64_t& seq, int n, double x0, double y0, double x1, double y1, uint64_t seed) {
-    test::StampRng rng(seed);
-    test::RandomStampOptions o = test::random_stamp_options(params);
+    StampRng rng(seed);
+    RandomStampOptions o = random_stamp_options(params);
     o.x0 = x0, o.y0 = y0, o.x1 = x1, o.y1 = y1;
     o.max_radius = 30.5;
     o.kinds = {StampKind::kGaussian, StampKind::kCrater, StampKind::kFlatten};
-    o.coarse_min_intensity = 0.5;
-    o.detail_min_intensity = 0.1;
+    o.min_intensity[Layer::kCoarse] = 0.5;
+    o.min_intensity[Layer::kDetail] = 0.1;
     for (int i = 0; i < n; ++i) {
-      auto q = test::random_valid_stamp(rng, o, params);
+      auto q = random_valid_stamp(rng, o, params);
       ASSERT_TRUE(q.ok()) << q.error().describe();
       ASSERT_TRUE(apply_stamp(w, *q).ok());
       w.commit(++seq);
@@ -85,7 +85,7 @@ TEST(SnapshotStore, ASecondSnapshotWritesOnlyTheTilesChangedSinceTheFirst) {
   // Stamps in one corner change a few tiles (and the mips above them).
   const uint64_t before = seq;
   std::vector<TileCoord> changed_since;
-  test::StampRng rng(7);
+  StampRng rng(7);
   f.stamp(w, seq, 5, 20, 20, 60, 60, 2);
   for (const World::EditedTileInfo& t : w.edited_tiles())
     if (t.state.version > before) changed_since.push_back(t.coord);

@@ -11,9 +11,9 @@
 
 #include "protocol/stamps/stamp_apply.h"
 #include "protocol/stamps/stamp_fast.h"
+#include "protocol/stamps/stamp_mix.h"
 #include "protocol/stamps/stamp_profile.h"
 #include "stamps_test_util.h"
-#include "tests/support/random_stamps.h"
 
 namespace loam {
 namespace {
@@ -21,7 +21,7 @@ namespace {
 using stamps_test::corner_world_params;
 
 // Deterministic draws on every platform (std distributions are not).
-using Rng = test::StampRng;
+using Rng = StampRng;
 
 std::vector<FastIsa> isas() {
   std::vector<FastIsa> v = {FastIsa::kBest, FastIsa::kPortable};
@@ -125,13 +125,13 @@ int64_t expect_same_as_reference(const World& base, const QuantizedStamp& q, con
 }
 
 // A random valid stamp of any per-sample kind, aimed at tile borders, corners and the world's
-// edges (tests/support/random_stamps.h). Radii up to `max_radius` samples.
+// edges (protocol/stamps/stamp_mix.h). Radii up to `max_radius` samples.
 StampParams random_params(Rng& rng, const WorldParams& p, double max_radius, uint64_t texture_id) {
-  test::RandomStampOptions o;
+  RandomStampOptions o;
   o.kinds = {StampKind::kTexture, StampKind::kGaussian, StampKind::kCrater, StampKind::kFootprint,
              StampKind::kFlatten};
   o.texture_id = texture_id;
-  return test::random_edge_case_stamp_params(rng, p, max_radius, o);
+  return random_edge_case_stamp_params(rng, p, max_radius, o);
 }
 
 uint64_t add_random_texture(Rng& rng, TextureRegistry& reg) {

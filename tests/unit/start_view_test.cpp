@@ -1,15 +1,15 @@
-// Where a viewer starts on a world (client/render/start_view.h). Pins the bug where the
+// Where a viewer starts on a world (client/scene/start_view.h). Pins the bug where the
 // windowed viewer on the main job's 131 km world stood 59 km south of the centre, 33 km up
 // and outside the world, and drew only sky: every world, from a one-tile DEM to the refined
 // world and a 90 m DEM, starts on terrain near its centre, with the sight line clear of the
 // relief and controls scaled to the world.
-#include "client/render/start_view.h"
+#include "client/scene/start_view.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "client/view/stamp_tool.h"
+#include "client/controls/stamp_tool.h"
 
 namespace loam::render {
 namespace {

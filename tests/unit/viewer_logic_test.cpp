@@ -6,9 +6,9 @@
 #include <cmath>
 #include <glm/glm.hpp>
 
-#include "client/render/camera.h"
-#include "client/view/fly_camera.h"
-#include "client/view/stamp_tool.h"
+#include "client/controls/fly_camera.h"
+#include "client/controls/stamp_tool.h"
+#include "client/scene/camera.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/stamps/texture_registry.h"
 

@@ -1,7 +1,7 @@
-// The walk mode's character (client/view/walker.h) on snapshots of small worlds: it stands on
+// The walk mode's character (client/controls/walker.h) on snapshots of small worlds: it stands on
 // slopes it may climb, slides down steeper ones, jumps as high as physics says, follows the
 // ground while walking, and falls into a crater dug under it in the time a fall takes.
-#include "client/view/walker.h"
+#include "client/controls/walker.h"
 
 #include <gtest/gtest.h>
 

@@ -1,0 +1,177 @@
+#include "client/controls/walker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <glm/geometric.hpp>
+#include <numbers>
+#include <optional>
+
+#include "client/query/terrain_query.h"
+
+namespace loam::view {
+
+namespace {
+
+// Kept between the capsule and what it touches, so the next sweep does not start in contact.
+constexpr double kSkin = 1e-3;
+
+query::Capsule capsule_at(const glm::dvec3& feet, const WalkerConfig& c) {
+  return {feet + glm::dvec3{0, 0, c.radius}, feet + glm::dvec3{0, 0, std::max(c.radius, c.height - c.radius)},
+          c.radius};
+}
+
+bool walkable(const glm::dvec3& n, const WalkerConfig& c) {
+  return n.z >= std::cos(c.max_slope_degrees * std::numbers::pi / 180.0);
+}
+
+// Whether two faces it touches hold it up together: in a crease (a narrow valley, a faceted
+// crater floor) each face may be too steep to stand on while the two together, pushing from
+// either side, make a floor. Their summed normal then says how steep that floor is.
+bool crease_holds(const glm::dvec3& a, const glm::dvec3& b, const WalkerConfig& c, glm::dvec3& support) {
+  const glm::dvec3 sum = a + b;
+  if (glm::length(sum) < 1e-9) return false;
+  const glm::dvec3 n = glm::normalize(sum);
+  if (!walkable(n, c)) return false;
+  support = n;
+  return true;
+}
+
+// Moves the capsule by `motion`, sliding along what it meets (up to four contacts); returns
+// whether what it met holds it up (a walkable face, or two faces of a crease), and that normal.
+bool move_and_slide(Walker& w, const query::TerrainSnapshot& s, glm::dvec3 motion, const WalkerConfig& c,
+                    glm::dvec3& support) {
+  bool supported = false;
+  std::optional<glm::dvec3> steep;  // the last face met that was too steep on its own
+  for (int i = 0; i < 4 && glm::length(motion) > 1e-9; ++i) {
+    const query::SweepResult r = query::sweep_capsule(s, capsule_at(w.feet, c), motion);
+    if (!r.contact) {
+      w.feet += motion;
+      break;
+    }
+    const glm::dvec3 n = r.contact->normal;
+    if (r.contact->started_inside) {
+      // Already touching (the ground rose under it: a stamp, a steep step): out along the normal.
+      w.feet += n * (kSkin + 0.02);
+      continue;
+    }
+    // Up to the contact, less the skin along the motion.
+    const double len = glm::length(motion);
+    const double t = std::max(0.0, r.contact->t - kSkin / len);
+    w.feet += motion * t;
+    motion *= (1.0 - t);
+    // Slide: the rest of the motion without its part into the surface; the velocity likewise.
+    motion -= n * std::min(0.0, glm::dot(motion, n));
+    w.velocity -= n * std::min(0.0, glm::dot(w.velocity, n));
+    if (walkable(n, c)) {
+      supported = true;
+      support = n;
+    } else if (steep && !supported && crease_holds(*steep, n, c, support)) {
+      supported = true;
+    } else {
+      steep = n;
+    }
+  }
+  return supported;
+}
+
+void substep(Walker& w, const query::TerrainSnapshot& s, const WalkerInput& in, double dt,
+             const WalkerConfig& c) {
+  // Where the input asks to go, horizontally.
+  const glm::dvec3 fwd{std::cos(in.yaw), std::sin(in.yaw), 0.0},
+      right{-std::sin(in.yaw), std::cos(in.yaw), 0.0};
+  glm::dvec3 wish = fwd * std::clamp(in.forward, -1.0, 1.0) + right * std::clamp(in.right, -1.0, 1.0);
+  if (glm::length(wish) > 1.0) wish = glm::normalize(wish);
+  wish *= in.run ? c.run_speed : c.walk_speed;
+
+  const bool was_grounded = w.grounded;
+  bool jumped = false;
+  if (w.grounded) {
+    // On the ground: walk along its plane at the wished speed; a jump leaves it.
+    const glm::dvec3 n = w.ground_normal;
+    glm::dvec3 along = wish - n * glm::dot(wish, n);
+    if (glm::length(along) > 1e-12) along = glm::normalize(along) * glm::length(wish);
+    w.velocity = along;
+    if (in.jump) {
+      w.velocity.z += c.jump_speed;
+      w.grounded = false;
+      jumped = true;
+    }
+  } else {
+    // In the air: gravity, and a little steering.
+    const glm::dvec3 horiz{w.velocity.x, w.velocity.y, 0.0};
+    const glm::dvec3 steer = (wish - horiz) * std::min(1.0, c.air_control * 10.0 * dt);
+    w.velocity += glm::dvec3{steer.x, steer.y, -c.gravity * dt};
+  }
+
+  glm::dvec3 support{0.0, 0.0, 1.0};
+  bool supported = move_and_slide(w, s, w.velocity * dt, c, support);
+  // Still touching below? A short probe down finds the ground it stands on (and, walking,
+  // follows it up and down a slope or a step of up to snap_distance instead of leaving it).
+  // Walking uphill moves it up along the ground; only a jump or a fall's rise leaves it.
+  const bool walking = was_grounded && !jumped;
+  if (!supported && (walking || w.velocity.z <= 1e-9)) {
+    const double probe = walking ? c.snap_distance : 2.0 * kSkin;
+    const query::SweepResult r = query::sweep_capsule(s, capsule_at(w.feet, c), {0.0, 0.0, -probe});
+    if (r.contact && !r.contact->started_inside) {
+      const glm::dvec3 n = r.contact->normal;
+      if (walkable(n, c)) {
+        w.feet.z -= std::max(0.0, r.contact->t * probe - kSkin);
+        supported = true;
+        support = n;
+      } else {
+        // A steep face: the rest of the probe along it finds whether another face beside it
+        // closes a crease that holds the walker where it is.
+        const glm::dvec3 reached =
+            w.feet + glm::dvec3{0.0, 0.0, -std::max(0.0, r.contact->t * probe - kSkin)};
+        glm::dvec3 rest{0.0, 0.0, -probe * (1.0 - r.contact->t)};
+        rest -= n * glm::dot(rest, n);
+        if (glm::length(rest) > 1e-9) {
+          const query::SweepResult r2 = query::sweep_capsule(s, capsule_at(reached, c), rest);
+          if (r2.contact && !r2.contact->started_inside && crease_holds(n, r2.contact->normal, c, support)) {
+            w.feet = reached;
+            supported = true;
+          }
+        }
+      }
+    }
+  }
+  if (supported && (walking || w.velocity.z <= 1e-9)) {
+    w.grounded = true;
+    w.ground_normal = support;
+    if (!walking) w.velocity.z = 0.0;
+    w.airborne_s = 0;
+  } else {
+    w.grounded = false;
+    w.airborne_s += dt;
+  }
+}
+
+}  // namespace
+
+Walker place_walker(const query::TerrainSnapshot& s, double x, double y, const WalkerConfig& config) {
+  Walker w;
+  const auto h = query::height_at(s, x, y);
+  w.feet = {x, y, h.value_or(0.0)};
+  if (h) {
+    // Standing on the highest ground under the capsule's footprint.
+    const query::SweepResult r =
+        query::sweep_capsule(s, capsule_at(w.feet + glm::dvec3{0, 0, 50.0}, config), {0.0, 0.0, -60.0});
+    if (r.contact) w.feet.z = w.feet.z + 50.0 - 60.0 * r.contact->t + kSkin;
+    w.grounded = r.contact.has_value() && walkable(r.contact->normal, config);
+    if (w.grounded) w.ground_normal = r.contact->normal;
+  }
+  return w;
+}
+
+void step_walker(Walker& w, const query::TerrainSnapshot& s, const WalkerInput& input, double dt,
+                 const WalkerConfig& config) {
+  if (!(dt > 0.0) || !std::isfinite(dt)) return;
+  const int steps = int(std::ceil(dt * 120.0 - 1e-9));
+  WalkerInput in = input;
+  for (int i = 0; i < steps; ++i) {
+    substep(w, s, in, dt / steps, config);
+    in.jump = false;  // one take-off per call
+  }
+}
+
+}  // namespace loam::view
