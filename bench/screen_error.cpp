@@ -26,10 +26,10 @@ double truth_height(const World& world, double x, double y, Truth truth) {
   return h00 + (h01 - h00) * fy + (h11 - h01) * fx;
 }
 
-void add_screen_errors(const World& world, const render::Camera& cam, int32_t w, int32_t h,
+void add_screen_errors(const World& world, const scene::Camera& cam, int32_t w, int32_t h,
                        const std::vector<float>& depth, std::vector<double>& px_errors,
                        std::vector<double>& m_errors, Truth truth_kind) {
-  const glm::mat4 vp = render::view_projection(cam, w, h);
+  const glm::mat4 vp = scene::view_projection(cam, w, h);
   // The world's extent in meters, less half a sample: a clipmap's earth skirt stands on the
   // edge and is no terrain to score.
   const WorldParams& wp = world.params();
@@ -39,7 +39,7 @@ void add_screen_errors(const World& world, const render::Camera& cam, int32_t w,
   const double ey0 = (double(wr.y0) + 0.5) * mps, ey1 = (double(wr.y1 - 1) - 0.5) * mps;
   for (int32_t y = 0; y < h; ++y) {
     for (int32_t x = 0; x < w; ++x) {
-      const auto p = render::unproject(cam, w, h, x, y, depth[size_t(y) * size_t(w) + size_t(x)]);
+      const auto p = scene::unproject(cam, w, h, x, y, depth[size_t(y) * size_t(w) + size_t(x)]);
       if (!p) continue;
       if ((*p)[0] < ex0 || (*p)[0] > ex1 || (*p)[1] < ey0 || (*p)[1] > ey1) continue;
       const double truth = truth_height(world, (*p)[0], (*p)[1], truth_kind);

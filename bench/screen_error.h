@@ -32,7 +32,7 @@ double truth_height(const World& world, double x, double y, Truth truth);
 // Appends the screen error (px) and vertical error (m) of every terrain pixel (over the world,
 // half a sample in from its edge) of a frame drawn
 // from `cam` into a width x height viewport whose window depth (row 0 at the top) is `depth`.
-void add_screen_errors(const World& world, const render::Camera& cam, int32_t width, int32_t height,
+void add_screen_errors(const World& world, const scene::Camera& cam, int32_t width, int32_t height,
                        const std::vector<float>& depth, std::vector<double>& px_errors,
                        std::vector<double>& m_errors, Truth truth = Truth::kBilinear);
 

@@ -69,13 +69,13 @@ int run_bot(const BotOptions& o) {
               (unsigned long long)c.welcome().global_sequence);
   const WorldParams& world = c.welcome().world;
   const auto started = std::chrono::steady_clock::now();
-  std::optional<render::ClipmapInterest> interest;
+  std::optional<lod::ClipmapInterest> interest;
   std::optional<wire::Focus> focus_sent;
   // A roaming bot follows its position as a viewer follows its camera.
   const auto follow = [&]() -> Status {
     const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    const auto [x, y] = roam_position(world, seed, o.roam_mps, t);
-    const render::ClipmapInterest::Delta d = interest->update(x, y);
+    const auto [x, y] = controls::roam_position(world, seed, o.roam_mps, t);
+    const lod::ClipmapInterest::Delta d = interest->update(x, y);
     if (!d.unsubscribe.empty()) LOAM_TRY(c.unsubscribe(d.unsubscribe));
     const double step = 0.25 * kTileSize * world.meters_per_sample;
     const bool moved = !focus_sent || std::hypot(x - focus_sent->x_m, y - focus_sent->y_m) > step;
@@ -84,7 +84,7 @@ int run_bot(const BotOptions& o) {
     return c.subscribe(d.subscribe, focus_sent);
   };
   if (o.roam_mps > 0) {
-    interest.emplace(world, render::InterestConfig{});
+    interest.emplace(world, lod::InterestConfig{});
     if (!follow().ok()) return kBotCannotJoin;
   } else if (!c.subscribe(c.all_coarse_tiles(0)).ok()) {
     return kBotCannotJoin;
@@ -114,7 +114,7 @@ int run_bot(const BotOptions& o) {
     std::optional<std::pair<double, double>> near;
     if (interest) {
       const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-      near = roam_position(world, seed, o.roam_mps, t);
+      near = controls::roam_position(world, seed, o.roam_mps, t);
     }
     auto s = c.deform(bot_stamp(rng, world, near));  // queued; it leaves when the link allows
     if (!s) break;

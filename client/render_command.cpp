@@ -57,7 +57,7 @@ Result<std::vector<std::array<double, 6>>> camera_frames(const RenderCommandOpti
   if (o.path.empty()) {
     frames.push_back({o.camera[0], o.camera[1], o.camera[2], o.look[0], o.look[1], o.look[2]});
     if (const auto why =
-            look_at_problem(o.camera[0], o.camera[1], o.camera[2], o.look[0], o.look[1], o.look[2]))
+            scene::look_at_problem(o.camera[0], o.camera[1], o.camera[2], o.look[0], o.look[1], o.look[2]))
       return make_error(ErrorCode::kInvalidArgument, "--camera/--look", *why);
     return frames;
   }
@@ -74,7 +74,7 @@ Result<std::vector<std::array<double, 6>>> camera_frames(const RenderCommandOpti
       return make_error(ErrorCode::kInvalidArgument, o.path,
                         "bad line \"" + line + "\" (want x y z tx ty tz)");
     }
-    if (const auto why = look_at_problem(f[0], f[1], f[2], f[3], f[4], f[5]))
+    if (const auto why = scene::look_at_problem(f[0], f[1], f[2], f[3], f[4], f[5]))
       return make_error(ErrorCode::kInvalidArgument, o.path + ":" + std::to_string(line_no), *why);
     frames.push_back(f);
   }
@@ -92,7 +92,7 @@ int run_render_command(const RenderCommandOptions& o) {
   if (!ctx) return fail(ctx.error().describe(), 2);
   if (const Status st = ctx->make_current(); !st.ok()) return fail(st.error().describe(), 2);
   auto camera_of = [&](const std::array<double, 6>& f) {
-    Camera cam = look_at(f[0], f[1], f[2], f[3], f[4], f[5]);
+    scene::Camera cam = scene::look_at(f[0], f[1], f[2], f[3], f[4], f[5]);
     cam.fov_y_degrees = o.fov_y_degrees;
     cam.far_m = o.view_distance * 2.0;
     return cam;
@@ -108,7 +108,7 @@ int run_render_command(const RenderCommandOptions& o) {
   // Either a live session (what the server's confirmed tiles show) or a local world.
   std::unique_ptr<ViewerSession> live;
   std::optional<World> world;
-  std::unique_ptr<WorldHeightSource> source;
+  std::unique_ptr<terrain::WorldHeightSource> source;
   std::unique_ptr<ClipmapRenderer> local;
   std::string what;
   if (!o.server.empty()) {
@@ -136,7 +136,7 @@ int run_render_command(const RenderCommandOptions& o) {
     auto w = load_local_world(o);
     if (!w) return fail(w.error().describe());
     world.emplace(std::move(*w));
-    source = std::make_unique<WorldHeightSource>(*world);
+    source = std::make_unique<terrain::WorldHeightSource>(*world);
     auto r = ClipmapRenderer::create(*source, cfg);
     if (!r) return fail(r.error().describe());
     local = std::move(*r);
@@ -146,7 +146,7 @@ int run_render_command(const RenderCommandOptions& o) {
   std::printf("render: %s, %dx%d, n %d, %d levels, morph %s, renderer %s\n", what.c_str(), o.width, o.height,
               o.n, renderer.levels(), o.morph ? "on" : "off", ctx->renderer().c_str());
   for (size_t i = 0; i < frames->size(); ++i) {
-    const Camera cam = camera_of((*frames)[i]);
+    const scene::Camera cam = camera_of((*frames)[i]);
     // A live view follows the camera: the tiles it now needs arrive before the frame is drawn.
     if (live && i > 0 && !live->wait_settled(cam, std::chrono::seconds(30))) {
       return fail("the tiles of frame " + std::to_string(i) + " did not all arrive within 30 s");

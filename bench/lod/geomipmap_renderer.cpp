@@ -12,7 +12,7 @@
 
 namespace loam::render {
 
-Result<std::unique_ptr<GeomipmapRenderer>> GeomipmapRenderer::create(const HeightSource& source,
+Result<std::unique_ptr<GeomipmapRenderer>> GeomipmapRenderer::create(const terrain::HeightSource& source,
                                                                      const GeomipmapConfig& config) {
   const WorldParams& p = source.params();
   std::unique_ptr<GeomipmapRenderer> r(new GeomipmapRenderer());
@@ -51,14 +51,14 @@ Result<std::unique_ptr<GeomipmapRenderer>> GeomipmapRenderer::create(const Heigh
   return r;
 }
 
-GeomipmapFrameStats GeomipmapRenderer::render(const Camera& camera, int32_t width, int32_t height) {
+GeomipmapFrameStats GeomipmapRenderer::render(const scene::Camera& camera, int32_t width, int32_t height) {
   const double select_ms = select(camera, height);
   GeomipmapFrameStats stats = draw(camera, width, height);
   stats.cpu_ms += select_ms;
   return stats;
 }
 
-double GeomipmapRenderer::select(const Camera& lod_camera, int32_t viewport_height) {
+double GeomipmapRenderer::select(const scene::Camera& lod_camera, int32_t viewport_height) {
   const auto t0 = std::chrono::steady_clock::now();
   const double mps = scale_.meters_per_sample;
   lod::LodView view;
@@ -75,12 +75,12 @@ double GeomipmapRenderer::select(const Camera& lod_camera, int32_t viewport_heig
   return ms_since(t0);
 }
 
-GeomipmapFrameStats GeomipmapRenderer::draw(const Camera& camera, int32_t width, int32_t height) {
+GeomipmapFrameStats GeomipmapRenderer::draw(const scene::Camera& camera, int32_t width, int32_t height) {
   GeomipmapFrameStats stats;
   const auto t0 = std::chrono::steady_clock::now();
   const double mps = scale_.meters_per_sample;
-  const glm::mat4 vp = view_projection(camera, width, height);
-  const Frustum frustum = frustum_of(vp);
+  const glm::mat4 vp = scene::view_projection(camera, width, height);
+  const scene::Frustum frustum = scene::frustum_of(vp);
   const int32_t c = grid_.cells();
   std::vector<PatchInstance> instances;
   std::vector<PatchIndexBuffer::Range> draws;
@@ -97,7 +97,7 @@ GeomipmapFrameStats GeomipmapRenderer::draw(const Camera& camera, int32_t width,
                            float(scale_.meters(errors_.min_height(px, py)) - camera.z));
         const glm::vec3 hi(float(rel_x + w), float(rel_y),
                            float(scale_.meters(errors_.max_height(px, py)) - camera.z));
-        if (box_outside(frustum, lo, hi)) {
+        if (scene::box_outside(frustum, lo, hi)) {
           ++stats.patches_culled;
           continue;
         }

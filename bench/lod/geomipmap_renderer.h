@@ -59,17 +59,17 @@ class GeomipmapRenderer {
   // `source` must outlive the renderer. Errors: a patch size geomipmapping does not take, a
   // world wider than the GL's texture size, a shader that does not build or whose block does
   // not match.
-  static Result<std::unique_ptr<GeomipmapRenderer>> create(const HeightSource& source,
+  static Result<std::unique_ptr<GeomipmapRenderer>> create(const terrain::HeightSource& source,
                                                            const GeomipmapConfig& config);
 
   // select() then draw(): the frame as a viewer sees it.
-  GeomipmapFrameStats render(const Camera& camera, int32_t width, int32_t height);
+  GeomipmapFrameStats render(const scene::Camera& camera, int32_t width, int32_t height);
   // Chooses every patch's level and morph for `lod_camera` seeing a viewport `viewport_height`
   // pixels high; returns the CPU milliseconds it took.
-  double select(const Camera& lod_camera, int32_t viewport_height);
+  double select(const scene::Camera& lod_camera, int32_t viewport_height);
   // Draws the levels last selected into the bound framebuffer's viewport (depth test on;
   // clears nothing): a test or benchmark can hold them while the view moves.
-  GeomipmapFrameStats draw(const Camera& camera, int32_t width, int32_t height);
+  GeomipmapFrameStats draw(const scene::Camera& camera, int32_t width, int32_t height);
   // Samples of `mip0_rect` (the world's global grid) changed in the source.
   GeomipmapUpdate invalidate(const RectI& mip0_rect);
 
@@ -83,7 +83,7 @@ class GeomipmapRenderer {
  private:
   GeomipmapRenderer() = default;
 
-  const HeightSource* source_ = nullptr;
+  const terrain::HeightSource* source_ = nullptr;
   GeomipmapConfig config_;
   RectI world_;  // the source's mip-0 samples (global grid)
   lod::HeightScale scale_;

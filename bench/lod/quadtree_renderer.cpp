@@ -11,7 +11,7 @@
 
 namespace loam::render {
 
-Result<std::unique_ptr<QuadtreeRenderer>> QuadtreeRenderer::create(const HeightSource& source,
+Result<std::unique_ptr<QuadtreeRenderer>> QuadtreeRenderer::create(const terrain::HeightSource& source,
                                                                    const QuadtreeConfig& config) {
   const WorldParams& p = source.params();
   std::unique_ptr<QuadtreeRenderer> r(new QuadtreeRenderer());
@@ -70,7 +70,7 @@ void QuadtreeRenderer::rebuild(int32_t bx, int32_t by) {
   b.index_count = uint32_t(triangle_scratch_.size() * 3);
 }
 
-QuadtreeFrameStats QuadtreeRenderer::render(const Camera& camera, int32_t width, int32_t height) {
+QuadtreeFrameStats QuadtreeRenderer::render(const scene::Camera& camera, int32_t width, int32_t height) {
   QuadtreeFrameStats s = select(camera, height);
   const QuadtreeFrameStats d = draw(camera, width, height);
   s.triangles = d.triangles, s.draw_calls = d.draw_calls, s.blocks_culled = d.blocks_culled;
@@ -78,7 +78,7 @@ QuadtreeFrameStats QuadtreeRenderer::render(const Camera& camera, int32_t width,
   return s;
 }
 
-QuadtreeFrameStats QuadtreeRenderer::select(const Camera& lod_camera, int32_t viewport_height) {
+QuadtreeFrameStats QuadtreeRenderer::select(const scene::Camera& lod_camera, int32_t viewport_height) {
   QuadtreeFrameStats stats;
   const auto t0 = std::chrono::steady_clock::now();
   const double mps = scale_.meters_per_sample;
@@ -113,12 +113,12 @@ QuadtreeFrameStats QuadtreeRenderer::select(const Camera& lod_camera, int32_t vi
   return stats;
 }
 
-QuadtreeFrameStats QuadtreeRenderer::draw(const Camera& camera, int32_t width, int32_t height) {
+QuadtreeFrameStats QuadtreeRenderer::draw(const scene::Camera& camera, int32_t width, int32_t height) {
   QuadtreeFrameStats stats;
   const auto t0 = std::chrono::steady_clock::now();
   const double mps = scale_.meters_per_sample;
-  const glm::mat4 vp = view_projection(camera, width, height);
-  const Frustum frustum = frustum_of(vp);
+  const glm::mat4 vp = scene::view_projection(camera, width, height);
+  const scene::Frustum frustum = scene::frustum_of(vp);
   const int32_t b = grid_.block_size;
   std::vector<float> origins;
   std::vector<size_t> visible;
@@ -132,7 +132,7 @@ QuadtreeFrameStats QuadtreeRenderer::draw(const Camera& camera, int32_t width, i
                            float(scale_.meters(errors_.min_height(l, bx, by)) - camera.z));
         const glm::vec3 hi(float(rel_x + b * mps), float(rel_y),
                            float(scale_.meters(errors_.max_height(l, bx, by)) - camera.z));
-        if (box_outside(frustum, lo, hi)) {
+        if (scene::box_outside(frustum, lo, hi)) {
           ++stats.blocks_culled;
           continue;
         }

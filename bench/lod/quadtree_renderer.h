@@ -46,15 +46,15 @@ struct QuadtreeFrameStats {
 
 class QuadtreeRenderer {
  public:
-  static Result<std::unique_ptr<QuadtreeRenderer>> create(const HeightSource& source,
+  static Result<std::unique_ptr<QuadtreeRenderer>> create(const terrain::HeightSource& source,
                                                           const QuadtreeConfig& config);
 
-  QuadtreeFrameStats render(const Camera& camera, int32_t width, int32_t height);
+  QuadtreeFrameStats render(const scene::Camera& camera, int32_t width, int32_t height);
   // Chooses the subdivision for `lod_camera` seeing a viewport `viewport_height` high and
   // rebuilds the changed blocks; returns the stats of that work (no drawing).
-  QuadtreeFrameStats select(const Camera& lod_camera, int32_t viewport_height);
+  QuadtreeFrameStats select(const scene::Camera& lod_camera, int32_t viewport_height);
   // Draws the meshes last built.
-  QuadtreeFrameStats draw(const Camera& camera, int32_t width, int32_t height);
+  QuadtreeFrameStats draw(const scene::Camera& camera, int32_t width, int32_t height);
   // Samples of `mip0_rect` changed in the source; returns the squares recomputed.
   int64_t invalidate(const RectI& mip0_rect);
 
@@ -69,7 +69,7 @@ class QuadtreeRenderer {
   QuadtreeRenderer() = default;
   void rebuild(int32_t bx, int32_t by);
 
-  const HeightSource* source_ = nullptr;
+  const terrain::HeightSource* source_ = nullptr;
   QuadtreeConfig config_;
   RectI world_;
   lod::HeightScale scale_;

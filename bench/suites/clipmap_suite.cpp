@@ -57,11 +57,11 @@ struct ViewsRun {
 ViewsRun run_views(const Context& ctx, const World& world, render::ClipmapRenderer& r,
                    render::OffscreenTarget& target, int32_t w, int32_t h, double view_distance,
                    const MeasureOptions& opts,
-                   const std::function<void(const render::Camera&)>& after_view = {}) {
+                   const std::function<void(const scene::Camera&)>& after_view = {}) {
   ViewsRun run;
   for (const View& v : kViews) {
-    render::Camera cam = render::look_at(v.x, v.y, height_at(world, v.x, v.y) + v.dz, v.tx, v.ty,
-                                         height_at(world, v.tx, v.ty) + v.tdz);
+    scene::Camera cam = scene::look_at(v.x, v.y, height_at(world, v.x, v.y) + v.dz, v.tx, v.ty,
+                                       height_at(world, v.tx, v.ty) + v.tdz);
     cam.near_m = 1.0;
     cam.far_m = 2.0 * view_distance;
     render::FrameStats fs;
@@ -94,7 +94,7 @@ int run_clipmap(const Context& ctx, Report& report) {
     return 1;
   }
   const World& world = imported->world;
-  render::WorldHeightSource source(world);
+  terrain::WorldHeightSource source(world);
   const int32_t w = ctx.quick ? 320 : 1280, h = ctx.quick ? 180 : 720;
   auto target = render::OffscreenTarget::create(w, h);
   if (!target) return 1;
@@ -128,7 +128,7 @@ int run_clipmap(const Context& ctx, Report& report) {
     std::vector<double> px, m;
     const ViewsRun views = run_views(
         ctx, world, **r, *target, w, h, cfg.view_distance, opts,
-        [&](const render::Camera& cam) { add_screen_errors(world, cam, w, h, target->read_depth(), px, m); });
+        [&](const scene::Camera& cam) { add_screen_errors(world, cam, w, h, target->read_depth(), px, m); });
     // Flying: 2 m per frame toward the first view's target (strip uploads every frame).
     const View& v = kViews[0];
     std::vector<double> fly;
@@ -137,8 +137,8 @@ int run_clipmap(const Context& ctx, Report& report) {
     for (int i = 0; i < frames; ++i) {
       const double f = 2.0 * i / std::hypot(v.tx - v.x, v.ty - v.y);
       const double x = v.x + (v.tx - v.x) * f, y = v.y + (v.ty - v.y) * f;
-      render::Camera cam = render::look_at(x, y, height_at(world, x, y) + v.dz, v.tx, v.ty,
-                                           height_at(world, v.tx, v.ty) + v.tdz);
+      scene::Camera cam = scene::look_at(x, y, height_at(world, x, y) + v.dz, v.tx, v.ty,
+                                         height_at(world, v.tx, v.ty) + v.tdz);
       cam.far_m = 2.0 * cfg.view_distance;
       const auto t0 = std::chrono::steady_clock::now();
       target->begin(0.5f, 0.6f, 0.75f, 0.0f);

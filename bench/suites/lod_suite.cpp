@@ -74,16 +74,16 @@ struct Terrain {
 // before it, whose levels the pop is measured against.
 struct Path {
   std::string name;
-  std::vector<render::Camera> frames, previous;
+  std::vector<scene::Camera> frames, previous;
 };
 
 // `above_ground` sets the near plane: a quarter of it (at least 0.5 m). With reversed float
 // depth the near plane hardly matters to precision; the error evaluator reads that depth.
-render::Camera camera_at(double x, double y, double z, double heading, double pitch_deg, double far_m,
-                         double above_ground) {
+scene::Camera camera_at(double x, double y, double z, double heading, double pitch_deg, double far_m,
+                        double above_ground) {
   const double p = pitch_deg * M_PI / 180.0;
-  render::Camera c = render::look_at(x, y, z, x + std::cos(heading) * std::cos(p) * 100.0,
-                                     y + std::sin(heading) * std::cos(p) * 100.0, z + std::sin(p) * 100.0);
+  scene::Camera c = scene::look_at(x, y, z, x + std::cos(heading) * std::cos(p) * 100.0,
+                                   y + std::sin(heading) * std::cos(p) * 100.0, z + std::sin(p) * 100.0);
   c.fov_y_degrees = 60;
   c.near_m = std::max(0.5, 0.25 * above_ground);
   c.far_m = far_m;
@@ -109,7 +109,7 @@ std::vector<Path> paths_for(const World& world, int frames) {
   std::vector<Path> out;
   struct Motion {
     const char* name;
-    std::function<render::Camera(double t)> at;  // t in seconds, 0..60
+    std::function<scene::Camera(double t)> at;  // t in seconds, 0..60
   };
   const double heading = std::atan2(0.3, 1.0);
   const std::vector<Motion> motions = {
@@ -161,10 +161,10 @@ class Scheme {
  public:
   virtual ~Scheme() = default;
   // Draws the frame as a viewer would (levels chosen for `cam`); returns LOD CPU ms if known.
-  virtual void frame(const render::Camera& cam, int32_t w, int32_t h, int64_t& triangles, int32_t& draws,
+  virtual void frame(const scene::Camera& cam, int32_t w, int32_t h, int64_t& triangles, int32_t& draws,
                      double& lod_ms) = 0;
   // Draws `cam`'s view with the levels `lod` (seen in a viewport `lod_height` high) chooses.
-  virtual void draw_with_levels_of(const render::Camera& lod, int32_t lod_height, const render::Camera& cam,
+  virtual void draw_with_levels_of(const scene::Camera& lod, int32_t lod_height, const scene::Camera& cam,
                                    int32_t w, int32_t h) = 0;
   // The update after a stamp over `rect`: what it recomputed (text) is set.
   virtual void stamp(const RectI& rect, std::string& what) = 0;
@@ -175,14 +175,14 @@ class Scheme {
 class ClipmapScheme final : public Scheme {
  public:
   explicit ClipmapScheme(std::unique_ptr<render::ClipmapRenderer> r) : r_(std::move(r)) {}
-  void frame(const render::Camera& cam, int32_t w, int32_t h, int64_t& triangles, int32_t& draws,
+  void frame(const scene::Camera& cam, int32_t w, int32_t h, int64_t& triangles, int32_t& draws,
              double& lod_ms) override {
     const render::FrameStats s = r_->render(cam, w, h);
     triangles = s.triangles, draws = s.draw_calls, lod_ms = -1;
   }
-  void draw_with_levels_of(const render::Camera& lod, int32_t, const render::Camera& cam, int32_t w,
+  void draw_with_levels_of(const scene::Camera& lod, int32_t, const scene::Camera& cam, int32_t w,
                            int32_t h) override {
-    render::Camera c = cam;
+    scene::Camera c = cam;
     c.lod_center = std::array<double, 2>{lod.x, lod.y};
     r_->render(c, w, h);
   }
@@ -204,13 +204,13 @@ class SelectingScheme final : public Scheme {
   using Stamp = std::function<std::string(Renderer&, const RectI&)>;
   SelectingScheme(std::unique_ptr<Renderer> r, Stamp stamp, Truth truth)
       : r_(std::move(r)), stamp_(std::move(stamp)), truth_(truth) {}
-  void frame(const render::Camera& cam, int32_t w, int32_t h, int64_t& triangles, int32_t& draws,
+  void frame(const scene::Camera& cam, int32_t w, int32_t h, int64_t& triangles, int32_t& draws,
              double& lod_ms) override {
     const auto s = r_->render(cam, w, h);
     triangles = s.triangles, draws = s.draw_calls, lod_ms = s.cpu_ms;
   }
-  void draw_with_levels_of(const render::Camera& lod, int32_t lod_height, const render::Camera& cam,
-                           int32_t w, int32_t h) override {
+  void draw_with_levels_of(const scene::Camera& lod, int32_t lod_height, const scene::Camera& cam, int32_t w,
+                           int32_t h) override {
     r_->select(lod, lod_height);
     r_->draw(cam, w, h);
   }
@@ -225,9 +225,9 @@ class SelectingScheme final : public Scheme {
 
 // A setting's factory: the renderer made with `cfg`, behind SelectingScheme.
 template <typename Renderer, typename Config>
-std::function<Result<std::unique_ptr<Scheme>>(const render::HeightSource&)> selecting(
+std::function<Result<std::unique_ptr<Scheme>>(const terrain::HeightSource&)> selecting(
     Config cfg, typename SelectingScheme<Renderer>::Stamp stamp, Truth truth) {
-  return [cfg, stamp, truth](const render::HeightSource& src) -> Result<std::unique_ptr<Scheme>> {
+  return [cfg, stamp, truth](const terrain::HeightSource& src) -> Result<std::unique_ptr<Scheme>> {
     auto r = Renderer::create(src, cfg);
     if (!r) return r.error();
     return std::unique_ptr<Scheme>(new SelectingScheme<Renderer>(std::move(*r), stamp, truth));
@@ -236,7 +236,7 @@ std::function<Result<std::unique_ptr<Scheme>>(const render::HeightSource&)> sele
 
 struct Setting {
   std::string scheme, setting;
-  std::function<Result<std::unique_ptr<Scheme>>(const render::HeightSource&)> make;
+  std::function<Result<std::unique_ptr<Scheme>>(const terrain::HeightSource&)> make;
 };
 
 std::vector<Setting> settings(bool quick) {
@@ -379,12 +379,12 @@ struct Pooled {
 
 // The largest screen change (px) of the drawn surface between the levels of `prev` and of
 // `cur`, both drawn top-down at fixed world points, as `cur` sees them.
-double pop_px(Scheme& s, const World& world, const render::OffscreenTarget& top, const render::Camera& prev,
-              const render::Camera& cur, int32_t w, int32_t h) {
+double pop_px(Scheme& s, const World& world, const render::OffscreenTarget& top, const scene::Camera& prev,
+              const scene::Camera& cur, int32_t w, int32_t h) {
   const WorldParams& p = world.params();
   const RectI r = p.sample_rect();
   const double mps = p.meters_per_sample;
-  render::Camera o;
+  scene::Camera o;
   o.x = (double(r.x0) + double(r.width() - 1) / 2.0) * mps;
   o.y = (double(r.y0) + double(r.height() - 1) / 2.0) * mps;
   o.z = 20000;
@@ -398,16 +398,16 @@ double pop_px(Scheme& s, const World& world, const render::OffscreenTarget& top,
     s.draw_with_levels_of(k == 0 ? prev : cur, h, o, top.width(), top.height());
     depth[k] = top.read_depth();
   }
-  const glm::mat4 vp = render::view_projection(cur, w, h);
+  const glm::mat4 vp = scene::view_projection(cur, w, h);
   const double k_px = lod::pixels_per_radian(h, cur.fov_y_degrees);
   const double half_w = o.ortho_half_height * double(top.width()) / double(top.height());
   double worst = 0;
   for (int32_t y = 0; y < top.height(); ++y) {
     for (int32_t x = 0; x < top.width(); ++x) {
       const size_t i = size_t(y) * size_t(top.width()) + size_t(x);
-      if (depth[0][i] <= render::kBackgroundDepth || depth[1][i] <= render::kBackgroundDepth) continue;
-      const double za = o.z - render::view_distance(o, depth[0][i]);
-      const double zb = o.z - render::view_distance(o, depth[1][i]);
+      if (depth[0][i] <= scene::kBackgroundDepth || depth[1][i] <= scene::kBackgroundDepth) continue;
+      const double za = o.z - scene::view_distance(o, depth[0][i]);
+      const double zb = o.z - scene::view_distance(o, depth[1][i]);
       if (za == zb) continue;
       const double wx = o.x - half_w + (double(x) + 0.5) * 2.0 * half_w / double(top.width());
       const double wy =
@@ -474,7 +474,7 @@ int run_lod(const Context& ctx, Report& report) {
   std::map<std::string, Pooled> pooled;  // scheme + setting
   std::vector<std::string> order;
   for (const Terrain& terrain : terrains) {
-    render::WorldHeightSource source(terrain.world);
+    terrain::WorldHeightSource source(terrain.world);
     const WorldParams& p = terrain.world.params();
     const RectI wr = p.sample_rect();
     const double diag = std::hypot(double(wr.width()), double(wr.height())) * p.meters_per_sample;
@@ -482,7 +482,7 @@ int run_lod(const Context& ctx, Report& report) {
     // The clipmaps at the clipmap suite's larger sizes, their view distance the world's diagonal.
     for (int32_t n : ctx.quick ? std::vector<int32_t>{127} : std::vector<int32_t>{127, 255}) {
       here.push_back({"clipmap", "n " + std::to_string(n),
-                      [n, diag](const render::HeightSource& src) -> Result<std::unique_ptr<Scheme>> {
+                      [n, diag](const terrain::HeightSource& src) -> Result<std::unique_ptr<Scheme>> {
                         render::RendererConfig cfg;
                         cfg.n = n;
                         cfg.view_distance = diag;
@@ -533,9 +533,8 @@ int run_lod(const Context& ctx, Report& report) {
       {
         const double mps = p.meters_per_sample;
         const double sx = double(cx) * mps, sy = double(cy) * mps;
-        render::Camera look =
-            render::look_at(sx - 200.0, sy - 200.0, height_at(terrain.world, sx, sy) + 300.0, sx, sy,
-                            height_at(terrain.world, sx, sy));
+        scene::Camera look = scene::look_at(sx - 200.0, sy - 200.0, height_at(terrain.world, sx, sy) + 300.0,
+                                            sx, sy, height_at(terrain.world, sx, sy));
         look.far_m = 2.0 * diag;
         int64_t t = 0;
         int32_t d = 0;
@@ -555,7 +554,7 @@ int run_lod(const Context& ctx, Report& report) {
         int64_t triangles = 0, draws = 0;
         double pop = 0;
         for (size_t f = 0; f < path.frames.size(); ++f) {
-          const render::Camera& cam = path.frames[f];
+          const scene::Camera& cam = path.frames[f];
           int64_t t = 0;
           int32_t d = 0;
           double lms = 0;

@@ -264,7 +264,7 @@ bool join_wide(const World& world, uint16_t port, double budget_s, JoinResult& o
   const RectI r = w.sample_rect();
   const double fx = 0.5 * double(r.x0 + r.x1) * w.meters_per_sample,
                fy = 0.5 * double(r.y0 + r.y1) * w.meters_per_sample;
-  render::ClipmapInterest interest(w, render::InterestConfig{});
+  lod::ClipmapInterest interest(w, lod::InterestConfig{});
   const auto delta = interest.update(fx, fy);
   const std::vector<TileCoord> view(delta.subscribe.begin(), delta.subscribe.end());
   out.tiles = view.size();
@@ -419,7 +419,7 @@ bool join_storm(const World& world, uint16_t port, int storm, double phase_s, St
     const double x = (double(r.x0) + double(r.width()) * (0.2 + 0.6 * (i % 4) / 3.0)) * w.meters_per_sample;
     const double y =
         (double(r.y0) + double(r.height()) * (0.2 + 0.6 * (i / 4 % 4) / 3.0)) * w.meters_per_sample;
-    render::ClipmapInterest interest(w, render::InterestConfig{});
+    lod::ClipmapInterest interest(w, lod::InterestConfig{});
     const auto d = interest.update(x, y);
     if (!c->subscribe(d.subscribe, wire::Focus{x, y}).ok()) continue;
     joiners.push_back(std::move(c));
@@ -508,14 +508,14 @@ bool roam(const World& world, uint16_t port, int n, double seconds, RoamResult& 
         ++out.dropped;
         return;
       }
-      render::ClipmapInterest interest(w, render::InterestConfig{});
+      lod::ClipmapInterest interest(w, lod::InterestConfig{});
       StampRng rng(uint64_t(i + 1));
       const auto t0 = clock_type::now();
       std::optional<wire::Focus> sent_focus;
       std::vector<uint32_t> stamps;
       auto next_stamp = t0;
       while (since(t0) < seconds && c->connection().open()) {
-        const auto [x, y] = client::roam_position(w, uint32_t(i * 37), 40.0, since(t0));
+        const auto [x, y] = controls::roam_position(w, uint32_t(i * 37), 40.0, since(t0));
         const auto d = interest.update(x, y);
         if (!d.unsubscribe.empty()) (void)c->unsubscribe(d.unsubscribe);
         const bool moved = !sent_focus || std::hypot(x - sent_focus->x_m, y - sent_focus->y_m) > 128.0;

@@ -145,7 +145,7 @@ SnapshotBench bench_snapshots(const Context& ctx, uint64_t stamps, uint64_t ever
     for (uint64_t i = 1; i <= stamps; ++i) {
       const int player = int(i % kPlayers);
       const double t = double(i / kPlayers) * 0.5;  // each player stamps every 0.5 s
-      const auto [x, y] = client::roam_position(w, uint32_t(player + 1), 30.0, t);
+      const auto [x, y] = controls::roam_position(w, uint32_t(player + 1), 30.0, t);
       RandomStampOptions near = o;
       near.x0 = std::max(o.x0, x - 150.0), near.x1 = std::min(o.x1, x + 150.0);
       near.y0 = std::max(o.y0, y - 150.0), near.y1 = std::min(o.y1, y + 150.0);

@@ -6,7 +6,7 @@
 
 #include "client/scene/camera.h"
 
-namespace loam::view {
+namespace loam::controls {
 
 FlyCamera FlyCamera::looking_at(double x, double y, double z, double tx, double ty, double tz) {
   FlyCamera c;
@@ -34,22 +34,22 @@ void FlyCamera::update(const FlyInput& in, double dt, const std::function<double
   if (ground) z_ = std::max(z_, ground(x_, y_) + clearance);
 }
 
-render::Camera FlyCamera::camera(double fov_y_degrees, double far_m) const {
+scene::Camera FlyCamera::camera(double fov_y_degrees, double far_m) const {
   const double cp = std::cos(pitch_);
-  render::Camera c =
-      render::look_at(x_, y_, z_, x_ + cp * std::cos(yaw_), y_ + cp * std::sin(yaw_), z_ + std::sin(pitch_));
+  scene::Camera c =
+      scene::look_at(x_, y_, z_, x_ + cp * std::cos(yaw_), y_ + cp * std::sin(yaw_), z_ + std::sin(pitch_));
   c.fov_y_degrees = fov_y_degrees;
   c.far_m = far_m;
   return c;
 }
 
-render::Camera flight_camera(double cx, double cy, double radius, double height, double speed, double t,
-                             const std::function<double(double, double)>& ground) {
+scene::Camera flight_camera(double cx, double cy, double radius, double height, double speed, double t,
+                            const std::function<double(double, double)>& ground) {
   const double a = speed * t / radius, ahead = 600.0 / radius;
   const double x = cx + radius * std::cos(a), y = cy + radius * std::sin(a);
   const double lx = cx + radius * std::cos(a + ahead), ly = cy + radius * std::sin(a + ahead);
   const double gz = ground ? ground(x, y) : 0.0, lz = ground ? ground(lx, ly) : 0.0;
-  return render::look_at(x, y, gz + height, lx, ly, lz);
+  return scene::look_at(x, y, gz + height, lx, ly, lz);
 }
 
-}  // namespace loam::view
+}  // namespace loam::controls

@@ -1,7 +1,7 @@
 // The viewer's camera: a free-flying position with yaw and pitch, moved by keys and turned by
 // the mouse, kept a little above the ground; and a scripted flight for the headless viewer
 // (its orbit is client/scene/start_view.h's).
-// Pure logic (no GL, no window): input and time go in, a render::Camera comes out.
+// Pure logic (no GL, no window): input and time go in, a scene::Camera comes out.
 // World frame as everywhere: x east, y along +gy (south), z up, meters; yaw 0 looks along +x
 // and grows toward +y (a right turn seen from above), pitch > 0 looks up.
 #pragma once
@@ -10,7 +10,7 @@
 
 #include "client/scene/camera.h"
 
-namespace loam::view {
+namespace loam::controls {
 
 struct FlyInput {
   double forward = 0, right = 0, up = 0;  // -1..1 each (keys)
@@ -28,7 +28,7 @@ class FlyCamera {
   // `clearance` above the terrain.
   void update(const FlyInput& input, double dt, const std::function<double(double, double)>& ground,
               double clearance = 2.0);
-  render::Camera camera(double fov_y_degrees = 60.0, double far_m = 20000.0) const;
+  scene::Camera camera(double fov_y_degrees = 60.0, double far_m = 20000.0) const;
 
   double x() const { return x_; }
   double y() const { return y_; }
@@ -48,7 +48,7 @@ class FlyCamera {
 // The headless viewer's flight: along a circle of `radius` around (cx, cy) at `speed` m/s,
 // `height` above the ground under the camera, looking ahead along the path (at the ground
 // 600 m ahead): what a fast flyer sees, with new terrain coming into every level.
-render::Camera flight_camera(double cx, double cy, double radius, double height, double speed, double t,
-                             const std::function<double(double, double)>& ground);
+scene::Camera flight_camera(double cx, double cy, double radius, double height, double speed, double t,
+                            const std::function<double(double, double)>& ground);
 
-}  // namespace loam::view
+}  // namespace loam::controls

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-namespace loam::client {
+namespace loam::controls {
 
 std::pair<double, double> roam_position(const WorldParams& world, uint32_t seed, double speed_mps, double t) {
   constexpr double kPi = 3.14159265358979323846;
@@ -17,4 +17,4 @@ std::pair<double, double> roam_position(const WorldParams& world, uint32_t seed,
   return {cx + ax * std::cos(angle), cy + ay * std::sin(angle)};
 }
 
-}  // namespace loam::client
+}  // namespace loam::controls

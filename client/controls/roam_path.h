@@ -8,9 +8,9 @@
 
 #include "protocol/geometry.h"
 
-namespace loam::client {
+namespace loam::controls {
 
 // Where a walker is `t` seconds after it started, in world meters.
 std::pair<double, double> roam_position(const WorldParams& world, uint32_t seed, double speed_mps, double t);
 
-}  // namespace loam::client
+}  // namespace loam::controls

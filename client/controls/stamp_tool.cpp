@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <numbers>
 
-namespace loam::view {
+namespace loam::controls {
 
 const char* to_string(Tool t) {
   switch (t) {
@@ -106,4 +106,4 @@ StampParams StampTool::at(double x, double y, double z) {
   return p;
 }
 
-}  // namespace loam::view
+}  // namespace loam::controls

@@ -10,7 +10,7 @@
 
 #include "protocol/stamps/stamp.h"
 
-namespace loam::view {
+namespace loam::controls {
 
 enum class Tool : uint8_t { kCrater, kRaise, kDig, kFootprint, kFlatten, kShockwave };
 inline constexpr int kToolCount = 6;
@@ -50,4 +50,4 @@ struct StampTool {
   void set_radius(double meters) { grow(meters / radius_m); }
 };
 
-}  // namespace loam::view
+}  // namespace loam::controls

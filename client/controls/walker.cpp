@@ -8,7 +8,7 @@
 
 #include "client/query/terrain_query.h"
 
-namespace loam::view {
+namespace loam::controls {
 
 namespace {
 
@@ -174,4 +174,4 @@ void step_walker(Walker& w, const query::TerrainSnapshot& s, const WalkerInput& 
   }
 }
 
-}  // namespace loam::view
+}  // namespace loam::controls

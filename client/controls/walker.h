@@ -11,7 +11,7 @@
 
 #include "client/query/terrain_snapshot.h"
 
-namespace loam::view {
+namespace loam::controls {
 
 struct WalkerConfig {
   double radius = 0.3;            // capsule radius, m
@@ -53,4 +53,4 @@ inline glm::dvec3 walker_eye(const Walker& w, const WalkerConfig& config = {}) {
   return w.feet + glm::dvec3{0.0, 0.0, config.eye_height};
 }
 
-}  // namespace loam::view
+}  // namespace loam::controls

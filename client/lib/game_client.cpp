@@ -181,7 +181,7 @@ struct Client::Impl {
 
   // Owned by the network thread once it runs.
   client::TerrainClient net;
-  std::unique_ptr<render::DisplayTerrain> display;
+  std::unique_ptr<terrain::DisplayTerrain> display;
   std::unique_ptr<query::SnapshotBuilder> builder;
   std::set<TileCoord> view_tiles;
   std::vector<TileCoord> last_held;
@@ -213,7 +213,7 @@ struct Client::Impl {
   void run();
   void step();
   void apply(const Command& c, std::vector<StampResult>& results_out);
-  void publish(const std::vector<render::DisplayDirty>& dirty, bool force);
+  void publish(const std::vector<terrain::DisplayDirty>& dirty, bool force);
 };
 
 void Client::Impl::apply(const Command& c, std::vector<StampResult>& results_out) {
@@ -251,7 +251,7 @@ void Client::Impl::apply(const Command& c, std::vector<StampResult>& results_out
   display->predict(*seq, s.stamp);
 }
 
-void Client::Impl::publish(const std::vector<render::DisplayDirty>& dirty, bool force) {
+void Client::Impl::publish(const std::vector<terrain::DisplayDirty>& dirty, bool force) {
   std::vector<TileCoord> held;
   for (const TileCoord& c : net.store().held()) {
     if (c.mip == 0) held.push_back(c);
@@ -259,7 +259,7 @@ void Client::Impl::publish(const std::vector<render::DisplayDirty>& dirty, bool 
   if (!force && dirty.empty() && held == last_held) return;
   std::vector<query::ChangedRect> changed;
   changed.reserve(dirty.size());
-  for (const render::DisplayDirty& d : dirty) changed.push_back({d.layer, d.rect});
+  for (const terrain::DisplayDirty& d : dirty) changed.push_back({d.layer, d.rect});
   slot.publish(
       builder->build(display->world(), held, changed, net.last_event_seq(), display->overlay_size()));
   last_held = std::move(held);
@@ -297,7 +297,7 @@ void Client::Impl::step() {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
 
-  const std::vector<render::DisplayDirty> dirty = display->sync(net);
+  const std::vector<terrain::DisplayDirty> dirty = display->sync(net);
   std::vector<DeformEvent> new_events;
   for (const client::StoreChange& ch : display->last_changes()) {
     if (ch.kind != client::StoreChange::Kind::kEvent) continue;
@@ -410,7 +410,7 @@ std::unique_ptr<Client> Client::connect(const Options& options, std::string* err
   impl->client_id = impl->net.welcome().client_id;
   impl->net.store().record_changes(true);
   auto display =
-      render::DisplayTerrain::create(impl->net.store(), {}, &impl->net.textures());  // stamps on the CPU
+      terrain::DisplayTerrain::create(impl->net.store(), {}, &impl->net.textures());  // stamps on the CPU
   if (!display) return fail(display.error().describe());
   impl->display = std::move(*display);
   impl->builder = std::make_unique<query::SnapshotBuilder>(impl->params);

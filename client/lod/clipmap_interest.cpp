@@ -4,7 +4,7 @@
 
 #include "client/lod/clipmap_mesh.h"
 
-namespace loam::render {
+namespace loam::lod {
 
 namespace {
 
@@ -79,4 +79,4 @@ ClipmapInterest::Delta ClipmapInterest::update(double cam_x, double cam_y) {
   return d;
 }
 
-}  // namespace loam::render
+}  // namespace loam::lod

@@ -13,7 +13,7 @@
 
 #include "protocol/geometry.h"
 
-namespace loam::render {
+namespace loam::lod {
 
 struct InterestConfig {
   int32_t n = 127;              // clipmap vertices per level side
@@ -48,4 +48,4 @@ class ClipmapInterest {
   std::set<TileCoord> subscribed_;
 };
 
-}  // namespace loam::render
+}  // namespace loam::lod

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numeric>
 
-namespace loam::render {
+namespace loam::lod {
 
 namespace {
 
@@ -180,4 +180,4 @@ std::vector<ReplicaTriangle> replicate(const ClipmapMesh& mesh, const std::vecto
   return out;
 }
 
-}  // namespace loam::render
+}  // namespace loam::lod

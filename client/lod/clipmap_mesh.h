@@ -32,7 +32,7 @@
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 
-namespace loam::render {
+namespace loam::lod {
 
 inline constexpr int32_t kMaxClipmapLevels = 24;
 
@@ -117,4 +117,4 @@ int32_t levels_for_view_distance(int32_t n, double meters_per_sample, double vie
 std::vector<ReplicaTriangle> replicate(const ClipmapMesh& mesh, const std::vector<LevelPlacement>& levels,
                                        bool with_degenerates = true);
 
-}  // namespace loam::render
+}  // namespace loam::lod

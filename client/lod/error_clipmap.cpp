@@ -359,14 +359,13 @@ void for_each_block_triangles(const ClipmapBlockGrid& grid, const ErrorClipmapSe
 
 }  // namespace
 
-std::vector<render::ReplicaTriangle> replicate(const ClipmapBlockGrid& grid,
-                                               const ErrorClipmapSelection& sel) {
-  std::vector<render::ReplicaTriangle> out;
+std::vector<lod::ReplicaTriangle> replicate(const ClipmapBlockGrid& grid, const ErrorClipmapSelection& sel) {
+  std::vector<lod::ReplicaTriangle> out;
   const int64_t n = grid.block_size, c = grid.cells();
   for_each_block_triangles(grid, sel, [&](const ClipmapBlock& b, const std::vector<Tri>& tris) {
     const int64_t s = int64_t(1) << b.id.level;
     for (const Tri& t : tris) {
-      render::ReplicaTriangle r;
+      lod::ReplicaTriangle r;
       for (size_t k = 0; k < 3; ++k) {
         r.x[k] = (int64_t(b.id.bx) * c + t[k] % n) * s;
         r.y[k] = (int64_t(b.id.by) * c + t[k] / n) * s;

@@ -138,10 +138,9 @@ ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const C
 float block_vertex_height(const ClipmapBlockGrid& grid, const HeightGrid& heights, const ClipmapBlock& block,
                           int32_t lx, int32_t ly);
 
-// CPU replica of the selection (mip-0 sample coordinates), for render::check_watertight over
+// CPU replica of the selection (mip-0 sample coordinates), for lod::check_watertight over
 // `covered`; and the drawn surface (height units) at every sample of `covered`, row-major.
-std::vector<render::ReplicaTriangle> replicate(const ClipmapBlockGrid& grid,
-                                               const ErrorClipmapSelection& sel);
+std::vector<lod::ReplicaTriangle> replicate(const ClipmapBlockGrid& grid, const ErrorClipmapSelection& sel);
 std::vector<float> displayed_surface(const ClipmapBlockGrid& grid, const HeightGrid& heights,
                                      const ErrorClipmapSelection& sel);
 int64_t triangle_count(const ClipmapBlockGrid& grid, const ErrorClipmapSelection& sel);

@@ -444,13 +444,13 @@ void for_each_patch_triangles(const GeomipmapGrid& grid, const std::vector<Patch
 
 }  // namespace
 
-std::vector<render::ReplicaTriangle> replicate(const GeomipmapGrid& grid, const std::vector<PatchLod>& lods) {
-  std::vector<render::ReplicaTriangle> out;
+std::vector<lod::ReplicaTriangle> replicate(const GeomipmapGrid& grid, const std::vector<PatchLod>& lods) {
+  std::vector<lod::ReplicaTriangle> out;
   const int32_t n = grid.patch_size, c = grid.cells();
   for_each_patch_triangles(grid, lods,
                            [&](int32_t px, int32_t py, const PatchLod&, const std::vector<Tri>& tris) {
                              for (const Tri& t : tris) {
-                               render::ReplicaTriangle r;
+                               lod::ReplicaTriangle r;
                                for (size_t k = 0; k < 3; ++k) {
                                  r.x[k] = int64_t(px) * c + t[k] % n;
                                  r.y[k] = int64_t(py) * c + t[k] / n;

@@ -185,8 +185,8 @@ void rasterize_heights(const std::array<int64_t, 3>& x, const std::array<int64_t
                        const std::array<double, 3>& z, const RectI& cov, std::vector<float>& out);
 
 // CPU replica: every triangle drawn for `lods`, in mip-0 sample coordinates (for
-// render::check_watertight over grid.covered()).
-std::vector<render::ReplicaTriangle> replicate(const GeomipmapGrid& grid, const std::vector<PatchLod>& lods);
+// lod::check_watertight over grid.covered()).
+std::vector<lod::ReplicaTriangle> replicate(const GeomipmapGrid& grid, const std::vector<PatchLod>& lods);
 
 // The drawn surface's height (height units) at every sample of grid.covered(), row-major:
 // each triangle's displayed vertex heights interpolated at the samples it covers.

@@ -6,7 +6,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
-namespace loam::render {
+namespace loam::lod {
 
 namespace {
 
@@ -103,4 +103,4 @@ WatertightReport check_watertight(const std::vector<ReplicaTriangle>& tris, cons
   return r;
 }
 
-}  // namespace loam::render
+}  // namespace loam::lod

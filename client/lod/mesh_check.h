@@ -10,7 +10,7 @@
 
 #include "protocol/geometry.h"
 
-namespace loam::render {
+namespace loam::lod {
 
 struct ReplicaTriangle {
   std::array<int64_t, 3> x{}, y{};
@@ -35,4 +35,4 @@ struct WatertightReport {
 // outermost boundary) with no crack, overlap or T-junction.
 WatertightReport check_watertight(const std::vector<ReplicaTriangle>& tris, const RectI& outer);
 
-}  // namespace loam::render
+}  // namespace loam::lod

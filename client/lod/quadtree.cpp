@@ -445,12 +445,12 @@ std::vector<float> quadtree_skirt_depths(const QuadtreeGrid& grid, const Quadtre
   return out;
 }
 
-std::vector<render::ReplicaTriangle> replicate(const QuadtreeGrid& grid, const QuadtreeState& state) {
-  std::vector<render::ReplicaTriangle> out;
+std::vector<lod::ReplicaTriangle> replicate(const QuadtreeGrid& grid, const QuadtreeState& state) {
+  std::vector<lod::ReplicaTriangle> out;
   for (int32_t by = 0; by < grid.blocks_y; ++by)
     for (int32_t bx = 0; bx < grid.blocks_x; ++bx)
       for_each_triangle(grid, state, bx, by, [&](const auto& a, const auto& b, const auto& c) {
-        render::ReplicaTriangle t;
+        lod::ReplicaTriangle t;
         t.x = {a[0], b[0], c[0]};
         t.y = {a[1], b[1], c[1]};
         out.push_back(t);

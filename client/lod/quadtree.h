@@ -142,9 +142,9 @@ void block_mesh(const QuadtreeGrid& grid, const HeightGrid& heights, const Quadt
 std::vector<float> block_side_profile(const QuadtreeGrid& grid, const HeightGrid& heights,
                                       const QuadtreeState& state, int32_t bx, int32_t by, int32_t side);
 
-// CPU replica over every block (mip-0 sample coordinates), for render::check_watertight over
+// CPU replica over every block (mip-0 sample coordinates), for lod::check_watertight over
 // grid.covered(); and the drawn surface's height at every covered sample, row-major.
-std::vector<render::ReplicaTriangle> replicate(const QuadtreeGrid& grid, const QuadtreeState& state);
+std::vector<lod::ReplicaTriangle> replicate(const QuadtreeGrid& grid, const QuadtreeState& state);
 std::vector<float> displayed_surface(const QuadtreeGrid& grid, const HeightGrid& heights,
                                      const QuadtreeState& state);
 int64_t triangle_count(const QuadtreeGrid& grid, const QuadtreeState& state);

@@ -55,9 +55,9 @@ std::array<float, 2> tile_phase(double x, double y, double scale, double turn) {
 
 }  // namespace
 
-Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSource& source,
+Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::HeightSource& source,
                                                                  const RendererConfig& config) {
-  auto mesh = ClipmapMesh::build(config.n);
+  auto mesh = lod::ClipmapMesh::build(config.n);
   if (!mesh) return mesh.error();
   if (config.detail_size < 0 || config.detail_size > 4096 ||
       (config.detail_size & (config.detail_size - 1)) != 0) {
@@ -74,10 +74,10 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
   const WorldParams& p = source.params();
   r->levels_ = config.levels > 0
                    ? config.levels
-                   : levels_for_view_distance(config.n, p.meters_per_sample, config.view_distance);
-  if (r->levels_ < 1 || r->levels_ > kMaxClipmapLevels) {
+                   : lod::levels_for_view_distance(config.n, p.meters_per_sample, config.view_distance);
+  if (r->levels_ < 1 || r->levels_ > lod::kMaxClipmapLevels) {
     return make_error(ErrorCode::kInvalidArgument, "clipmap.levels",
-                      "must be 1.." + std::to_string(kMaxClipmapLevels));
+                      "must be 1.." + std::to_string(lod::kMaxClipmapLevels));
   }
   // A level holds a region of n + 2 * kLevelPad samples in a torus of the next power of two:
   // the far-origin shift (a multiple of 2^L tiles) is then a multiple of the torus, so a
@@ -173,10 +173,10 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const HeightSou
     const int32_t size = kMaterialTextureSize;
     const int32_t mips = std::bit_width(uint32_t(size));
     r->materials_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
-    glTextureStorage3D(r->materials_.get(), mips, GL_RGBA8, size, size, kMaterialCount);
+    glTextureStorage3D(r->materials_.get(), mips, GL_RGBA8, size, size, scene::kMaterialCount);
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    for (int32_t m = 0; m < kMaterialCount; ++m) {
-      const std::vector<uint8_t> texels = material_texture(Material(m), size);
+    for (int32_t m = 0; m < scene::kMaterialCount; ++m) {
+      const std::vector<uint8_t> texels = scene::material_texture(scene::Material(m), size);
       glTextureSubImage3D(r->materials_.get(), 0, 0, 0, m, size, size, 1, GL_RGBA, GL_UNSIGNED_BYTE,
                           texels.data());
     }
@@ -236,7 +236,7 @@ void ClipmapRenderer::set_sun(float azimuth_degrees, float elevation_degrees) {
   config_.sun_elevation_degrees = std::clamp(elevation_degrees, -10.0f, 90.0f);
 }
 
-std::array<double, 2> ClipmapRenderer::lod_center_samples(const Camera& camera) const {
+std::array<double, 2> ClipmapRenderer::lod_center_samples(const scene::Camera& camera) const {
   const double mps = source_->params().meters_per_sample;
   const auto c = camera.lod_center.value_or(std::array<double, 2>{camera.x, camera.y});
   return {c[0] / mps, c[1] / mps};
@@ -280,9 +280,9 @@ void ClipmapRenderer::update_normals(int32_t l, const RectI& uploaded) {
                        p, p.meters_per_sample * double(int64_t(1) << l));
 }
 
-int64_t ClipmapRenderer::update_levels(const Camera& camera) {
+int64_t ClipmapRenderer::update_levels(const scene::Camera& camera) {
   const auto c = lod_center_samples(camera);
-  placed_ = place_levels(config_.n, levels_, c[0], c[1]);
+  placed_ = lod::place_levels(config_.n, levels_, c[0], c[1]);
   int64_t texels = 0;
   for (int32_t l = 0; l < levels_; ++l) {
     Level& level = level_[size_t(l)];
@@ -290,7 +290,7 @@ int64_t ClipmapRenderer::update_levels(const Camera& camera) {
     const int64_t ry = (placed_[size_t(l)].origin_y >> l) - kLevelPad;
     std::optional<std::array<int64_t, 2>> old;
     if (level.valid) old = std::array<int64_t, 2>{level.region_x, level.region_y};
-    const std::vector<RectI> strips = toroidal_strips(old, {rx, ry}, region_size_);
+    const std::vector<RectI> strips = lod::toroidal_strips(old, {rx, ry}, region_size_);
     level.valid = true;
     level.region_x = rx;
     level.region_y = ry;
@@ -332,7 +332,7 @@ int64_t ClipmapRenderer::upload_detail(const RectI& rect) {
   return texels;
 }
 
-int64_t ClipmapRenderer::update_detail(const Camera& camera) {
+int64_t ClipmapRenderer::update_detail(const scene::Camera& camera) {
   if (config_.detail_size == 0) return 0;
   const WorldParams& p = source_->params();
   const auto c = lod_center_samples(camera);
@@ -341,7 +341,7 @@ int64_t ClipmapRenderer::update_detail(const Camera& camera) {
   const int64_t ry = int64_t(std::floor(c[1] * p.detail_factor)) - n / 2;
   std::optional<std::array<int64_t, 2>> old;
   if (detail_.valid) old = std::array<int64_t, 2>{detail_.region_x, detail_.region_y};
-  const std::vector<RectI> strips = toroidal_strips(old, {rx, ry}, n);
+  const std::vector<RectI> strips = lod::toroidal_strips(old, {rx, ry}, n);
   detail_.valid = true;
   detail_.region_x = rx;
   detail_.region_y = ry;
@@ -378,7 +378,7 @@ void ClipmapRenderer::invalidate(const RectI& mip0_rect) {
     const RectI held = level_region(l);
     // Samples past the world's edge repeat the level's edge sample: an edit reaching it
     // changes them too (level_samples_reading).
-    const RectI r = level_samples_reading(source_->params(), l, mip0_rect).intersect(held);
+    const RectI r = terrain::level_samples_reading(source_->params(), l, mip0_rect).intersect(held);
     if (r.empty()) continue;
     upload(level, l, r);
     update_normals(l, r);
@@ -402,13 +402,13 @@ size_t ClipmapRenderer::gpu_bytes() const {
   if (config_.materials) {
     bytes += size_t(levels_) * level_texels * 2;  // R16F change
     // RGBA8 layers with their mip chains (a third more).
-    bytes += size_t(kMaterialCount) * kMaterialTextureSize * kMaterialTextureSize * 4 * 4 / 3;
+    bytes += size_t(scene::kMaterialCount) * kMaterialTextureSize * kMaterialTextureSize * 4 * 4 / 3;
   }
   if (config_.shadows) bytes += size_t(config_.shadow_size) * size_t(config_.shadow_size) * 4;
   return bytes;
 }
 
-FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t height) {
+FrameStats ClipmapRenderer::render(const scene::Camera& camera, int32_t width, int32_t height) {
   FrameStats stats;
   stats.texels_uploaded = update_levels(camera);
   // Normal maps and detail gradients written by compute must be visible to the draw.
@@ -421,8 +421,8 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
   const int64_t ax = placed_.back().origin_x, ay = placed_.back().origin_y;
   const glm::vec2 cam_offset(float(camera.x - double(ax) * mps), float(camera.y - double(ay) * mps));
 
-  const glm::mat4 vp = view_projection(camera, width, height);
-  const Frustum frustum = frustum_of(vp);
+  const glm::mat4 vp = scene::view_projection(camera, width, height);
+  const scene::Frustum frustum = scene::frustum_of(vp);
 
   const int32_t n = config_.n, m = (n + 1) / 4;
   const RectI world = p.sample_rect();
@@ -449,7 +449,7 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
   f.meters_per_sample = float(mps);
   f.meters_per_unit = float(p.meters_per_unit);
   f.height_base = float(p.height_offset - camera.z);
-  f.band = config_.morph ? float(morph_band(n)) : 0.0f;
+  f.band = config_.morph ? float(lod::morph_band(n)) : 0.0f;
   f.skirt_z = float(p.height_offset + skirt_m - camera.z);
   if (detail) {
     const int64_t k = p.detail_factor;
@@ -465,7 +465,7 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
   }
   const int64_t tn = tex_size_;
   for (int32_t l = 0; l < levels_; ++l) {
-    const LevelPlacement& lp = placed_[size_t(l)];
+    const lod::LevelPlacement& lp = placed_[size_t(l)];
     const int64_t s = lp.spacing();
     ClipmapLevelBlock b{};
     b.tex_base[0] = GLint(floor_mod(lp.origin_x >> l, tn)),
@@ -476,7 +476,7 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
                             float((c[1] - double(lp.origin_y)) / double(s))));
     b.has_coarse = l + 1 < levels_ ? 1 : 0;
     if (b.has_coarse) {
-      const LevelPlacement& cp = placed_[size_t(l + 1)];
+      const lod::LevelPlacement& cp = placed_[size_t(l + 1)];
       b.rel_origin_coarse[0] = GLint(cp.origin_x - ax), b.rel_origin_coarse[1] = GLint(cp.origin_y - ay);
       b.tex_base_coarse[0] = GLint(floor_mod(cp.origin_x >> (l + 1), tn));
       b.tex_base_coarse[1] = GLint(floor_mod(cp.origin_y >> (l + 1), tn));
@@ -504,9 +504,9 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
     const double radius =
         config_.shadow_distance_m > 0 ? config_.shadow_distance_m : std::min(config_.view_distance, 3000.0);
     const glm::vec3 sun(f.sun_dir[0], f.sun_dir[1], f.sun_dir[2]);
-    const SunShadowFrame sf =
-        sun_shadow_frame(camera, glm::dvec3(sun), radius, p.height_offset + config_.min_height_m,
-                         p.height_offset + config_.max_height_m, config_.shadow_size);
+    const scene::SunShadowFrame sf =
+        scene::sun_shadow_frame(camera, glm::dvec3(sun), radius, p.height_offset + config_.min_height_m,
+                                p.height_offset + config_.max_height_m, config_.shadow_size);
     ClipmapFrameBlock light = f;
     std::copy_n(&sf.light_view_proj[0][0], 16, light.view_proj);
     frame_block_->write(1, light);
@@ -523,7 +523,7 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
       glEnable(GL_POLYGON_OFFSET_FILL);
       glPolygonOffset(-1.5f, -2.0f);
       FrameStats shadow_stats;
-      draw_levels(camera, frustum_of(sf.light_view_proj), cam_offset, shadow_stats);
+      draw_levels(camera, scene::frustum_of(sf.light_view_proj), cam_offset, shadow_stats);
       glDisable(GL_POLYGON_OFFSET_FILL);
       stats.shadow_triangles = shadow_stats.triangles;
       stats.draw_calls += shadow_stats.draw_calls;
@@ -547,8 +547,8 @@ FrameStats ClipmapRenderer::render(const Camera& camera, int32_t width, int32_t 
   return stats;
 }
 
-void ClipmapRenderer::draw_levels(const Camera& camera, const Frustum& frustum, const glm::vec2& cam_offset,
-                                  FrameStats& stats) {
+void ClipmapRenderer::draw_levels(const scene::Camera& camera, const scene::Frustum& frustum,
+                                  const glm::vec2& cam_offset, FrameStats& stats) {
   const WorldParams& p = source_->params();
   const double mps = p.meters_per_sample;
   const int64_t ax = placed_.back().origin_x, ay = placed_.back().origin_y;
@@ -556,7 +556,7 @@ void ClipmapRenderer::draw_levels(const Camera& camera, const Frustum& frustum, 
   const float z_margin =
       float(kSkirtDepthM + (config_.detail_displacement ? 128.0 * p.detail_meters_per_unit : 0.0));
   for (int32_t l = 0; l < levels_; ++l) {
-    const LevelPlacement& lp = placed_[size_t(l)];
+    const lod::LevelPlacement& lp = placed_[size_t(l)];
     const Level& level = level_[size_t(l)];
     const int64_t s = lp.spacing();
     const int64_t ox = lp.origin_x >> l, oy = lp.origin_y >> l;
@@ -565,12 +565,12 @@ void ClipmapRenderer::draw_levels(const Camera& camera, const Frustum& frustum, 
     glBindTextureUnit(1, level.normals.get());
     if (l + 1 < levels_) glBindTextureUnit(2, level_[size_t(l + 1)].normals.get());
     if (level.change) glBindTextureUnit(kChangeUnit, level.change.get());
-    std::vector<const Piece*> pieces;
-    for (const Piece& piece : mesh_->ring()) pieces.push_back(&piece);
+    std::vector<const lod::Piece*> pieces;
+    for (const lod::Piece& piece : mesh_->ring()) pieces.push_back(&piece);
     pieces.push_back(lp.trim_variant < 0 ? &mesh_->fill() : &mesh_->trim(lp.trim_variant));
     if (l + 1 < levels_) pieces.push_back(&mesh_->degenerate());
-    for (const Piece* piece : pieces) {
-      if (config_.cull && piece->kind != PieceKind::kDegenerate) {
+    for (const lod::Piece* piece : pieces) {
+      if (config_.cull && piece->kind != lod::PieceKind::kDegenerate) {
         // Height bounds over the piece and the neighbours its morph target reads.
         uint16_t lo = 65535, hi = 0;
         for (int32_t y = piece->y0 - 1; y <= piece->y1 + 1; ++y) {
@@ -587,7 +587,7 @@ void ClipmapRenderer::draw_levels(const Camera& camera, const Frustum& frustum, 
         // Skirts and detail displacement reach below (and above) the level's samples.
         const float z0 = float(p.height_offset - camera.z + double(lo) * p.meters_per_unit) - z_margin;
         const float z1 = float(p.height_offset - camera.z + double(hi) * p.meters_per_unit) + z_margin;
-        if (box_outside(frustum, {x0, y0, z0}, {x1, y1, z1})) {
+        if (scene::box_outside(frustum, {x0, y0, z0}, {x1, y1, z1})) {
           ++stats.pieces_culled;
           continue;
         }
@@ -595,7 +595,7 @@ void ClipmapRenderer::draw_levels(const Camera& camera, const Frustum& frustum, 
       glDrawElements(GL_TRIANGLES, GLsizei(piece->index_count), GL_UNSIGNED_INT,
                      reinterpret_cast<const void*>(uintptr_t(piece->first_index) * sizeof(uint32_t)));
       ++stats.draw_calls;
-      if (piece->kind != PieceKind::kDegenerate) stats.triangles += piece->index_count / 3;
+      if (piece->kind != lod::PieceKind::kDegenerate) stats.triangles += piece->index_count / 3;
     }
   }
 }

@@ -80,14 +80,14 @@ class ClipmapRenderer {
   static constexpr int32_t kLevelPad = 5;
 
   // `source` must outlive the renderer.
-  static Result<std::unique_ptr<ClipmapRenderer>> create(const HeightSource& source,
+  static Result<std::unique_ptr<ClipmapRenderer>> create(const terrain::HeightSource& source,
                                                          const RendererConfig& config);
 
   // Brings the level textures to the camera (toroidal strips only) and draws into the bound
   // framebuffer's viewport of width x height. Depth test on; clears nothing.
-  FrameStats render(const Camera& camera, int32_t width, int32_t height);
+  FrameStats render(const scene::Camera& camera, int32_t width, int32_t height);
   // The level-texture half of render(), for tests of the upload traffic.
-  int64_t update_levels(const Camera& camera);
+  int64_t update_levels(const scene::Camera& camera);
   // Moves the sun (degrees: azimuth clockwise from north, elevation above the horizon); the
   // next frame's light and shadows follow.
   void set_sun(float azimuth_degrees, float elevation_degrees);
@@ -109,7 +109,7 @@ class ClipmapRenderer {
   size_t gpu_bytes() const;
   const RendererConfig& config() const { return config_; }
   void set_morph(bool on) { config_.morph = on; }
-  const std::vector<LevelPlacement>& placements() const { return placed_; }
+  const std::vector<lod::LevelPlacement>& placements() const { return placed_; }
 
  private:
   struct Level {
@@ -130,21 +130,21 @@ class ClipmapRenderer {
   ClipmapRenderer() = default;
   int64_t upload(Level& level, int32_t mip, const RectI& rect);  // rect in the level grid
   void update_normals(int32_t l, const RectI& uploaded);
-  int64_t update_detail(const Camera& camera);
+  int64_t update_detail(const scene::Camera& camera);
   int64_t upload_detail(const RectI& rect);  // detail grid
-  std::array<double, 2> lod_center_samples(const Camera& camera) const;
+  std::array<double, 2> lod_center_samples(const scene::Camera& camera) const;
   // Draws every level's pieces inside `frustum` with the bound program and frame block.
-  void draw_levels(const Camera& camera, const Frustum& frustum, const glm::vec2& cam_offset,
+  void draw_levels(const scene::Camera& camera, const scene::Frustum& frustum, const glm::vec2& cam_offset,
                    FrameStats& stats);
 
-  const HeightSource* source_ = nullptr;
+  const terrain::HeightSource* source_ = nullptr;
   RendererConfig config_;
   int32_t levels_ = 0;
   int32_t region_size_ = 0;  // samples a level holds per side: n + 2 * kLevelPad
   int32_t tex_size_ = 0;     // its texture (the torus): the next power of two
-  std::optional<ClipmapMesh> mesh_;
+  std::optional<lod::ClipmapMesh> mesh_;
   std::vector<Level> level_;
-  std::vector<LevelPlacement> placed_;
+  std::vector<lod::LevelPlacement> placed_;
   gpu::GlBuffer indices_;
   gpu::GlVertexArray vao_;
   gpu::GlProgram program_, gradient_program_, shadow_program_;

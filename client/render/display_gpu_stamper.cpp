@@ -4,7 +4,7 @@ namespace loam::render {
 
 namespace {
 
-class GpuDisplayStamper final : public DisplayStamper {
+class GpuDisplayStamper final : public terrain::DisplayStamper {
  public:
   explicit GpuDisplayStamper(std::unique_ptr<gpu::GpuStamper> s) : s_(std::move(s)) {}
   Result<uint64_t> submit(const QuantizedStamp& q) override { return s_->submit(q); }
@@ -21,12 +21,12 @@ class GpuDisplayStamper final : public DisplayStamper {
 
 }  // namespace
 
-DisplayStamperFactory gpu_display_stamper(gpu::GpuStamperOptions options) {
+terrain::DisplayStamperFactory gpu_display_stamper(gpu::GpuStamperOptions options) {
   return [options](const World& mirror,
-                   const TextureRegistry* textures) -> Result<std::unique_ptr<DisplayStamper>> {
+                   const TextureRegistry* textures) -> Result<std::unique_ptr<terrain::DisplayStamper>> {
     auto s = gpu::GpuStamper::create(mirror, textures, {}, options);
     if (!s) return s.error();
-    return std::unique_ptr<DisplayStamper>(new GpuDisplayStamper(std::move(*s)));
+    return std::unique_ptr<terrain::DisplayStamper>(new GpuDisplayStamper(std::move(*s)));
   };
 }
 

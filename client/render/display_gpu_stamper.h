@@ -7,6 +7,6 @@
 
 namespace loam::render {
 
-DisplayStamperFactory gpu_display_stamper(gpu::GpuStamperOptions options = {});
+terrain::DisplayStamperFactory gpu_display_stamper(gpu::GpuStamperOptions options = {});
 
 }  // namespace loam::render

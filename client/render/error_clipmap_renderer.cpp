@@ -12,8 +12,8 @@
 
 namespace loam::render {
 
-Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(const HeightSource& source,
-                                                                           const ErrorClipmapConfig& config) {
+Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
+    const terrain::HeightSource& source, const ErrorClipmapConfig& config) {
   const WorldParams& p = source.params();
   std::unique_ptr<ErrorClipmapRenderer> r(new ErrorClipmapRenderer());
   r->source_ = &source;
@@ -34,8 +34,8 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(const
     // cost a region each, and hold little of the world.
     const int64_t extent = std::max(r->world_.width(), r->world_.height());
     levels = 1;
-    while (levels < kMaxClipmapLevels && ((int64_t(cells) << (levels - 1)) < extent ||
-                                          (int64_t(config.region) << (levels - 1)) < 4 * extent))
+    while (levels < lod::kMaxClipmapLevels && ((int64_t(cells) << (levels - 1)) < extent ||
+                                               (int64_t(config.region) << (levels - 1)) < 4 * extent))
       ++levels;
   }
   auto grid = lod::ClipmapBlockGrid::make(r->world_.width(), r->world_.height(), config.block_size, levels);
@@ -153,7 +153,7 @@ int64_t ErrorClipmapRenderer::upload(int32_t l, const RectI& rect) {
   return texels;
 }
 
-lod::LodView ErrorClipmapRenderer::lod_view(const Camera& camera, int32_t viewport_height) const {
+lod::LodView ErrorClipmapRenderer::lod_view(const scene::Camera& camera, int32_t viewport_height) const {
   const double mps = scale_.meters_per_sample;
   lod::LodView view;
   view.x = camera.x - double(world_.x0) * mps;
@@ -164,7 +164,8 @@ lod::LodView ErrorClipmapRenderer::lod_view(const Camera& camera, int32_t viewpo
   return view;
 }
 
-ErrorClipmapFrameStats ErrorClipmapRenderer::render(const Camera& camera, int32_t width, int32_t height) {
+ErrorClipmapFrameStats ErrorClipmapRenderer::render(const scene::Camera& camera, int32_t width,
+                                                    int32_t height) {
   ErrorClipmapFrameStats s = select(camera, height, width);
   const ErrorClipmapFrameStats d = draw(camera, width, height);
   s.triangles = d.triangles, s.draw_calls = d.draw_calls, s.blocks = d.blocks,
@@ -173,7 +174,7 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::render(const Camera& camera, int32_
   return s;
 }
 
-ErrorClipmapFrameStats ErrorClipmapRenderer::select(const Camera& lod_camera, int32_t viewport_height,
+ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_camera, int32_t viewport_height,
                                                     int32_t viewport_width) {
   ErrorClipmapFrameStats stats;
   const auto t0 = std::chrono::steady_clock::now();
@@ -192,14 +193,16 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const Camera& lod_camera, in
     Level& level = level_[size_t(l)];
     std::optional<std::array<int64_t, 2>> old;
     if (level.valid) old = std::array<int64_t, 2>{level.region_x, level.region_y};
-    for (const RectI& strip : toroidal_strips(old, {rx, ry}, n)) stats.texels_uploaded += upload(l, strip);
+    for (const RectI& strip : lod::toroidal_strips(old, {rx, ry}, n))
+      stats.texels_uploaded += upload(l, strip);
     level.valid = true;
     level.region_x = rx, level.region_y = ry;
     regions_[size_t(l)] = {rx, ry, rx + n, ry + n};
   }
   // Blocks outside the view are drawn by nobody: they are not split (the draw culls them).
   const int32_t width = viewport_width > 0 ? viewport_width : 2 * viewport_height;
-  const Frustum frustum = frustum_of(view_projection(lod_camera, width, viewport_height));
+  const scene::Frustum frustum =
+      scene::frustum_of(scene::view_projection(lod_camera, width, viewport_height));
   const int64_t c = grid_.cells();
   auto visible = [&](int32_t l, int64_t bx, int64_t by) {
     const double e = double(c << l) * mps;
@@ -209,7 +212,7 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const Camera& lod_camera, in
                        float(scale_.meters(errors_.min_height(l, bx, by)) - lod_camera.z));
     const glm::vec3 hi(float(rel_x + e), float(rel_y),
                        float(scale_.meters(errors_.max_height(l, bx, by)) - lod_camera.z));
-    return !box_outside(frustum, lo, hi);
+    return !scene::box_outside(frustum, lo, hi);
   };
   selection_ = lod::select_error_clipmap(grid_, errors_, scale_, view, regions_, config_.morph,
                                          config_.cull ? lod::BlockFilter(visible) : lod::BlockFilter());
@@ -218,12 +221,13 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const Camera& lod_camera, in
   return stats;
 }
 
-ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const Camera& camera, int32_t width, int32_t height) {
+ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const scene::Camera& camera, int32_t width,
+                                                  int32_t height) {
   ErrorClipmapFrameStats stats;
   const auto t0 = std::chrono::steady_clock::now();
   const double mps = scale_.meters_per_sample;
-  const glm::mat4 vp = view_projection(camera, width, height);
-  const Frustum frustum = frustum_of(vp);
+  const glm::mat4 vp = scene::view_projection(camera, width, height);
+  const scene::Frustum frustum = scene::frustum_of(vp);
   const int64_t c = grid_.cells();
   // Instances grouped by side pattern (a bit per side toward a coarser neighbour): one
   // instanced draw per pattern.
@@ -243,7 +247,7 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const Camera& camera, int32_t 
                          float(scale_.meters(errors_.min_height(l, b.id.bx, b.id.by)) - camera.z));
       const glm::vec3 hi(float(rel_x + e), float(rel_y),
                          float(scale_.meters(errors_.max_height(l, b.id.bx, b.id.by)) - camera.z));
-      if (box_outside(frustum, lo, hi)) {
+      if (scene::box_outside(frustum, lo, hi)) {
         ++stats.blocks_culled;
         continue;
       }

@@ -62,19 +62,19 @@ class ErrorClipmapRenderer {
  public:
   // `source` must outlive the renderer. Errors: a block size or region the scheme does not
   // take, a shader that does not build or whose block does not match.
-  static Result<std::unique_ptr<ErrorClipmapRenderer>> create(const HeightSource& source,
+  static Result<std::unique_ptr<ErrorClipmapRenderer>> create(const terrain::HeightSource& source,
                                                               const ErrorClipmapConfig& config);
 
   // select() then draw().
-  ErrorClipmapFrameStats render(const Camera& camera, int32_t width, int32_t height);
+  ErrorClipmapFrameStats render(const scene::Camera& camera, int32_t width, int32_t height);
   // Moves the level regions to `lod_camera` (uploading what entered them) and chooses the
   // blocks for a viewport `viewport_height` pixels high; with culling, blocks outside its
   // frustum (`viewport_width` wide, 0: twice the height) are not split.
-  ErrorClipmapFrameStats select(const Camera& lod_camera, int32_t viewport_height,
+  ErrorClipmapFrameStats select(const scene::Camera& lod_camera, int32_t viewport_height,
                                 int32_t viewport_width = 0);
   // Draws the blocks last selected into the bound framebuffer's viewport (depth test on;
   // clears nothing).
-  ErrorClipmapFrameStats draw(const Camera& camera, int32_t width, int32_t height);
+  ErrorClipmapFrameStats draw(const scene::Camera& camera, int32_t width, int32_t height);
   // Samples of `mip0_rect` (the world's global grid) changed in the source.
   ErrorClipmapUpdate invalidate(const RectI& mip0_rect);
 
@@ -100,11 +100,11 @@ class ErrorClipmapRenderer {
   };
   ErrorClipmapRenderer() = default;
   int64_t upload(int32_t l, const RectI& rect);
-  lod::LodView lod_view(const Camera& camera, int32_t viewport_height) const;
+  lod::LodView lod_view(const scene::Camera& camera, int32_t viewport_height) const;
   // Level samples level l's blocks reach, per axis: [0, extent).
   std::array<int64_t, 2> level_extent(int32_t l) const;
 
-  const HeightSource* source_ = nullptr;
+  const terrain::HeightSource* source_ = nullptr;
   ErrorClipmapConfig config_;
   RectI world_;  // the source's mip-0 samples (global grid)
   lod::HeightScale scale_;

@@ -20,7 +20,7 @@ Result<gpu::GlProgram> build_patch_program(std::span<const std::string_view> ver
   return std::move(*program);
 }
 
-WorldHeights WorldHeights::read(const HeightSource& source) {
+WorldHeights WorldHeights::read(const terrain::HeightSource& source) {
   const WorldParams& p = source.params();
   WorldHeights w;
   w.rect = p.sample_rect();
@@ -32,7 +32,7 @@ WorldHeights WorldHeights::read(const HeightSource& source) {
   return w;
 }
 
-std::vector<uint16_t> WorldHeights::refresh(const HeightSource& source, const RectI& r) {
+std::vector<uint16_t> WorldHeights::refresh(const terrain::HeightSource& source, const RectI& r) {
   std::vector<uint16_t> fresh(size_t(r.area()));
   source.read(0, r, fresh);
   for (int64_t y = r.y0; y < r.y1; ++y) {
@@ -93,7 +93,7 @@ void PatchInstanceBuffer::upload(const std::vector<PatchInstance>& instances) {
 
 GeomipmapFrameBlock patch_frame(const glm::mat4& view_proj, std::array<int32_t, 4> grid,
                                 double meters_per_sample, double meters_per_unit, double height_offset,
-                                const Camera& camera, double min_height_m, double max_height_m) {
+                                const scene::Camera& camera, double min_height_m, double max_height_m) {
   GeomipmapFrameBlock f{};
   std::copy_n(glm::value_ptr(view_proj), 16, f.view_proj);
   std::copy(grid.begin(), grid.end(), f.grid);

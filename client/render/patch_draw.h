@@ -21,9 +21,11 @@
 #include "gpu/uniform_block.h"
 #include "protocol/result.h"
 
-namespace loam::render {
-
+namespace loam::terrain {
 class HeightSource;
+}  // namespace loam::terrain
+
+namespace loam::render {
 
 // The frame block of every patch renderer's vertex stage (shaders/geomipmap_blocks.glsl).
 struct GeomipmapFrameBlock {
@@ -59,10 +61,10 @@ struct WorldHeights {
   RectI rect;  // the source's mip-0 samples (global grid)
   std::vector<uint16_t> samples;
   double min_height_m = 0, max_height_m = 0;
-  static WorldHeights read(const HeightSource& source);
+  static WorldHeights read(const terrain::HeightSource& source);
   lod::HeightGrid grid() const { return {samples, rect.width(), rect.height()}; }
   // Re-reads `r` (inside rect) from the source; returns the fresh samples, row-major.
-  std::vector<uint16_t> refresh(const HeightSource& source, const RectI& r);
+  std::vector<uint16_t> refresh(const terrain::HeightSource& source, const RectI& r);
 };
 
 // The instanced attributes of shaders/geomipmap.vert.glsl and error_clipmap.vert.glsl.
@@ -115,6 +117,6 @@ class PatchInstanceBuffer {
 // camera's height, the sun and the material range.
 GeomipmapFrameBlock patch_frame(const glm::mat4& view_proj, std::array<int32_t, 4> grid,
                                 double meters_per_sample, double meters_per_unit, double height_offset,
-                                const Camera& camera, double min_height_m, double max_height_m);
+                                const scene::Camera& camera, double min_height_m, double max_height_m);
 
 }  // namespace loam::render

@@ -28,7 +28,7 @@ class ReversedDepthTest {
 // What a depth buffer is cleared to before a reversed-depth frame: the far plane.
 inline void clear_depth_reversed() {
   glDepthMask(GL_TRUE);
-  glClearDepth(double(kBackgroundDepth));
+  glClearDepth(double(scene::kBackgroundDepth));
 }
 
 }  // namespace loam::render

@@ -12,7 +12,7 @@ namespace loam::render {
 
 Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string& host, uint16_t port,
                                                               const ViewerOptions& options,
-                                                              std::optional<Camera> initial) {
+                                                              std::optional<scene::Camera> initial) {
   std::unique_ptr<ViewerSession> v(new ViewerSession());
   v->client_.set_base_provider(generate_known_base);
   v->client_.set_tls(options.tls);
@@ -45,9 +45,9 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
         ErrorCode::kIo, "viewer.connect",
         "the coarsest mip did not arrive within " + std::to_string(options.connect_timeout.count()) + " ms");
   }
-  auto display = DisplayTerrain::create(
+  auto display = terrain::DisplayTerrain::create(
       v->client_.store(),
-      options.stamping == DisplayStamping::kGpu ? gpu_display_stamper() : DisplayStamperFactory{},
+      options.stamping == DisplayStamping::kGpu ? gpu_display_stamper() : terrain::DisplayStamperFactory{},
       &v->client_.textures());
   if (!display) return display.error();
   v->display_ = std::move(*display);
@@ -56,24 +56,27 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   v->snapshots_ = std::make_unique<query::SnapshotBuilder>(world);
   v->refresh_terrain({});
   RendererConfig rc = options.renderer;
-  if (!(rc.view_distance > 0)) rc.view_distance = view_scale(world).view_distance_m;  // auto: the world's
+  if (!(rc.view_distance > 0))
+    rc.view_distance = scene::view_scale(world).view_distance_m;  // auto: the world's
   auto renderer = ClipmapRenderer::create(*v->display_, rc);
   if (!renderer) return renderer.error();
   v->renderer_ = std::move(*renderer);
-  InterestConfig ic = options.interest;
+  lod::InterestConfig ic = options.interest;
   ic.n = v->renderer_->config().n;
   ic.levels = v->renderer_->levels();
   ic.pad = ClipmapRenderer::kLevelPad;
-  v->interest_ = std::make_unique<ClipmapInterest>(world, ic);
-  const HeightSource& ground = *v->display_;
-  LOAM_TRY(v->follow(initial.value_or(
-      orbit_view(view_scale(world), 0.0, [&](double x, double y) { return ground_height(ground, x, y); }))));
+  v->interest_ = std::make_unique<lod::ClipmapInterest>(world, ic);
+  const terrain::HeightSource& ground = *v->display_;
+  LOAM_TRY(
+      v->follow(initial.value_or(scene::orbit_view(scene::view_scale(world), 0.0, [&](double x, double y) {
+        return terrain::ground_height(ground, x, y);
+      }))));
   return v;
 }
 
-Status ViewerSession::follow(const Camera& camera) {
+Status ViewerSession::follow(const scene::Camera& camera) {
   const auto c = camera.lod_center.value_or(std::array<double, 2>{camera.x, camera.y});
-  const ClipmapInterest::Delta d = interest_->update(c[0], c[1]);
+  const lod::ClipmapInterest::Delta d = interest_->update(c[0], c[1]);
   if (!d.unsubscribe.empty()) LOAM_TRY(client_.unsubscribe(d.unsubscribe));
   // The focus travels with new subscriptions, and on its own once the camera has moved a
   // quarter of a mip-0 tile since it was last sent.
@@ -86,7 +89,7 @@ Status ViewerSession::follow(const Camera& camera) {
   return {};
 }
 
-Status ViewerSession::update(const Camera& camera, std::chrono::milliseconds wait) {
+Status ViewerSession::update(const scene::Camera& camera, std::chrono::milliseconds wait) {
   const Status pumped = client_.pump(wait);
   // Once a second, the HUD's session numbers: a Ping, a StatsRequest, the byte rate.
   if (const auto now = std::chrono::steady_clock::now(); pumped.ok() && now >= next_ping_) {
@@ -101,8 +104,8 @@ Status ViewerSession::update(const Camera& camera, std::chrono::milliseconds wai
     (void)client_.request_stats();
   }
   LOAM_TRY(follow(camera));
-  const std::vector<DisplayDirty> dirty = display_->sync(client_);
-  for (const DisplayDirty& d : dirty) {
+  const std::vector<terrain::DisplayDirty> dirty = display_->sync(client_);
+  for (const terrain::DisplayDirty& d : dirty) {
     if (d.layer == Layer::kCoarse) {
       renderer_->invalidate(d.rect);
     } else {
@@ -113,14 +116,14 @@ Status ViewerSession::update(const Camera& camera, std::chrono::milliseconds wai
   return pumped;
 }
 
-void ViewerSession::refresh_terrain(const std::vector<DisplayDirty>& dirty) {
+void ViewerSession::refresh_terrain(const std::vector<terrain::DisplayDirty>& dirty) {
   std::vector<TileCoord> held;
   for (const TileCoord& c : client_.store().held()) {
     if (c.mip == 0) held.push_back(c);
   }
   if (terrain_ && dirty.empty() && held == terrain_held_) return;
   std::vector<query::ChangedRect> changed;
-  for (const DisplayDirty& d : dirty) changed.push_back({d.layer, d.rect});
+  for (const terrain::DisplayDirty& d : dirty) changed.push_back({d.layer, d.rect});
   terrain_ =
       snapshots_->build(display_->world(), held, changed, client_.last_event_seq(), display_->overlay_size());
   terrain_held_ = std::move(held);
@@ -133,7 +136,7 @@ Status ViewerSession::reconnect(const std::string& host, uint16_t port) {
   return {};
 }
 
-FrameStats ViewerSession::render(const Camera& camera, int32_t width, int32_t height) {
+FrameStats ViewerSession::render(const scene::Camera& camera, int32_t width, int32_t height) {
   return renderer_->render(camera, width, height);
 }
 
@@ -144,7 +147,7 @@ Result<uint32_t> ViewerSession::deform(const QuantizedStamp& stamp) {
   return seq;
 }
 
-bool ViewerSession::wait_settled(const Camera& camera, std::chrono::milliseconds timeout) {
+bool ViewerSession::wait_settled(const scene::Camera& camera, std::chrono::milliseconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   for (;;) {
     if (!update(camera, std::chrono::milliseconds(20)).ok()) return false;
@@ -200,7 +203,7 @@ ViewerStats ViewerSession::stats() const {
   s.hash_mismatches = k.hash_mismatches;
   s.overlay = display_->overlay_size();
   s.display = display_->counters();
-  const DisplayMemory m = display_->memory();
+  const terrain::DisplayMemory m = display_->memory();
   s.gpu_page_bytes = m.gpu.total();
   s.gpu_pages_resident = 0;
   for (const int32_t n : m.gpu.resident_pages) s.gpu_pages_resident += n;

@@ -24,7 +24,7 @@ enum class DisplayStamping { kGpu, kCpu };
 
 struct ViewerOptions {
   RendererConfig renderer;
-  InterestConfig interest;  // n and levels are taken from the renderer
+  lod::InterestConfig interest;  // n and levels are taken from the renderer
   DisplayStamping stamping = DisplayStamping::kGpu;
   wire::Role role = wire::Role::kPlayer;
   std::string name = "viewer";
@@ -37,7 +37,7 @@ struct ViewerStats {
   uint64_t tiles_subscribed = 0, tiles_held = 0;
   uint64_t regions = 0, events_applied = 0, hash_checks = 0, hash_mismatches = 0;
   size_t overlay = 0;  // own stamps shown, not settled yet
-  DisplayCounters display;
+  terrain::DisplayCounters display;
   // Terrain memory: GPU (the renderer's level textures plus the display's tile pages) and CPU
   // (the confirmed store's and the display's held tiles).
   size_t gpu_terrain_bytes = 0, gpu_page_bytes = 0;
@@ -65,13 +65,13 @@ class ViewerSession {
   // centre, over the coarsest tiles' ground).
   static Result<std::unique_ptr<ViewerSession>> connect(const std::string& host, uint16_t port,
                                                         const ViewerOptions& options,
-                                                        std::optional<Camera> camera = std::nullopt);
+                                                        std::optional<scene::Camera> camera = std::nullopt);
 
   // One frame's network and display work: handles what arrived (waiting up to `wait` for
   // the first message), follows the camera's tiles, brings the display up to the store and
   // refreshes the clipmap levels it changed. An error means the connection is gone.
-  Status update(const Camera& camera, std::chrono::milliseconds wait = std::chrono::milliseconds(0));
-  FrameStats render(const Camera& camera, int32_t width, int32_t height);
+  Status update(const scene::Camera& camera, std::chrono::milliseconds wait = std::chrono::milliseconds(0));
+  FrameStats render(const scene::Camera& camera, int32_t width, int32_t height);
   // After a lost connection: joins again (the same world), subscribes what is held at the
   // versions held, so only what changed meanwhile travels; the display keeps showing the last
   // confirmed state, and own stamps never acknowledged are dropped from the overlay.
@@ -81,12 +81,12 @@ class ViewerSession {
   Result<uint32_t> deform(const QuantizedStamp& stamp);
 
   // Pumps until every tile the camera needs is held and no own stamp awaits the server.
-  bool wait_settled(const Camera& camera, std::chrono::milliseconds timeout);
+  bool wait_settled(const scene::Camera& camera, std::chrono::milliseconds timeout);
 
   client::TerrainClient& client() { return client_; }
-  DisplayTerrain& display() { return *display_; }
+  terrain::DisplayTerrain& display() { return *display_; }
   ClipmapRenderer& renderer() { return *renderer_; }
-  const ClipmapInterest& interest() const { return *interest_; }
+  const lod::ClipmapInterest& interest() const { return *interest_; }
   // The display as the game library's queries see it (heights, rays, sweeps: the walk mode),
   // brought up to date by update().
   const query::TerrainSnapshot& terrain() const { return *terrain_; }
@@ -96,13 +96,13 @@ class ViewerSession {
 
  private:
   ViewerSession() = default;
-  Status follow(const Camera& camera);
-  void refresh_terrain(const std::vector<DisplayDirty>& dirty);
+  Status follow(const scene::Camera& camera);
+  void refresh_terrain(const std::vector<terrain::DisplayDirty>& dirty);
 
   client::TerrainClient client_;
-  std::unique_ptr<DisplayTerrain> display_;
+  std::unique_ptr<terrain::DisplayTerrain> display_;
   std::unique_ptr<ClipmapRenderer> renderer_;
-  std::unique_ptr<ClipmapInterest> interest_;
+  std::unique_ptr<lod::ClipmapInterest> interest_;
   std::unique_ptr<query::SnapshotBuilder> snapshots_;
   std::shared_ptr<const query::TerrainSnapshot> terrain_;
   std::vector<TileCoord> terrain_held_;  // the mip-0 tiles terrain_ holds

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 
-namespace loam::render {
+namespace loam::scene {
 
 Camera look_at(double x, double y, double z, double tx, double ty, double tz) {
   Camera c;
@@ -63,4 +63,4 @@ double view_distance(const Camera& camera, float depth) {
   return n * f / (d * (f - n) + n);
 }
 
-}  // namespace loam::render
+}  // namespace loam::scene

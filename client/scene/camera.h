@@ -10,7 +10,7 @@
 #include <optional>
 #include <string>
 
-namespace loam::render {
+namespace loam::scene {
 
 struct Camera {
   double x = 0, y = 0, z = 100;    // world meters
@@ -51,4 +51,4 @@ std::optional<std::array<double, 3>> unproject(const Camera& camera, int32_t wid
 // plane's.
 double view_distance(const Camera& camera, float depth);
 
-}  // namespace loam::render
+}  // namespace loam::scene

@@ -1,6 +1,6 @@
 #include "client/scene/frustum.h"
 
-namespace loam::render {
+namespace loam::scene {
 
 Frustum frustum_of(const glm::mat4& view_proj) {
   // glm is column-major: row i of the matrix is column i of its transpose.
@@ -25,4 +25,4 @@ bool box_outside(const Frustum& frustum, const glm::vec3& lo, const glm::vec3& h
   return false;
 }
 
-}  // namespace loam::render
+}  // namespace loam::scene

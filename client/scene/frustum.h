@@ -7,7 +7,7 @@
 #include <array>
 #include <glm/glm.hpp>
 
-namespace loam::render {
+namespace loam::scene {
 
 struct Frustum {
   // left, right, bottom, top, near, far; a point p is inside plane q when dot(q.xyz, p) + q.w >= 0.
@@ -21,4 +21,4 @@ Frustum frustum_of(const glm::mat4& view_proj);
 // An axis-aligned box [lo, hi] lies entirely outside at least one plane.
 bool box_outside(const Frustum& frustum, const glm::vec3& lo, const glm::vec3& hi);
 
-}  // namespace loam::render
+}  // namespace loam::scene

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace loam::render {
+namespace loam::scene {
 
 const char* to_string(Material m) {
   switch (m) {
@@ -132,4 +132,4 @@ std::vector<uint8_t> material_texture(Material m, int32_t size) {
   return out;
 }
 
-}  // namespace loam::render
+}  // namespace loam::scene

@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace loam::render {
+namespace loam::scene {
 
 // Layers of the material array, in shaders/clipmap.frag.glsl's order.
 enum class Material : int32_t { kRock = 0, kGrass = 1, kSand = 2, kSnow = 3, kEarth = 4 };
@@ -18,4 +18,4 @@ const char* to_string(Material m);
 // size x size RGBA8 (size a power of two, >= 64), row-major.
 std::vector<uint8_t> material_texture(Material m, int32_t size);
 
-}  // namespace loam::render
+}  // namespace loam::scene

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace loam::render {
+namespace loam::scene {
 
 ViewScale view_scale(const WorldParams& world) {
   const RectI r = world.sample_rect();
@@ -58,4 +58,4 @@ std::array<double, 2> walker_spawn(const WorldParams& world, double x, double y)
   return {std::clamp(x, x0, std::max(x0, x1)), std::clamp(y, y0, std::max(y0, y1))};
 }
 
-}  // namespace loam::render
+}  // namespace loam::scene

@@ -13,7 +13,7 @@
 #include "client/scene/camera.h"
 #include "protocol/world.h"
 
-namespace loam::render {
+namespace loam::scene {
 
 // Ground height (m) at a world point (x, y in m).
 using GroundFn = std::function<double(double, double)>;
@@ -44,4 +44,4 @@ Camera orbit_view(const ViewScale& s, double angle, const GroundFn& ground);
 // world (an eye flown past the edge puts its walker on the world's rim).
 std::array<double, 2> walker_spawn(const WorldParams& world, double x, double y);
 
-}  // namespace loam::render
+}  // namespace loam::scene

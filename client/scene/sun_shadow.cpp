@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace loam::render {
+namespace loam::scene {
 
 SunShadowFrame sun_shadow_frame(const Camera& camera, const glm::dvec3& to_sun, double radius_m, double min_z,
                                 double max_z, int32_t texels) {
@@ -44,4 +44,4 @@ SunShadowFrame sun_shadow_frame(const Camera& camera, const glm::dvec3& to_sun, 
   return s;
 }
 
-}  // namespace loam::render
+}  // namespace loam::scene

@@ -11,7 +11,7 @@
 
 #include "client/scene/camera.h"
 
-namespace loam::render {
+namespace loam::scene {
 
 struct SunShadowFrame {
   glm::mat4 light_view_proj{1.0f};  // render frame -> shadow clip space (x, y in [-1, 1], z in [0, 1])
@@ -24,4 +24,4 @@ struct SunShadowFrame {
 SunShadowFrame sun_shadow_frame(const Camera& camera, const glm::dvec3& to_sun, double radius_m, double min_z,
                                 double max_z, int32_t texels);
 
-}  // namespace loam::render
+}  // namespace loam::scene

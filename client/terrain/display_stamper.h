@@ -16,7 +16,7 @@
 #include "protocol/stamps/texture_registry.h"
 #include "protocol/world.h"
 
-namespace loam::render {
+namespace loam::terrain {
 
 class DisplayStamper {
  public:
@@ -36,4 +36,4 @@ class DisplayStamper {
 using DisplayStamperFactory = std::function<Result<std::unique_ptr<DisplayStamper>>(
     const World& mirror, const TextureRegistry* textures)>;
 
-}  // namespace loam::render
+}  // namespace loam::terrain

@@ -7,7 +7,7 @@
 #include "protocol/stamps/stamp_apply.h"
 #include "protocol/world_layers.h"
 
-namespace loam::render {
+namespace loam::terrain {
 
 namespace {
 
@@ -473,4 +473,4 @@ void DisplayTerrain::read_detail(const RectI& rect, std::span<int8_t> out) const
   }
 }
 
-}  // namespace loam::render
+}  // namespace loam::terrain

@@ -44,7 +44,7 @@
 #include "protocol/stamps/texture_registry.h"
 #include "protocol/world.h"
 
-namespace loam::render {
+namespace loam::terrain {
 
 struct DisplayCounters {
   uint64_t events_stamped = 0;    // confirmed events stamped on the display copy
@@ -192,4 +192,4 @@ class DisplayTerrain final : public HeightSource {
   std::chrono::milliseconds retire_timeout_{5000};
 };
 
-}  // namespace loam::render
+}  // namespace loam::terrain

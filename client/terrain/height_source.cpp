@@ -5,7 +5,7 @@
 #include <cmath>
 #include <vector>
 
-namespace loam::render {
+namespace loam::terrain {
 
 RectI level_samples_reading(const WorldParams& p, int32_t mip, const RectI& rect0) {
   const RectI w = p.sample_rect();
@@ -97,4 +97,4 @@ double ground_height(const HeightSource& source, double x, double y) {
   return p.height_offset + v * p.meters_per_unit;
 }
 
-}  // namespace loam::render
+}  // namespace loam::terrain

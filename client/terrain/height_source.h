@@ -11,7 +11,7 @@
 #include "protocol/geometry.h"
 #include "protocol/world.h"
 
-namespace loam::render {
+namespace loam::terrain {
 
 // The mip-0 sample that mip-`mip` sample i reads along one axis of the world's sample range
 // [lo, hi): i * 2^mip inside the world; past an edge, the mip's first or last sample inside.
@@ -75,4 +75,4 @@ class WorldHeightSource final : public HeightSource {
   const World* initial_ = nullptr;
 };
 
-}  // namespace loam::render
+}  // namespace loam::terrain

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace loam::view {
+namespace loam::terrain {
 
 uint32_t tile_state_colour(TileState s) {
   switch (s) {
@@ -92,7 +92,7 @@ Minimap layout_minimap(const MinimapInput& in, float size_px) {
 
   // The frustum on the ground: the view's heading (the up hint when looking straight down)
   // and its horizontal half angle, out to the far plane or the map's edge.
-  const render::Camera& c = in.camera;
+  const scene::Camera& c = in.camera;
   double hx = c.fx, hy = c.fy;
   if (std::hypot(hx, hy) < 1e-6 * std::max(std::hypot(c.fx, c.fy, c.fz), 1e-12)) hx = c.ux, hy = c.uy;
   const double hl = std::hypot(hx, hy);
@@ -110,4 +110,4 @@ Minimap layout_minimap(const MinimapInput& in, float size_px) {
   return m;
 }
 
-}  // namespace loam::view
+}  // namespace loam::terrain

@@ -16,7 +16,7 @@
 #include "protocol/geometry.h"
 #include "protocol/world.h"
 
-namespace loam::view {
+namespace loam::terrain {
 
 // Colours as 8-bit RGBA packed little-endian (ImGui's IM_COL32 layout: r in the low byte).
 constexpr uint32_t rgba(uint32_t r, uint32_t g, uint32_t b, uint32_t a = 255) {
@@ -27,7 +27,7 @@ uint32_t tile_state_colour(TileState s);
 struct MinimapInput {
   WorldParams world;
   std::vector<RectI> level_regions;  // per clipmap level, finest first, in mip-0 samples
-  render::Camera camera;
+  scene::Camera camera;
   double aspect = 16.0 / 9.0;  // the view's width / height
   const std::map<TileCoord, TileState>* tiles = nullptr;
 };
@@ -51,4 +51,4 @@ struct Minimap {
 // plus a tenth (the whole world when no level is given).
 Minimap layout_minimap(const MinimapInput& in, float size_px);
 
-}  // namespace loam::view
+}  // namespace loam::terrain

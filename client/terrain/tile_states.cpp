@@ -2,7 +2,7 @@
 
 #include <set>
 
-namespace loam::view {
+namespace loam::terrain {
 
 const char* to_string(TileState s) {
   switch (s) {
@@ -50,4 +50,4 @@ TileStateCounts TileStates::counts() const {
   return n;
 }
 
-}  // namespace loam::view
+}  // namespace loam::terrain

@@ -12,7 +12,7 @@
 
 #include "protocol/geometry.h"
 
-namespace loam::view {
+namespace loam::terrain {
 
 enum class TileState : uint8_t { kHeld, kPending, kStale, kEvicted };
 inline constexpr int kTileStateCount = 4;
@@ -42,4 +42,4 @@ class TileStates {
   std::map<TileCoord, double> evicted_at_;
 };
 
-}  // namespace loam::view
+}  // namespace loam::terrain

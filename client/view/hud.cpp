@@ -16,10 +16,11 @@ constexpr ImGuiWindowFlags kPanel = ImGuiWindowFlags_AlwaysAutoResize | ImGuiWin
 
 ImTextureID texture_id(const gpu::GlTexture& t) { return reinterpret_cast<ImTextureID>(uintptr_t(t.get())); }
 
-void legend_entry(TileState s, int64_t n) {
+void legend_entry(terrain::TileState s, int64_t n) {
   const ImVec2 p = ImGui::GetCursorScreenPos();
   const float h = ImGui::GetTextLineHeight();
-  ImGui::GetWindowDrawList()->AddRectFilled(p, ImVec2(p.x + h, p.y + h), tile_state_colour(s) | 0xFF000000u);
+  ImGui::GetWindowDrawList()->AddRectFilled(p, ImVec2(p.x + h, p.y + h),
+                                            terrain::tile_state_colour(s) | 0xFF000000u);
   ImGui::Dummy(ImVec2(h, h));
   ImGui::SameLine();
   ImGui::Text("%s %" PRId64, to_string(s), n);
@@ -71,7 +72,7 @@ void draw_status_panel(const HudStatus& s) {
   ImGui::End();
 }
 
-void draw_minimap_panel(const Minimap& map, const TileStateCounts& counts) {
+void draw_minimap_panel(const terrain::Minimap& map, const terrain::TileStateCounts& counts) {
   const ImGuiIO& io = ImGui::GetIO();
   ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x - 8, 8), ImGuiCond_Always, ImVec2(1, 0));
   ImGui::SetNextWindowBgAlpha(0.6f);
@@ -81,16 +82,16 @@ void draw_minimap_panel(const Minimap& map, const TileStateCounts& counts) {
   auto at = [&](float x, float y) { return ImVec2(o.x + x, o.y + y); };
   d->AddRectFilled(o, at(map.size_px, map.size_px), IM_COL32(20, 24, 30, 255));
   d->PushClipRect(o, at(map.size_px, map.size_px), true);
-  for (const MinimapRect& r : map.coarse_tiles) {
+  for (const terrain::MinimapRect& r : map.coarse_tiles) {
     d->AddRectFilled(at(r.x0, r.y0), at(r.x1, r.y1), r.colour);
     d->AddRect(at(r.x0, r.y0), at(r.x1, r.y1), IM_COL32(0, 0, 0, 90));
   }
-  for (const MinimapRect& r : map.detail_tiles)
+  for (const terrain::MinimapRect& r : map.detail_tiles)
     d->AddRect(at(r.x0, r.y0), at(r.x1, r.y1), r.colour | 0xFF000000u);
   if (map.world)
     d->AddRect(at(map.world->x0, map.world->y0), at(map.world->x1, map.world->y1), map.world->colour, 0, 0,
                2);
-  for (const MinimapRect& r : map.levels) d->AddRect(at(r.x0, r.y0), at(r.x1, r.y1), r.colour);
+  for (const terrain::MinimapRect& r : map.levels) d->AddRect(at(r.x0, r.y0), at(r.x1, r.y1), r.colour);
   const auto& f = map.frustum;
   d->AddTriangleFilled(at(f[0][0], f[0][1]), at(f[1][0], f[1][1]), at(f[2][0], f[2][1]),
                        IM_COL32(255, 255, 255, 40));
@@ -100,28 +101,28 @@ void draw_minimap_panel(const Minimap& map, const TileStateCounts& counts) {
   d->PopClipRect();
   ImGui::Dummy(ImVec2(map.size_px, map.size_px));
   ImGui::Text("%.0f m across, %zu levels", map.meters_per_pixel * map.size_px, map.levels.size());
-  legend_entry(TileState::kHeld, counts.held);
+  legend_entry(terrain::TileState::kHeld, counts.held);
   ImGui::SameLine(0, 12);
-  legend_entry(TileState::kPending, counts.pending);
-  legend_entry(TileState::kStale, counts.stale);
+  legend_entry(terrain::TileState::kPending, counts.pending);
+  legend_entry(terrain::TileState::kStale, counts.stale);
   ImGui::SameLine(0, 12);
-  legend_entry(TileState::kEvicted, counts.evicted);
+  legend_entry(terrain::TileState::kEvicted, counts.evicted);
   ImGui::End();
 }
 
-bool draw_tool_panel(StampTool& tool, std::span<const wire::StampImageListEntry> images,
+bool draw_tool_panel(controls::StampTool& tool, std::span<const wire::StampImageListEntry> images,
                      const StampPreviews& previews) {
   const ImGuiIO& io = ImGui::GetIO();
   ImGui::SetNextWindowPos(ImVec2(8, io.DisplaySize.y - 8), ImGuiCond_Always, ImVec2(0, 1));
   ImGui::SetNextWindowBgAlpha(0.6f);
   ImGui::Begin("Stamp tool", nullptr, kPanel);
   bool changed = false;
-  for (int i = 0; i < kToolCount; ++i) {
+  for (int i = 0; i < controls::kToolCount; ++i) {
     if (i > 0) ImGui::SameLine();
     char label[32];
-    std::snprintf(label, sizeof label, "%d %s", i + 1, to_string(Tool(i)));
+    std::snprintf(label, sizeof label, "%d %s", i + 1, to_string(controls::Tool(i)));
     if (ImGui::SmallButton(label)) {
-      tool.select(Tool(i));
+      tool.select(controls::Tool(i));
       changed = true;
     }
   }

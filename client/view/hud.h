@@ -30,9 +30,9 @@ struct HudStatus {
 
 void draw_status_panel(const HudStatus& s);
 // The minimap at the window's top right.
-void draw_minimap_panel(const Minimap& map, const TileStateCounts& counts);
+void draw_minimap_panel(const terrain::Minimap& map, const terrain::TileStateCounts& counts);
 // The tool panel at the window's bottom left; true when the user changed the tool.
-bool draw_tool_panel(StampTool& tool, std::span<const wire::StampImageListEntry> images,
+bool draw_tool_panel(controls::StampTool& tool, std::span<const wire::StampImageListEntry> images,
                      const StampPreviews& previews);
 
 }  // namespace loam::view

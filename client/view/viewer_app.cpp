@@ -40,7 +40,7 @@ double seconds_since(Clock::time_point t0) {
 
 // Sends the tool's stamp for a click at a terrain point; false when the stamp is not valid here
 // (outside the world, say) or the connection is gone.
-bool stamp_at(render::ViewerSession& session, StampTool& tool, const std::array<double, 3>& p) {
+bool stamp_at(render::ViewerSession& session, controls::StampTool& tool, const std::array<double, 3>& p) {
   auto q = validate_stamp(tool.at(p[0], p[1], p[2]), session.client().welcome().world, {},
                           &session.client().textures());
   if (!q) {
@@ -87,7 +87,7 @@ void print_coverage(const char* where, double fraction) {
 double terrain_fraction(const std::vector<float>& depth) {
   if (depth.empty()) return 0.0;
   const auto n =
-      std::count_if(depth.begin(), depth.end(), [](float d) { return d != render::kBackgroundDepth; });
+      std::count_if(depth.begin(), depth.end(), [](float d) { return d != scene::kBackgroundDepth; });
   return double(n) / double(depth.size());
 }
 
@@ -147,17 +147,17 @@ int run_headless(const ViewerAppOptions& o) {
               o.width, o.height, s.renderer().levels(), s.client().welcome().client_id);
   // The start view: an orbit around the world's centre sized for the world (on a world of tens
   // of kilometres, a low orbit of 1.5 km: what a player sees, not the whole world from afar).
-  const render::ViewScale scale = render::view_scale(s.client().welcome().world);
+  const scene::ViewScale scale = scene::view_scale(s.client().welcome().world);
   const double cx = scale.focus_x, cy = scale.focus_y;
-  const render::GroundFn ground = display_ground(s);
-  StampTool tool;
+  const scene::GroundFn ground = display_ground(s);
+  controls::StampTool tool;
   const double seconds = o.seconds > 0 ? o.seconds : 30.0;
   const auto t0 = Clock::now();
   double next_stamp = o.stamp_every_s, next_shot = o.screenshot_every_s, next_print = 1.0;
   int shots = 0;
   render::FrameStats f;
   double frame_ms = 0;
-  render::Camera cam;
+  scene::Camera cam;
   // Level coverage per frame: how often, and for how long, a level shows a coarser mip.
   int64_t frames = 0, frames_lacking = 0, frames_waiting = 0;
   double longest_wait = 0;
@@ -165,7 +165,7 @@ int run_headless(const ViewerAppOptions& o) {
   const double flight_radius = o.fly_mps > 0 ? o.fly_mps * 60.0 / (2.0 * std::numbers::pi) : 0.0;
   // Walk mode: a walker at the centre looks around (a turn every 20 s) and, when asked, a crater
   // is dug under its feet: it falls to the floor and looks at the walls.
-  std::optional<Walker> walker;
+  std::optional<controls::Walker> walker;
   bool dug = false;
   auto t_prev = t0;
   for (double t = 0; t < seconds; t = seconds_since(t0)) {
@@ -174,33 +174,36 @@ int run_headless(const ViewerAppOptions& o) {
       // and lands in real time however slow the frames are.
       const double elapsed = std::min(1.0, seconds_since(t_prev));
       t_prev = Clock::now();
-      if (!walker && query::height_at(s.terrain(), cx, cy)) walker = place_walker(s.terrain(), cx, cy);
+      if (!walker && query::height_at(s.terrain(), cx, cy))
+        walker = controls::place_walker(s.terrain(), cx, cy);
       const double yaw = 2.0 * std::numbers::pi * t / 20.0;
       if (walker) {
         for (double left = elapsed; left > 1e-9; left -= 1.0 / 60.0)
-          step_walker(*walker, s.terrain(), WalkerInput{0, 0, yaw, false, false}, std::min(left, 1.0 / 60.0));
+          controls::step_walker(*walker, s.terrain(), controls::WalkerInput{0, 0, yaw, false, false},
+                                std::min(left, 1.0 / 60.0));
       }
-      const glm::dvec3 eye = walker ? walker_eye(*walker) : glm::dvec3{cx, cy, ground(cx, cy) + 1.65};
-      cam = render::look_at(eye.x, eye.y, eye.z, eye.x + std::cos(yaw) * 10.0, eye.y + std::sin(yaw) * 10.0,
-                            eye.z - 0.8);
+      const glm::dvec3 eye =
+          walker ? controls::walker_eye(*walker) : glm::dvec3{cx, cy, ground(cx, cy) + 1.65};
+      cam = scene::look_at(eye.x, eye.y, eye.z, eye.x + std::cos(yaw) * 10.0, eye.y + std::sin(yaw) * 10.0,
+                           eye.z - 0.8);
       cam.fov_y_degrees = 70;
       cam.near_m = 0.1;
       cam.far_m = 6000.0;
       if (walker && !dug && o.dig_under_s > 0 && t >= o.dig_under_s) {
         dug = true;
-        StampTool dig;
+        controls::StampTool dig;
         dig.radius_m = 12.0;
-        dig.select(Tool::kCrater);
+        dig.select(controls::Tool::kCrater);
         if (stamp_at(s, dig, {walker->feet.x, walker->feet.y, walker->feet.z})) {
           std::printf("viewer: dug a crater under the walker at %.1f, %.1f (feet at %.2f m)\n",
                       walker->feet.x, walker->feet.y, walker->feet.z);
         }
       }
     } else if (o.fly_mps > 0) {
-      cam = flight_camera(cx, cy, flight_radius, 120.0, o.fly_mps, t, ground);
+      cam = controls::flight_camera(cx, cy, flight_radius, 120.0, o.fly_mps, t, ground);
       cam.far_m = 8000.0;
     } else {
-      cam = render::orbit_view(scale, 2.0 * std::numbers::pi * t / 90.0, ground);
+      cam = scene::orbit_view(scale, 2.0 * std::numbers::pi * t / 90.0, ground);
     }
     if (const Status st = s.update(cam, std::chrono::milliseconds(5)); !st.ok() && !reconnect(s, o, st))
       return 1;
@@ -216,10 +219,10 @@ int run_headless(const ViewerAppOptions& o) {
     longest_wait = std::max(longest_wait, cov.longest_wait_s);
     if (o.stamp_every_s > 0 && t >= next_stamp) {
       next_stamp += o.stamp_every_s;
-      tool.select(int(t / o.stamp_every_s) % 3 == 2 ? Tool::kRaise : Tool::kCrater);
+      tool.select(int(t / o.stamp_every_s) % 3 == 2 ? controls::Tool::kRaise : controls::Tool::kCrater);
       const std::vector<float> depth = target->read_depth();
       const int32_t px = o.width / 2, py = o.height / 2;
-      if (auto p = render::unproject(cam, o.width, o.height, px, py, depth[size_t(py * o.width + px)])) {
+      if (auto p = scene::unproject(cam, o.width, o.height, px, py, depth[size_t(py * o.width + px)])) {
         // Big enough to see from where the camera is: a twentieth of the distance.
         tool.set_radius(
             std::clamp(0.05 * std::hypot((*p)[0] - cam.x, (*p)[1] - cam.y, (*p)[2] - cam.z), 3.0, 40.0));
@@ -289,22 +292,22 @@ int run_window(const ViewerAppOptions& o) {
   HudOverlay overlay(win);
   // The start view of this world: the terrain around its centre, the speed and tool sizes
   // that suit its size and spacing.
-  const render::ViewScale scale = render::view_scale(s.client().welcome().world);
-  FlyCamera fly = window_start(s, scale);
-  StampTool tool;
-  tool.select(Tool::kCrater);
+  const scene::ViewScale scale = scene::view_scale(s.client().welcome().world);
+  controls::FlyCamera fly = window_start(s, scale);
+  controls::StampTool tool;
+  tool.select(controls::Tool::kCrater);
   scale_tool(tool, scale);
   std::printf(
       "viewer (window): %s, %dx%d, %d levels, joined as client %u; camera at %.0f, %.0f, %.0f m, "
       "speed %.0f m/s, stamp radius %.1f m (%.1f .. %.0f)\n",
       window->renderer().c_str(), o.width, o.height, s.renderer().levels(), s.client().welcome().client_id,
       fly.x(), fly.y(), fly.z(), fly.speed(), tool.radius_m, tool.min_radius_m, tool.max_radius_m);
-  TileStates tiles;
+  terrain::TileStates tiles;
   StampPreviews previews;
   double next_tiles = 0;
-  const render::GroundFn ground = display_ground(s);
+  const scene::GroundFn ground = display_ground(s);
   bool hud = o.hud, was_left = false, was_f1 = false, was_f12 = false, was_g = false, was_space = false;
-  std::optional<Walker> walker;
+  std::optional<controls::Walker> walker;
   bool walking = o.walk;
   int shots = 0;
   double last_x = 0, last_y = 0;
@@ -321,8 +324,8 @@ int run_window(const ViewerAppOptions& o) {
     last = Clock::now();
     double mx = 0, my = 0;
     glfwGetCursorPos(win, &mx, &my);
-    FlyInput in;
-    WalkerInput walk_in;
+    controls::FlyInput in;
+    controls::WalkerInput walk_in;
     bool shoot = false;
     if (!(hud && overlay.wants_keyboard())) {
       auto key = [&](int k) { return glfwGetKey(win, k) == GLFW_PRESS ? 1.0 : 0.0; };
@@ -330,8 +333,8 @@ int run_window(const ViewerAppOptions& o) {
       in.right = key(GLFW_KEY_D) - key(GLFW_KEY_A);
       in.up = key(GLFW_KEY_E) - key(GLFW_KEY_Q);
       in.fast = key(GLFW_KEY_LEFT_SHIFT) > 0 || key(GLFW_KEY_RIGHT_SHIFT) > 0;
-      for (int i = 0; i < kToolCount; ++i) {
-        if (key(GLFW_KEY_1 + i) > 0) tool.select(Tool(i));
+      for (int i = 0; i < controls::kToolCount; ++i) {
+        if (key(GLFW_KEY_1 + i) > 0) tool.select(controls::Tool(i));
       }
       const bool f1 = key(GLFW_KEY_F1) > 0;
       if (f1 && !was_f1) hud = !hud;
@@ -370,16 +373,16 @@ int run_window(const ViewerAppOptions& o) {
       walk_in.right = in.right;
       walk_in.run = in.fast;
       walk_in.yaw = fly.yaw();
-      const auto spawn = render::walker_spawn(s.client().welcome().world, fly.x(), fly.y());
+      const auto spawn = scene::walker_spawn(s.client().welcome().world, fly.x(), fly.y());
       if (!walker && query::height_at(s.terrain(), spawn[0], spawn[1]))
-        walker = place_walker(s.terrain(), spawn[0], spawn[1]);
+        walker = controls::place_walker(s.terrain(), spawn[0], spawn[1]);
       if (walker) {
         // At 60 Hz through the frame's time: a jump is taken on the first step only.
         for (double left = dt; left > 1e-9; left -= 1.0 / 60.0) {
-          step_walker(*walker, s.terrain(), walk_in, std::min(left, 1.0 / 60.0));
+          controls::step_walker(*walker, s.terrain(), walk_in, std::min(left, 1.0 / 60.0));
           walk_in.jump = false;
         }
-        const glm::dvec3 eye = walker_eye(*walker);
+        const glm::dvec3 eye = controls::walker_eye(*walker);
         fly.set_position(eye.x, eye.y, eye.z);
       }
       in.forward = in.right = in.up = 0;
@@ -388,7 +391,7 @@ int run_window(const ViewerAppOptions& o) {
     int w = 0, h = 0;
     glfwGetFramebufferSize(win, &w, &h);
     if (w <= 0 || h <= 0) continue;  // minimised
-    const render::Camera cam = window_camera(fly, s.renderer().config(), scale, walking);
+    const scene::Camera cam = window_camera(fly, s.renderer().config(), scale, walking);
     // A timed run's last frame shows the settled view: every tile it needs, every own stamp
     // confirmed (what a screenshot of it is compared on).
     if (final) (void)s.wait_settled(cam, std::chrono::seconds(20));
@@ -408,9 +411,9 @@ int run_window(const ViewerAppOptions& o) {
       glfwGetWindowSize(win, &ww, &wh);
       const double px = mx * double(w) / double(std::max(ww, 1)),
                    py = my * double(h) / double(std::max(wh, 1));
-      float depth = render::kBackgroundDepth;
+      float depth = scene::kBackgroundDepth;
       glReadPixels(int(px), h - 1 - int(py), 1, 1, GL_DEPTH_COMPONENT, GL_FLOAT, &depth);
-      if (auto p = render::unproject(cam, w, h, px, py, depth)) stamp_at(s, tool, *p);
+      if (auto p = scene::unproject(cam, w, h, px, py, depth)) stamp_at(s, tool, *p);
     }
     was_left = left;
     if (hud) {
@@ -430,7 +433,8 @@ int run_window(const ViewerAppOptions& o) {
       status.speed_mps = fly.speed();
       status.walking = walking;
       status.session = s.stats();
-      overlay.draw(status, layout_minimap(minimap_input(s, cam, double(w) / double(h), tiles), 240.0f),
+      overlay.draw(status,
+                   terrain::layout_minimap(minimap_input(s, cam, double(w) / double(h), tiles), 240.0f),
                    tiles.counts(), tool, s.client().stamp_images(), previews);
     }
     // F12, or the last frame of a timed run: the window's picture, HUD included.

@@ -16,34 +16,35 @@
 
 namespace loam::view {
 
-render::GroundFn display_ground(render::ViewerSession& s) {
-  const render::HeightSource& source = s.display();
-  return [&source](double x, double y) { return render::ground_height(source, x, y); };
+scene::GroundFn display_ground(render::ViewerSession& s) {
+  const terrain::HeightSource& source = s.display();
+  return [&source](double x, double y) { return terrain::ground_height(source, x, y); };
 }
 
-FlyCamera window_start(render::ViewerSession& s, const render::ViewScale& scale) {
-  const render::Camera c = render::orbit_view(scale, 0.0, display_ground(s));
-  FlyCamera fly = FlyCamera::looking_at(c.x, c.y, c.z, c.x + c.fx, c.y + c.fy, c.z + c.fz);
+controls::FlyCamera window_start(render::ViewerSession& s, const scene::ViewScale& scale) {
+  const scene::Camera c = scene::orbit_view(scale, 0.0, display_ground(s));
+  controls::FlyCamera fly =
+      controls::FlyCamera::looking_at(c.x, c.y, c.z, c.x + c.fx, c.y + c.fy, c.z + c.fz);
   fly.set_speed(scale.fly_speed_mps);
   return fly;
 }
 
-render::Camera window_camera(const FlyCamera& fly, const render::RendererConfig& renderer,
-                             const render::ViewScale& scale, bool walking) {
-  render::Camera cam = fly.camera(60.0, std::max(4.0 * renderer.view_distance, scale.far_m));
+scene::Camera window_camera(const controls::FlyCamera& fly, const render::RendererConfig& renderer,
+                            const scene::ViewScale& scale, bool walking) {
+  scene::Camera cam = fly.camera(60.0, std::max(4.0 * renderer.view_distance, scale.far_m));
   if (walking) cam.near_m = 0.1;
   return cam;
 }
 
-void scale_tool(StampTool& tool, const render::ViewScale& scale) {
+void scale_tool(controls::StampTool& tool, const scene::ViewScale& scale) {
   tool.min_radius_m = scale.tool_min_radius_m;
   tool.max_radius_m = scale.tool_max_radius_m;
   tool.set_radius(scale.tool_radius_m);
 }
 
-MinimapInput minimap_input(render::ViewerSession& s, const render::Camera& cam, double aspect,
-                           const TileStates& tiles) {
-  MinimapInput in;
+terrain::MinimapInput minimap_input(render::ViewerSession& s, const scene::Camera& cam, double aspect,
+                                    const terrain::TileStates& tiles) {
+  terrain::MinimapInput in;
   in.world = s.client().welcome().world;
   for (int32_t l = 0; l < s.renderer().levels(); ++l) {
     const RectI r = s.renderer().level_region(l);
@@ -72,9 +73,9 @@ HudOverlay::~HudOverlay() {
 bool HudOverlay::wants_keyboard() const { return ImGui::GetIO().WantCaptureKeyboard; }
 bool HudOverlay::wants_mouse() const { return ImGui::GetIO().WantCaptureMouse; }
 
-bool HudOverlay::draw(const HudStatus& status, const Minimap& map, const TileStateCounts& counts,
-                      StampTool& tool, std::span<const wire::StampImageListEntry> images,
-                      const StampPreviews& previews) {
+bool HudOverlay::draw(const HudStatus& status, const terrain::Minimap& map,
+                      const terrain::TileStateCounts& counts, controls::StampTool& tool,
+                      std::span<const wire::StampImageListEntry> images, const StampPreviews& previews) {
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
@@ -114,7 +115,7 @@ double window_terrain_fraction(int32_t w, int32_t h) {
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
   glReadPixels(0, 0, w, h, GL_DEPTH_COMPONENT, GL_FLOAT, depth.data());
   const auto terrain =
-      std::count_if(depth.begin(), depth.end(), [](float d) { return d != render::kBackgroundDepth; });
+      std::count_if(depth.begin(), depth.end(), [](float d) { return d != scene::kBackgroundDepth; });
   return double(terrain) / double(depth.size());
 }
 

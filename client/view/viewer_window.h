@@ -25,22 +25,22 @@ namespace loam::view {
 
 // The ground the session displays (m) at a world point: what the fly camera keeps above and
 // the start view clears.
-render::GroundFn display_ground(render::ViewerSession& s);
+scene::GroundFn display_ground(render::ViewerSession& s);
 
 // The window's first camera on the session's world: the start view's eye (east of the
 // world's centre, looking at it over the ground the coarsest tiles show), flying at the
 // world's speed.
-FlyCamera window_start(render::ViewerSession& s, const render::ViewScale& scale);
+controls::FlyCamera window_start(render::ViewerSession& s, const scene::ViewScale& scale);
 // The camera a window draws from `fly`: 60 degrees, its far plane past both the renderer's
 // view distance and the start view's horizon; a walker's eye sees from 10 cm.
-render::Camera window_camera(const FlyCamera& fly, const render::RendererConfig& renderer,
-                             const render::ViewScale& scale, bool walking);
+scene::Camera window_camera(const controls::FlyCamera& fly, const render::RendererConfig& renderer,
+                            const scene::ViewScale& scale, bool walking);
 // The stamp tool sized for the world: its radius range and a radius visible from the orbit.
-void scale_tool(StampTool& tool, const render::ViewScale& scale);
+void scale_tool(controls::StampTool& tool, const scene::ViewScale& scale);
 
 // The minimap's input from the session: the levels' regions in mip-0 samples, the camera.
-MinimapInput minimap_input(render::ViewerSession& s, const render::Camera& cam, double aspect,
-                           const TileStates& tiles);
+terrain::MinimapInput minimap_input(render::ViewerSession& s, const scene::Camera& cam, double aspect,
+                                    const terrain::TileStates& tiles);
 
 // The HUD over a window: status, minimap and tool panel, drawn by ImGui with its GLFW and
 // OpenGL 3 backends. One per window; input callbacks are chained to ImGui's.
@@ -54,8 +54,9 @@ class HudOverlay {
   bool wants_keyboard() const;  // a panel has the keyboard (typing in a field)
   bool wants_mouse() const;     // the cursor is over a panel
   // Draws the panels over the current framebuffer; true when the user changed the tool.
-  bool draw(const HudStatus& status, const Minimap& map, const TileStateCounts& counts, StampTool& tool,
-            std::span<const wire::StampImageListEntry> images, const StampPreviews& previews);
+  bool draw(const HudStatus& status, const terrain::Minimap& map, const terrain::TileStateCounts& counts,
+            controls::StampTool& tool, std::span<const wire::StampImageListEntry> images,
+            const StampPreviews& previews);
 };
 
 // Starts a frame in the window's default framebuffer (w x h): viewport, the sky's colour,

@@ -30,8 +30,8 @@ render::ViewerOptions small_viewer(const std::string& name) {
   return o;
 }
 
-render::Camera overview() {
-  render::Camera c = render::look_at(900, 1300, 420, 1000, 700, 40);
+scene::Camera overview() {
+  scene::Camera c = scene::look_at(900, 1300, 420, 1000, 700, 40);
   c.far_m = 6000;
   return c;
 }
@@ -49,7 +49,7 @@ QuantizedStamp crater_at(const WorldParams& w, double x, double y, double r, dou
   return *q;
 }
 
-std::vector<uint8_t> render_view(render::ViewerSession& v, const render::Camera& cam, int32_t w, int32_t h) {
+std::vector<uint8_t> render_view(render::ViewerSession& v, const scene::Camera& cam, int32_t w, int32_t h) {
   auto target = render::OffscreenTarget::create(w, h);
   EXPECT_TRUE(target.ok());
   target->begin(0.5f, 0.6f, 0.75f, 0.0f);
@@ -62,7 +62,7 @@ TEST(ViewerEndToEnd, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrect
   const std::string dir = temp_data_dir("own");
   ServerProcess server;
   ASSERT_TRUE(server.start(dir, {"--hashes-every", "10"})) << server.log();
-  const render::Camera cam = overview();
+  const scene::Camera cam = overview();
   auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
   ASSERT_TRUE(v.ok()) << v.error().describe();
   render::ViewerSession& view = **v;
@@ -87,7 +87,7 @@ TEST(ViewerEndToEnd, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrect
   view.display().world().read_coarse(r, shown);
   view.client().store().mirror().read_coarse(r, confirmed);
   EXPECT_EQ(shown, confirmed);
-  const render::DisplayCounters& k = view.display().counters();
+  const terrain::DisplayCounters& k = view.display().counters();
   EXPECT_EQ(k.predicted, 1u);
   EXPECT_EQ(k.retired, 1u);
   EXPECT_EQ(k.corrections, 0u);
@@ -106,7 +106,7 @@ TEST(ViewerEndToEnd, OnAnImportedDemACraterDugInViewReadsAsDug) {
   ASSERT_FALSE(::testing::Test::HasFailure());
   ServerProcess server;
   ASSERT_TRUE(server.start(dir + "/data", {"--dem", png})) << server.log();
-  const render::Camera cam = overview();
+  const scene::Camera cam = overview();
   auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
   ASSERT_TRUE(v.ok()) << v.error().describe();
   render::ViewerSession& view = **v;
@@ -149,7 +149,7 @@ TEST(ViewerEndToEnd, PredictionOverAnotherStampSequencedFirstCountsCorrectionsOn
   const std::string dir = temp_data_dir("order");
   ServerProcess server;
   ASSERT_TRUE(server.start(dir)) << server.log();
-  const render::Camera cam = overview();
+  const scene::Camera cam = overview();
   auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
   ASSERT_TRUE(v.ok()) << v.error().describe();
   render::ViewerSession& view = **v;
@@ -209,7 +209,7 @@ TEST(ViewerEndToEnd, ViewerReconnectsAfterTheServerRestartsAndConverges) {
   const std::vector<std::string> args = {"--hashes-every", "5", "--max-pending-deforms", "1"};
   ServerProcess server;
   ASSERT_TRUE(server.start(dir, args)) << server.log();
-  const render::Camera cam = overview();
+  const scene::Camera cam = overview();
   auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
   ASSERT_TRUE(v.ok()) << v.error().describe();
   render::ViewerSession& view = **v;
@@ -277,7 +277,7 @@ TEST(ViewerEndToEnd, TwoViewersAndABotConvergeOnTheServersHashesAndRenderTheSame
   const std::string dir = temp_data_dir("two");
   ServerProcess server;
   ASSERT_TRUE(server.start(dir, {"--tick-hz", "60", "--hashes-every", "10"})) << server.log();
-  const render::Camera cam = overview();
+  const scene::Camera cam = overview();
   // This world's initial terrain is not one a client generates, so each viewer's dug layer
   // follows what it held when the ground changed (docs/rendering.md): the images compare the
   // terrain, its light and shadows, without materials.
@@ -323,7 +323,7 @@ TEST(ViewerEndToEnd, TwoViewersAndABotConvergeOnTheServersHashesAndRenderTheSame
   EXPECT_TRUE(store_matches((*a)->client(), expected));
   EXPECT_TRUE(store_matches((*b)->client(), expected));
   for (auto* v : {a->get(), b->get()}) {
-    const render::DisplayCounters& k = v->display().counters();
+    const terrain::DisplayCounters& k = v->display().counters();
     EXPECT_EQ(k.divergent_texels, 0u);
     EXPECT_GT(k.events_stamped, 0u);
     EXPECT_EQ(v->display().overlay_size(), 0u);

@@ -70,7 +70,7 @@ void compare_window(const std::string& golden, int32_t w, int32_t h) {
 }
 
 // The HUD's status as the viewer fills it, with the numbers that vary between runs fixed.
-view::HudStatus fixed_status(render::ViewerSession& s, const view::FlyCamera& fly) {
+view::HudStatus fixed_status(render::ViewerSession& s, const controls::FlyCamera& fly) {
   view::HudStatus status;
   status.renderer = "llvmpipe";
   status.frame_ms = 16.7;
@@ -101,9 +101,9 @@ void window_on(uint16_t port, const std::string& name) {
   auto session = render::ViewerSession::connect("127.0.0.1", port, options);
   ASSERT_TRUE(session.ok()) << session.error().describe();
   render::ViewerSession& s = **session;
-  const render::ViewScale scale = render::view_scale(s.client().welcome().world);
-  const view::FlyCamera fly = view::window_start(s, scale);
-  const render::Camera cam = view::window_camera(fly, s.renderer().config(), scale, false);
+  const scene::ViewScale scale = scene::view_scale(s.client().welcome().world);
+  const controls::FlyCamera fly = view::window_start(s, scale);
+  const scene::Camera cam = view::window_camera(fly, s.renderer().config(), scale, false);
   ASSERT_TRUE(s.wait_settled(cam, 120s)) << name << ": the start view's tiles did not all arrive";
   int w = 0, h = 0;
   glfwGetFramebufferSize(window->window(), &w, &h);
@@ -121,10 +121,10 @@ void window_on(uint16_t port, const std::string& name) {
 
   // The HUD as the viewer draws it; ImGui sizes its panels on their first frames.
   view::HudOverlay overlay(window->window());
-  view::StampTool tool;
-  tool.select(view::Tool::kCrater);
+  controls::StampTool tool;
+  tool.select(controls::Tool::kCrater);
   view::scale_tool(tool, scale);
-  view::TileStates tiles;
+  terrain::TileStates tiles;
   const client::ConfirmedStore& store = s.client().store();
   tiles.update(store.wanted(), store.held(), store.tiles_behind(), 0.0);
   view::StampPreviews previews;
@@ -132,7 +132,7 @@ void window_on(uint16_t port, const std::string& name) {
     view::begin_window_frame(w, h);
     s.render(cam, w, h);
     overlay.draw(fixed_status(s, fly),
-                 view::layout_minimap(view::minimap_input(s, cam, double(w) / double(h), tiles), 240.0f),
+                 terrain::layout_minimap(view::minimap_input(s, cam, double(w) / double(h), tiles), 240.0f),
                  tiles.counts(), tool, s.client().stamp_images(), previews);
     if (frame < 2) window->swap_buffers();
   }

@@ -75,8 +75,8 @@ World deformed(World w) {
 
 // Renders `cam` of `source` into `target` and compares it with the golden `name`.png, or writes
 // it to LOAM_APPROVE_GOLDENS.
-void render_and_compare_one(OffscreenTarget& target, const HeightSource& source, const Camera& cam,
-                            const std::string& name,
+void render_and_compare_one(OffscreenTarget& target, const terrain::HeightSource& source,
+                            const scene::Camera& cam, const std::string& name,
                             const RendererConfig& cfg = {}) {  // the defaults users get
   auto renderer = ClipmapRenderer::create(source, cfg);
   ASSERT_TRUE(renderer.ok());
@@ -92,9 +92,10 @@ void render_and_compare(std::span<const GoldenView> views, const World& plain, c
   ASSERT_TRUE(target.ok());
   for (const GoldenView& v : views) {
     const World& w = v.deformed ? dented : plain;
-    WorldHeightSource source(w, v.deformed ? &plain : nullptr);  // dug ground against the plain terrain
-    Camera cam =
-        look_at(v.x, v.y, height_at(w, v.x, v.y) + v.dz, v.tx, v.ty, height_at(w, v.tx, v.ty) + v.tdz);
+    terrain::WorldHeightSource source(w,
+                                      v.deformed ? &plain : nullptr);  // dug ground against the plain terrain
+    scene::Camera cam =
+        scene::look_at(v.x, v.y, height_at(w, v.x, v.y) + v.dz, v.tx, v.ty, height_at(w, v.tx, v.ty) + v.tdz);
     cam.far_m = 8000;
     render_and_compare_one(*target, source, cam, v.name);
   }
@@ -118,7 +119,7 @@ TEST(ClipmapGolden, AWalkersViewFromTheFloorOfACraterDugUnderIt) {
   }();
   query::SnapshotBuilder snapshots(w.params());
   auto s = snapshots.build(w, held, {}, 0, 0);
-  view::Walker walker = view::place_walker(*s, 640, 486);
+  controls::Walker walker = controls::place_walker(*s, 640, 486);
   ASSERT_TRUE(walker.grounded) << "ground normal z " << walker.ground_normal.z << " at " << walker.feet.z;
   const double before = walker.feet.z;
   StampParams crater;
@@ -132,19 +133,19 @@ TEST(ClipmapGolden, AWalkersViewFromTheFloorOfACraterDugUnderIt) {
   w.commit(1);
   s = snapshots.build(w, held, std::vector<query::ChangedRect>{{Layer::kCoarse, w.params().sample_rect()}}, 1,
                       0);
-  for (int i = 0; i < 180; ++i) view::step_walker(walker, *s, {}, 1.0 / 60);
+  for (int i = 0; i < 180; ++i) controls::step_walker(walker, *s, {}, 1.0 / 60);
   ASSERT_TRUE(walker.grounded);
   EXPECT_LT(walker.feet.z, before - 1.5);
-  const glm::dvec3 eye = view::walker_eye(walker);
+  const glm::dvec3 eye = controls::walker_eye(walker);
   const double yaw = 0.6;
-  Camera cam =
-      look_at(eye.x, eye.y, eye.z, eye.x + 10 * std::cos(yaw), eye.y + 10 * std::sin(yaw), eye.z - 0.8);
+  scene::Camera cam = scene::look_at(eye.x, eye.y, eye.z, eye.x + 10 * std::cos(yaw),
+                                     eye.y + 10 * std::sin(yaw), eye.z - 0.8);
   cam.fov_y_degrees = 70;
   cam.near_m = 0.1;
   cam.far_m = 8000;
   auto target = OffscreenTarget::create(kWidth, kHeight);
   ASSERT_TRUE(target.ok());
-  WorldHeightSource source(w, &undug);
+  terrain::WorldHeightSource source(w, &undug);
   render_and_compare_one(*target, source, cam, "walker_in_crater");
 }
 

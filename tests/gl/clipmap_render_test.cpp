@@ -48,7 +48,7 @@ int64_t background_below_terrain(const std::vector<uint8_t>& rgba, int32_t w, in
 TEST(ClipmapRender, GrazingViewsShowNoBackgroundThroughTheSurface) {
   LOAM_REQUIRE_GL();
   const World& world = default_world();
-  WorldHeightSource source(world);
+  terrain::WorldHeightSource source(world);
   RendererConfig cfg;
   cfg.n = 63;
   cfg.view_distance = 3000;
@@ -66,7 +66,8 @@ TEST(ClipmapRender, GrazingViewsShowNoBackgroundThroughTheSurface) {
     (*renderer)->set_morph(morph);
     for (const View& v : views) {
       const double ground = height_at(world, v.x, v.y);
-      Camera cam = look_at(v.x, v.y, ground + 3.0, v.x + v.dx * 100, v.y + v.dy * 100, ground + 1.0);
+      scene::Camera cam =
+          scene::look_at(v.x, v.y, ground + 3.0, v.x + v.dx * 100, v.y + v.dy * 100, ground + 1.0);
       cam.far_m = 20000;
       target->begin(0, 0, 0, 0);
       (*renderer)->render(cam, w, h);
@@ -83,13 +84,13 @@ TEST(ClipmapRender, GrazingViewsShowNoBackgroundThroughTheSurface) {
 }
 
 // Height of the rendered surface under every pixel of a straight-down orthographic view.
-std::vector<double> surface_heights(ClipmapRenderer& r, const OffscreenTarget& t, Camera cam) {
+std::vector<double> surface_heights(ClipmapRenderer& r, const OffscreenTarget& t, scene::Camera cam) {
   t.begin(0, 0, 0, 0);
   r.render(cam, t.width(), t.height());
   const auto depth = t.read_depth();
   std::vector<double> out(depth.size());
   for (size_t i = 0; i < depth.size(); ++i) {
-    out[i] = cam.z - render::view_distance(cam, depth[i]);
+    out[i] = cam.z - scene::view_distance(cam, depth[i]);
   }
   return out;
 }
@@ -100,7 +101,7 @@ std::vector<double> surface_heights(ClipmapRenderer& r, const OffscreenTarget& t
 TEST(ClipmapRender, GeomorphingBoundsSurfaceChangePerCameraStepAndNoMorphJumps) {
   LOAM_REQUIRE_GL();
   const World& world = default_world();
-  WorldHeightSource source(world);
+  terrain::WorldHeightSource source(world);
   RendererConfig cfg;
   cfg.n = 31;
   cfg.levels = 4;
@@ -112,7 +113,7 @@ TEST(ClipmapRender, GeomorphingBoundsSurfaceChangePerCameraStepAndNoMorphJumps) 
     cfg.morph = morph == 1;
     auto renderer = ClipmapRenderer::create(source, cfg);
     ASSERT_TRUE(renderer.ok());
-    Camera cam;
+    scene::Camera cam;
     cam.x = 1000, cam.y = 760, cam.z = 1000;
     cam.fx = 0, cam.fy = 0, cam.fz = -1;
     cam.ux = 0, cam.uy = -1, cam.uz = 0;
@@ -144,7 +145,7 @@ TEST(ClipmapRender, GeomorphingBoundsSurfaceChangePerCameraStepAndNoMorphJumps) 
 TEST(ClipmapRender, ToroidalStripUploadsMatchAFreshFullUpload) {
   LOAM_REQUIRE_GL();
   const World& world = default_world();
-  WorldHeightSource source(world);
+  terrain::WorldHeightSource source(world);
   RendererConfig cfg;
   cfg.n = 63;
   cfg.levels = 5;
@@ -154,7 +155,7 @@ TEST(ClipmapRender, ToroidalStripUploadsMatchAFreshFullUpload) {
   const int32_t w = 200, h = 150;
   auto target = OffscreenTarget::create(w, h);
   ASSERT_TRUE(target.ok());
-  Camera cam = look_at(700, 900, 200, 1100, 500, 50);
+  scene::Camera cam = scene::look_at(700, 900, 200, 1100, 500, 50);
   const int64_t full = (*moving)->update_levels(cam);
   EXPECT_EQ(full, int64_t(cfg.levels) * (63 + 2 * ClipmapRenderer::kLevelPad) *
                           (63 + 2 * ClipmapRenderer::kLevelPad) +
@@ -213,7 +214,8 @@ TEST(ClipmapRender, FarFromTheOriginTheSameTerrainRendersTheSameImage) {
   // home in the last float bits (they stay within a texel: covered by the goldens).
   cfg.materials = false;
   cfg.shadows = false;
-  const int32_t levels = levels_for_view_distance(cfg.n, home.params().meters_per_sample, cfg.view_distance);
+  const int32_t levels =
+      lod::levels_for_view_distance(cfg.n, home.params().meters_per_sample, cfg.view_distance);
   const int32_t kx = 153 << levels, ky = -(153 << levels);  // tiles
   WorldParams far_params = home.params();
   far_params.origin_tile_x += kx;
@@ -225,7 +227,7 @@ TEST(ClipmapRender, FarFromTheOriginTheSameTerrainRendersTheSameImage) {
   const double dx = double(kx) * kTileSize * home.params().meters_per_sample;
   const double dy = double(ky) * kTileSize * home.params().meters_per_sample;
   ASSERT_GT(std::hypot(dx, dy), 1.0e7);
-  WorldHeightSource home_source(home), far_source(*far);
+  terrain::WorldHeightSource home_source(home), far_source(*far);
   auto home_r = ClipmapRenderer::create(home_source, cfg);
   auto far_r = ClipmapRenderer::create(far_source, cfg);
   ASSERT_TRUE(home_r.ok() && far_r.ok());
@@ -237,11 +239,11 @@ TEST(ClipmapRender, FarFromTheOriginTheSameTerrainRendersTheSameImage) {
   for (const View& v : {View{900.25, 1100.5, 160, 1200, 600, 20}, View{300, 300, 60, 900, 700, 0},
                         View{-200, 1800, 500, 1000, 700, 0}}) {
     target->begin(0, 0, 0, 0);
-    (*home_r)->render(look_at(v.x, v.y, v.z, v.tx, v.ty, v.tz), 240, 160);
+    (*home_r)->render(scene::look_at(v.x, v.y, v.z, v.tx, v.ty, v.tz), 240, 160);
     const auto a = target->read_rgba();
     const auto da = target->read_depth();
     target->begin(0, 0, 0, 0);
-    (*far_r)->render(look_at(v.x + dx, v.y + dy, v.z, v.tx + dx, v.ty + dy, v.tz), 240, 160);
+    (*far_r)->render(scene::look_at(v.x + dx, v.y + dy, v.z, v.tx + dx, v.ty + dy, v.tz), 240, 160);
     const auto b = target->read_rgba();
     EXPECT_TRUE(a == b) << "view from " << v.x << "," << v.y;
     EXPECT_TRUE(da == target->read_depth());
@@ -255,10 +257,10 @@ TEST(ClipmapRender, FarFromTheOriginTheSameTerrainRendersTheSameImage) {
 TEST(ClipmapRender, CullingSkipsPiecesWithoutChangingTheImage) {
   LOAM_REQUIRE_GL();
   const World& world = default_world();
-  WorldHeightSource source(world);
+  terrain::WorldHeightSource source(world);
   auto target = OffscreenTarget::create(200, 120);
   ASSERT_TRUE(target.ok());
-  Camera cam = look_at(600, 1200, height_at(world, 600, 1200) + 40, 1100, 800, 30);
+  scene::Camera cam = scene::look_at(600, 1200, height_at(world, 600, 1200) + 40, 1100, 800, 30);
   std::vector<uint8_t> images[2];
   FrameStats stats[2];
   for (int cull = 0; cull < 2; ++cull) {
@@ -297,9 +299,10 @@ TEST(ClipmapRender, DetailLayerShowsInTheShadingAndOptionallyInTheGeometry) {
   printed.commit(1);
   auto target = OffscreenTarget::create(240, 160);
   ASSERT_TRUE(target.ok());
-  const Camera cam = look_at(628, 486, height_at(plain, 628, 486) + 8, 634, 476, height_at(plain, 634, 476));
+  const scene::Camera cam =
+      scene::look_at(628, 486, height_at(plain, 628, 486) + 8, 634, 476, height_at(plain, 634, 476));
   auto draw = [&](const World& w, bool displace, std::vector<float>* depth) {
-    WorldHeightSource source(w);
+    terrain::WorldHeightSource source(w);
     RendererConfig cfg;
     cfg.n = 63;
     cfg.detail_displacement = displace;

@@ -56,9 +56,9 @@ RectI dig_crater(World& w) {
 // Heights (m above the height offset) the renderer drew at every sample, from a top-down
 // orthographic view with pixel centres on the samples; NaN where nothing was drawn.
 template <typename Renderer>
-std::vector<double> drawn_heights(Renderer& r, const OffscreenTarget& t, const Camera& lod_camera) {
+std::vector<double> drawn_heights(Renderer& r, const OffscreenTarget& t, const scene::Camera& lod_camera) {
   const double mps = 2.0;
-  Camera cam;
+  scene::Camera cam;
   cam.x = (t.width() / 2.0 - 0.5) * mps, cam.y = (t.height() / 2.0 - 0.5) * mps, cam.z = 3000;
   cam.fx = 0, cam.fy = 0, cam.fz = -1;
   cam.ux = 0, cam.uy = -1, cam.uz = 0;
@@ -70,7 +70,7 @@ std::vector<double> drawn_heights(Renderer& r, const OffscreenTarget& t, const C
   const auto depth = t.read_depth();
   std::vector<double> out(depth.size());
   for (size_t i = 0; i < depth.size(); ++i) {
-    out[i] = depth[i] <= render::kBackgroundDepth ? NAN : cam.z - render::view_distance(cam, depth[i]);
+    out[i] = depth[i] <= scene::kBackgroundDepth ? NAN : cam.z - scene::view_distance(cam, depth[i]);
   }
   return out;
 }
@@ -80,7 +80,7 @@ std::vector<double> drawn_heights(Renderer& r, const OffscreenTarget& t, const C
 // that many cells wide are left out (with skirts two patches draw a border at two heights).
 template <typename Renderer>
 std::pair<double, int64_t> compare_with_replica(Renderer& r, const OffscreenTarget& t, const World& w,
-                                                const Camera& lod_camera, int32_t border_cells = 0) {
+                                                const scene::Camera& lod_camera, int32_t border_cells = 0) {
   const auto drawn = drawn_heights(r, t, lod_camera);
   const RectI rect = w.params().sample_rect();
   std::vector<uint16_t> samples(size_t(rect.area()));
@@ -116,8 +116,8 @@ std::pair<double, int64_t> compare_with_replica(Renderer& r, const OffscreenTarg
   return {worst, holes};
 }
 
-Camera perspective_at(double x, double y, double z, double tx, double ty) {
-  Camera c = look_at(x, y, z, tx, ty, 900);
+scene::Camera perspective_at(double x, double y, double z, double tx, double ty) {
+  scene::Camera c = scene::look_at(x, y, z, tx, ty, 900);
   c.fov_y_degrees = 60;
   return c;
 }
@@ -125,7 +125,7 @@ Camera perspective_at(double x, double y, double z, double tx, double ty) {
 TEST(GeomipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySample) {
   LOAM_REQUIRE_GL();
   World w = ridges();
-  WorldHeightSource source(w);
+  terrain::WorldHeightSource source(w);
   auto target = OffscreenTarget::create(256, 256);
   ASSERT_TRUE(target.ok());
   for (int32_t n : {9, 17, 33, -17}) {
@@ -137,7 +137,7 @@ TEST(GeomipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySample) {
     cfg.cull = false;
     auto r = GeomipmapRenderer::create(source, cfg);
     ASSERT_TRUE(r.ok()) << r.error().describe();
-    for (const Camera& lc :
+    for (const scene::Camera& lc :
          {perspective_at(-100, -100, 1400, 256, 256), perspective_at(256, 256, 1100, 500, 100)}) {
       const auto [worst, holes] =
           compare_with_replica(**r, *target, w, lc, cfg.skirts ? cfg.patch_size - 1 : 0);
@@ -156,7 +156,7 @@ TEST(GeomipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySample) {
 TEST(GeomipmapRender, AStampReuploadsItsRectAndRecomputesTheTouchedPatchesOnly) {
   LOAM_REQUIRE_GL();
   World w = ridges();
-  WorldHeightSource source(w);
+  terrain::WorldHeightSource source(w);
   auto target = OffscreenTarget::create(256, 256);
   ASSERT_TRUE(target.ok());
   GeomipmapConfig cfg;
@@ -167,7 +167,7 @@ TEST(GeomipmapRender, AStampReuploadsItsRectAndRecomputesTheTouchedPatchesOnly) 
   const RectI crater = dig_crater(w);
   const GeomipmapUpdate u = (*r)->invalidate(crater);
   EXPECT_EQ(u.patches, 9);
-  const Camera lc = perspective_at(230, 150, 1000, 100, 60);
+  const scene::Camera lc = perspective_at(230, 150, 1000, 100, 60);
   const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
   EXPECT_EQ(holes, 0);
   EXPECT_LT(worst, 0.02);
@@ -185,7 +185,7 @@ TEST(GeomipmapRender, AStampReuploadsItsRectAndRecomputesTheTouchedPatchesOnly) 
 TEST(QuadtreeRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfterAStamp) {
   LOAM_REQUIRE_GL();
   World w = ridges();
-  WorldHeightSource source(w);
+  terrain::WorldHeightSource source(w);
   auto target = OffscreenTarget::create(256, 256);
   ASSERT_TRUE(target.ok());
   for (int32_t block : {16, 64, -32}) {
@@ -197,7 +197,7 @@ TEST(QuadtreeRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfterASta
     cfg.cull = false;
     auto r = QuadtreeRenderer::create(source, cfg);
     ASSERT_TRUE(r.ok()) << r.error().describe();
-    for (const Camera& lc :
+    for (const scene::Camera& lc :
          {perspective_at(-100, -100, 1400, 256, 256), perspective_at(256, 256, 1100, 500, 100)}) {
       const auto [worst, holes] = compare_with_replica(**r, *target, w, lc, cfg.skirts ? cfg.block_size : 0);
       std::printf("block %d: largest difference %.4f m, %lld holes\n", block, worst,
@@ -211,7 +211,7 @@ TEST(QuadtreeRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfterASta
   cfg.cull = false;
   auto r = QuadtreeRenderer::create(source, cfg);
   ASSERT_TRUE(r.ok());
-  const Camera lc = perspective_at(230, 150, 1000, 100, 60);
+  const scene::Camera lc = perspective_at(230, 150, 1000, 100, 60);
   (void)compare_with_replica(**r, *target, w, lc);
   const RectI crater = dig_crater(w);
   EXPECT_GT((*r)->invalidate(crater), 0);
@@ -223,7 +223,7 @@ TEST(QuadtreeRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfterASta
 TEST(ErrorClipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfterAStamp) {
   LOAM_REQUIRE_GL();
   World w = ridges();
-  WorldHeightSource source(w);
+  terrain::WorldHeightSource source(w);
   auto target = OffscreenTarget::create(256, 256);
   ASSERT_TRUE(target.ok());
   for (int32_t block : {9, 17}) {
@@ -236,7 +236,7 @@ TEST(ErrorClipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfter
     cfg.cull = false;
     auto r = ErrorClipmapRenderer::create(source, cfg);
     ASSERT_TRUE(r.ok()) << r.error().describe();
-    for (const Camera& lc :
+    for (const scene::Camera& lc :
          {perspective_at(-100, -100, 900, 256, 256), perspective_at(256, 256, 300, 500, 100)}) {
       const auto [worst, holes] = compare_with_replica(**r, *target, w, lc);
       int levels = 0, morphing = 0;
@@ -261,7 +261,7 @@ TEST(ErrorClipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfter
   cfg.levels = 5;
   auto r = ErrorClipmapRenderer::create(source, cfg);
   ASSERT_TRUE(r.ok());
-  const Camera lc = perspective_at(230, 150, 400, 100, 60);
+  const scene::Camera lc = perspective_at(230, 150, 400, 100, 60);
   (void)compare_with_replica(**r, *target, w, lc);
   const RectI crater = dig_crater(w);
   const ErrorClipmapUpdate u = (*r)->invalidate(crater);

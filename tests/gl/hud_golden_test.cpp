@@ -25,12 +25,12 @@ namespace {
 
 // A world of 64 x 32 tiles at 2 m (32.8 x 16.4 km), six levels of n = 127 around a camera
 // near its centre, looking north-east.
-MinimapInput sample_map(const TileStates& tiles) {
-  MinimapInput in;
+terrain::MinimapInput sample_map(const terrain::TileStates& tiles) {
+  terrain::MinimapInput in;
   in.world.meters_per_sample = 2.0;
   in.world.tiles_x = 64;
   in.world.tiles_y = 32;
-  in.camera = render::look_at(16000, 9000, 300, 16600, 8500, 250);
+  in.camera = scene::look_at(16000, 9000, 300, 16600, 8500, 250);
   in.camera.far_m = 8000;
   const int64_t cx = 8000, cy = 4500;  // mip-0 samples
   for (int l = 0; l < 6; ++l) {
@@ -45,7 +45,7 @@ MinimapInput sample_map(const TileStates& tiles) {
 
 // Tiles of mips 0..3 around the camera: held, some pending at the edge of each mip's ring, two
 // stale, and a column that was held and is now evicted.
-TileStates sample_tiles() {
+terrain::TileStates sample_tiles() {
   std::vector<TileCoord> wanted, held, behind, before;
   for (uint8_t mip = 0; mip < 4; ++mip) {
     const double side = 512.0 * double(1 << mip);
@@ -67,7 +67,7 @@ TileStates sample_tiles() {
     wanted.push_back(c);
     held.push_back(c);
   }
-  TileStates states;
+  terrain::TileStates states;
   std::vector<TileCoord> held_before = held;
   held_before.insert(held_before.end(), before.begin(), before.end());
   states.update(held_before, held_before, {}, 0.0);
@@ -138,8 +138,8 @@ class HudGolden : public ::testing::Test {
 
 TEST_F(HudGolden, StatusMinimapAndATextureToolPickingAServerImage) {
   LOAM_REQUIRE_GL();
-  const TileStates tiles = sample_tiles();
-  const Minimap map = layout_minimap(sample_map(tiles), 240.0f);
+  const terrain::TileStates tiles = sample_tiles();
+  const terrain::Minimap map = terrain::layout_minimap(sample_map(tiles), 240.0f);
   const TextureRegistry images = sample_images();
   StampPreviews previews;
   previews.update(images);
@@ -147,8 +147,8 @@ TEST_F(HudGolden, StatusMinimapAndATextureToolPickingAServerImage) {
   for (const StampTexture* t : images.all())
     listed.push_back({t->id, uint32_t(t->width), uint32_t(t->height)});
   listed.push_back({0x1234, 1024, 1024});  // registered, too big to serve: stamped by id alone
-  StampTool tool;
-  tool.select(Tool::kCrater);
+  controls::StampTool tool;
+  tool.select(controls::Tool::kCrater);
   tool.set_kind(StampKind::kTexture);
   tool.texture_id = images.all()[1]->id;
   HudStatus status;
@@ -165,9 +165,9 @@ TEST_F(HudGolden, StatusMinimapAndATextureToolPickingAServerImage) {
 
 TEST_F(HudGolden, AVolumeConservingCraterInTheToolPanel) {
   LOAM_REQUIRE_GL();
-  StampTool tool;
+  controls::StampTool tool;
   tool.radius_m = 24;
-  tool.select(Tool::kCrater);
+  tool.select(controls::Tool::kCrater);
   tool.volume_conserving = true;
   tool.rotation_degrees = 45;
   StampPreviews previews;

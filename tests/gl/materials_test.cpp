@@ -47,14 +47,16 @@ const Scene& scene() {
 }
 
 // A view down into the crater from the south, 70 m out.
-Camera crater_view(const World& w) {
-  Camera cam = look_at(kCraterX, kCraterY + 70, height_at(w, kCraterX, kCraterY + 70) + 40, kCraterX,
-                       kCraterY, height_at(scene().plain, kCraterX, kCraterY) - kCraterDepth * 0.5);
+scene::Camera crater_view(const World& w) {
+  scene::Camera cam =
+      scene::look_at(kCraterX, kCraterY + 70, height_at(w, kCraterX, kCraterY + 70) + 40, kCraterX, kCraterY,
+                     height_at(scene().plain, kCraterX, kCraterY) - kCraterDepth * 0.5);
   cam.far_m = 8000;
   return cam;
 }
 
-std::vector<uint8_t> render(const HeightSource& source, const Camera& cam, const RendererConfig& cfg) {
+std::vector<uint8_t> render(const terrain::HeightSource& source, const scene::Camera& cam,
+                            const RendererConfig& cfg) {
   auto target = OffscreenTarget::create(kWidth, kHeight);
   EXPECT_TRUE(target.ok());
   auto renderer = ClipmapRenderer::create(source, cfg);
@@ -86,16 +88,16 @@ TEST(Materials, DugGroundReadsAsEarthWhereTheTerrainChangedAgainstItsInitialStat
   const Scene& s = scene();
   RendererConfig cfg;
   cfg.shadows = false;
-  const Camera cam = crater_view(s.dug);
-  const WorldHeightSource knows_initial(s.dug, &s.plain), no_initial(s.dug);
+  const scene::Camera cam = crater_view(s.dug);
+  const terrain::WorldHeightSource knows_initial(s.dug, &s.plain), no_initial(s.dug);
   const auto with_layer = render(knows_initial, cam, cfg), without = render(no_initial, cam, cfg);
   // Earth is redder than the basin's sand and dry grass: red minus blue rises inside the crater.
   auto warmth = [](double r, double, double b) { return r - b; };
   const double dug = centre_mean(with_layer, warmth), plain = centre_mean(without, warmth);
   EXPECT_GT(dug, plain + 6.0) << "dug " << dug << ", without the change layer " << plain;
   // The same source on the undug terrain: nothing changed, nothing reads as dug.
-  const WorldHeightSource undug(s.plain, &s.plain), undug_plain(s.plain);
-  const Camera plain_cam = crater_view(s.plain);
+  const terrain::WorldHeightSource undug(s.plain, &s.plain), undug_plain(s.plain);
+  const scene::Camera plain_cam = crater_view(s.plain);
   EXPECT_NEAR(centre_mean(render(undug, plain_cam, cfg), warmth),
               centre_mean(render(undug_plain, plain_cam, cfg), warmth), 0.01);
 }
@@ -111,8 +113,8 @@ TEST(Materials, UnderALowSunTheCraterRimShadowsItsFloorAndTheShadowMovesWithTheS
   // How much the shadows darken the view's centre, on the dug and on the undug terrain.
   auto darkening = [&](const World& w, const World* initial, const RendererConfig& on,
                        const RendererConfig& off) {
-    const WorldHeightSource source(w, initial);
-    const Camera cam = crater_view(w);
+    const terrain::WorldHeightSource source(w, initial);
+    const scene::Camera cam = crater_view(w);
     // The crater's floor: the picture's centre, 16 pixels either way.
     return centre_mean(render(source, cam, off), luminance, 16) -
            centre_mean(render(source, cam, on), luminance, 16);
@@ -133,8 +135,8 @@ TEST(MaterialsGolden, ADugCraterUnderALowSunWithAndWithoutMaterialsAndShadows) {
   LOAM_REQUIRE_GL();
   LOAM_REQUIRE_IDIFF();
   const Scene& s = scene();
-  const Camera cam = crater_view(s.dug);
-  const WorldHeightSource dug(s.dug, &s.plain);
+  const scene::Camera cam = crater_view(s.dug);
+  const terrain::WorldHeightSource dug(s.dug, &s.plain);
   RendererConfig cfg;
   cfg.sun_elevation_degrees = 14;
   cfg.sun_azimuth_degrees = 90;
@@ -147,7 +149,7 @@ TEST(MaterialsGolden, ADugCraterUnderALowSunWithAndWithoutMaterialsAndShadows) {
 
 TEST(Materials, AnisotropyOutsideItsRangeIsRefused) {
   LOAM_REQUIRE_GL();
-  const WorldHeightSource source(scene().plain);
+  const terrain::WorldHeightSource source(scene().plain);
   for (float bad : {-1.0f, 0.5f, 16.5f, std::nanf(""), INFINITY}) {
     RendererConfig cfg;
     cfg.anisotropy = bad;
@@ -166,7 +168,7 @@ TEST(Materials, AnisotropyOutsideItsRangeIsRefused) {
 // llvmpipe), a GPU barely does; an explicit value is taken where the driver filters.
 TEST(Materials, AutoAnisotropyIsTrilinearOnASoftwareRasterizerAndEightOnAGpu) {
   LOAM_REQUIRE_GL();
-  const WorldHeightSource source(scene().plain);
+  const terrain::WorldHeightSource source(scene().plain);
   const bool has_aniso = epoxy_has_gl_extension("GL_EXT_texture_filter_anisotropic") ||
                          epoxy_has_gl_extension("GL_ARB_texture_filter_anisotropic");
   const bool software = gpu::is_software_renderer(reinterpret_cast<const char*>(glGetString(GL_RENDERER)));

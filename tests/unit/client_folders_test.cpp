@@ -1,6 +1,7 @@
 // The client's folders are its libraries (README, "How it fits together"): each folder under
-// client/ is one CMake library, the folders without GL include no folder with GL, and the
-// README's folder map names every folder with the library client/CMakeLists.txt builds from it.
+// client/ is one CMake library in a namespace of the folder's name, the folders without GL
+// include no folder with GL, and the README's folder map names every folder with the library
+// client/CMakeLists.txt builds from it.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -107,6 +108,18 @@ TEST(ClientFolders, EveryFolderIsOneLibraryThatTheReadmesMapNames) {
     EXPECT_NE(readme.find(row), std::string::npos) << "README's folder map lacks: " << row;
   }
   EXPECT_NE(readme.find("| `client/lib` | `libloam_client.so` |"), std::string::npos);
+}
+
+// A folder's code is in its namespace (loam::scene for client/scene, ...); net/ keeps the
+// client's own (loam::client) and lib/ the game library's (loam::game).
+TEST(ClientFolders, EachLibrarysCodeIsInTheNamespaceOfItsFolder) {
+  for (const char* folder : {"scene", "lod", "query", "terrain", "controls", "render", "view"}) {
+    for (const auto& entry : fs::directory_iterator(kRoot / "client" / folder)) {
+      const std::string text = read_text(entry.path());
+      EXPECT_NE(text.find("\nnamespace loam::" + std::string(folder) + " {"), std::string::npos)
+          << entry.path().filename() << " in client/" << folder;
+    }
+  }
 }
 
 }  // namespace

@@ -7,7 +7,7 @@
 
 #include "client/lod/clipmap_mesh.h"
 
-namespace loam::render {
+namespace loam::lod {
 namespace {
 
 WorldParams big_world() {
@@ -92,4 +92,4 @@ TEST(ClipmapInterest, FarMoveDropsTheTilesLeftBehind) {
 }
 
 }  // namespace
-}  // namespace loam::render
+}  // namespace loam::lod

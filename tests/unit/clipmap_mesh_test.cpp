@@ -8,7 +8,7 @@
 #include <cmath>
 #include <random>
 
-namespace loam::render {
+namespace loam::lod {
 namespace {
 
 struct Camera {
@@ -185,4 +185,4 @@ TEST(ClipmapMesh, ToroidalStripsLoadExactlyTheSamplesThatCameIntoView) {
 }
 
 }  // namespace
-}  // namespace loam::render
+}  // namespace loam::lod

@@ -128,7 +128,7 @@ TEST(ErrorClipmap, SelectionsAreWatertightAndUseBlocksOnlyInsideTheirLevelsRegio
         }
         EXPECT_GT(levels.size(), 2u) << "a view that mixes levels";
         EXPECT_EQ(sel.stats.unrestricted, 0);
-        const render::WatertightReport r = render::check_watertight(replicate(g, sel), sel.covered);
+        const lod::WatertightReport r = lod::check_watertight(replicate(g, sel), sel.covered);
         EXPECT_TRUE(r.ok()) << "block " << n << " region " << size << ": " << r.describe();
       }
     }
@@ -148,7 +148,7 @@ TEST(ErrorClipmap, BlocksAFilterRejectsStayWholeAndTheMeshStaysWatertight) {
   const ErrorClipmapSelection half = select_error_clipmap(g, e, kScale, v, everywhere(g), true, east);
   EXPECT_LT(half.blocks.size(), all.blocks.size());
   EXPECT_EQ(half.stats.unrestricted, 0);
-  const render::WatertightReport r = render::check_watertight(replicate(g, half), half.covered);
+  const lod::WatertightReport r = lod::check_watertight(replicate(g, half), half.covered);
   EXPECT_TRUE(r.ok()) << r.describe();
   // East of the eye, beyond the restriction's reach of the filter's edge, the blocks are the same.
   std::set<ClipmapBlockId> east_all, east_half;

@@ -9,7 +9,7 @@
 
 #include "client/scene/camera.h"
 
-namespace loam::render {
+namespace loam::scene {
 namespace {
 
 // A camera 100 m up looking east (+x) level, 90 degrees vertical field of view at 16:9.
@@ -97,4 +97,4 @@ TEST(Frustum, NoBoxWithAVisiblePointIsCulled) {
 }
 
 }  // namespace
-}  // namespace loam::render
+}  // namespace loam::scene

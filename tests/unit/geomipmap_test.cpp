@@ -129,7 +129,7 @@ TEST(Geomipmap, MeshesAreWatertightAndSharedVerticesAgreeWhateverTheNeighboursLe
     const GeomipmapGrid g = grid_for(t, n);
     for (int round = 0; round < 6; ++round) {
       const auto lods = random_lods(g, rng);
-      const render::WatertightReport r = render::check_watertight(replicate(g, lods), g.covered());
+      const lod::WatertightReport r = lod::check_watertight(replicate(g, lods), g.covered());
       EXPECT_TRUE(r.ok()) << "patch size " << n << " round " << round << ": " << r.describe();
       EXPECT_EQ(height_disagreements(g, t.grid(), lods), 0) << "patch size " << n << " round " << round;
     }
@@ -147,7 +147,7 @@ TEST(Geomipmap, SelectedMeshesAreWatertightFromLowAndHighCameras) {
     for (const PatchLod& p : lods) ++levels[p.level];
     EXPECT_GT(levels.size(), 1u) << "a camera that sees several levels, at " << v.x << "," << v.y << ","
                                  << v.z;
-    const render::WatertightReport r = render::check_watertight(replicate(g, lods), g.covered());
+    const lod::WatertightReport r = lod::check_watertight(replicate(g, lods), g.covered());
     EXPECT_TRUE(r.ok()) << r.describe();
     EXPECT_EQ(height_disagreements(g, t.grid(), lods), 0);
   }
@@ -248,7 +248,7 @@ TEST(TiledBlocks, SkirtsReachBelowEveryCrackBetweenBlocksDrawnAtTheirOwnLevels) 
       std::vector<PatchLod> lods = select_lods(g, e, kScale, v);
       assign_own_sides(lods);
       const std::vector<float> depth = skirt_depths(g, e, lods);
-      const render::WatertightReport r = render::check_watertight(replicate(g, lods), g.covered());
+      const lod::WatertightReport r = lod::check_watertight(replicate(g, lods), g.covered());
       double widest = 0, slack = 1e30;
       int64_t cracked_sides = 0;
       auto check = [&](int32_t px, int32_t py, int32_t side, int32_t qx, int32_t qy, int32_t qside) {

@@ -12,7 +12,7 @@
 #include "client/net/confirmed_store.h"
 #include "client/terrain/display_terrain.h"
 
-namespace loam::render {
+namespace loam::terrain {
 namespace {
 
 // A rough world: every sample random, so a read of the wrong sample cannot go unseen.
@@ -118,4 +118,4 @@ TEST(HeightSource, AnEditReachesEveryLevelSampleThatReadsIt) {
 }
 
 }  // namespace
-}  // namespace loam::render
+}  // namespace loam::terrain

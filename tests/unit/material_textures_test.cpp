@@ -9,7 +9,7 @@
 
 #include "client/scene/sun_shadow.h"
 
-namespace loam::render {
+namespace loam::scene {
 namespace {
 
 constexpr int32_t kSize = 128;
@@ -85,4 +85,4 @@ TEST(SunShadow, TheMapSlidesByWholeTexelsAsTheCameraMoves) {
 }
 
 }  // namespace
-}  // namespace loam::render
+}  // namespace loam::scene

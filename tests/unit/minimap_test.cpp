@@ -8,7 +8,7 @@
 
 #include "client/terrain/tile_states.h"
 
-namespace loam::view {
+namespace loam::terrain {
 namespace {
 
 TileCoord tile(int32_t x, int32_t y, uint8_t mip = 0) { return {Layer::kCoarse, mip, x, y}; }
@@ -47,7 +47,7 @@ MinimapInput world_with_levels() {
   in.world.meters_per_sample = 2.0;
   in.world.tiles_x = 8;
   in.world.tiles_y = 8;
-  in.camera = render::look_at(1024, 1024, 100, 1024, 0, 100);       // looking along -y: north
+  in.camera = scene::look_at(1024, 1024, 100, 1024, 0, 100);        // looking along -y: north
   in.level_regions = {{448, 448, 576, 576}, {384, 384, 640, 640}};  // 512 m, the outer 512 samples
   return in;
 }
@@ -79,7 +79,7 @@ TEST(Minimap, TheFrustumPointsWhereTheCameraLooksAndOpensWithItsLens) {
   const double expect = std::atan(std::tan(30.0 * std::numbers::pi / 180.0) * in.aspect);
   EXPECT_NEAR(half_angle, expect, 1e-4);
   // Nearly straight down: the little horizontal part of the view still gives the heading.
-  in.camera = render::look_at(1024, 1024, 500, 1024, 1024.5, 0);
+  in.camera = scene::look_at(1024, 1024, 500, 1024, 1024.5, 0);
   const Minimap down = layout_minimap(in, 200.0f);
   EXPECT_GT(down.frustum[1][1], down.frustum[0][1]);
 }
@@ -105,4 +105,4 @@ TEST(Minimap, TilesAreColouredByStateCoarsestFirstAndClippedToTheMap) {
 }
 
 }  // namespace
-}  // namespace loam::view
+}  // namespace loam::terrain

@@ -74,7 +74,7 @@ TEST(QuadtreeLod, RandomSubdivisionsMadeRestrictedAreWatertight) {
       std::uniform_real_distribution<double> u(-100, 500);
       QuadtreeState s(g);
       select_quadtree(g, e, kScale, view_at(u(rng), u(rng), 600 + u(rng), 0.5 + round), s);
-      const render::WatertightReport r = render::check_watertight(replicate(g, s), g.covered());
+      const lod::WatertightReport r = lod::check_watertight(replicate(g, s), g.covered());
       EXPECT_TRUE(r.ok()) << "block " << block << " round " << round << ": " << r.describe();
     }
   }

@@ -11,7 +11,7 @@
 
 #include "client/controls/stamp_tool.h"
 
-namespace loam::render {
+namespace loam::scene {
 namespace {
 
 WorldParams world(double mps, int32_t tiles_x, int32_t tiles_y, int32_t origin_x = 0, int32_t origin_y = 0) {
@@ -123,14 +123,14 @@ TEST(StartView, AWalkerSpawnsUnderTheEyeOrOnTheRimWhenTheEyeIsPastTheEdge) {
 }
 
 }  // namespace
-}  // namespace loam::render
+}  // namespace loam::scene
 
 namespace loam::view {
 namespace {
 
 TEST(StampTool, GrowingStaysInTheRangeTheWorldSets) {
-  StampTool tool;
-  tool.select(Tool::kCrater);
+  controls::StampTool tool;
+  tool.select(controls::Tool::kCrater);
   tool.min_radius_m = 45.0;
   tool.max_radius_m = 45000.0;
   tool.set_radius(5000.0);

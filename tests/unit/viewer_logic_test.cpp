@@ -16,7 +16,7 @@ namespace loam::view {
 namespace {
 
 TEST(FlyCamera, MovesAlongItsViewTurnsRightWithTheMouseAndStaysAboveGround) {
-  FlyCamera c = FlyCamera::looking_at(0, 0, 100, 10, 0, 100);  // along +x, level
+  controls::FlyCamera c = controls::FlyCamera::looking_at(0, 0, 100, 10, 0, 100);  // along +x, level
   c.set_speed(10);
   auto flat = [](double, double) { return 50.0; };
   c.update({.forward = 1}, 1.0, flat);
@@ -30,12 +30,12 @@ TEST(FlyCamera, MovesAlongItsViewTurnsRightWithTheMouseAndStaysAboveGround) {
   EXPECT_GT(c.yaw(), yaw);
   c.update({.up = -1, .fast = true}, 10.0, flat);  // 800 m down: stopped 2 m above the ground
   EXPECT_NEAR(c.z(), 52.0, 1e-9);
-  const render::Camera cam = c.camera();
+  const scene::Camera cam = c.camera();
   EXPECT_NEAR(std::hypot(cam.fx, cam.fy, cam.fz), 1.0, 1e-9);
 }
 
 TEST(FlyCamera, PitchStopsShortOfStraightUpAndDown) {
-  FlyCamera c;
+  controls::FlyCamera c;
   c.update({.turn_y = -1e6}, 0.0, nullptr);
   EXPECT_LT(c.pitch(), 1.5708);
   c.update({.turn_y = 1e6}, 0.0, nullptr);
@@ -43,22 +43,22 @@ TEST(FlyCamera, PitchStopsShortOfStraightUpAndDown) {
 }
 
 TEST(Picking, UnprojectFindsThePointThatProjectsToThePixel) {
-  render::Camera cam = render::look_at(1000.5, -2000.25, 300, 1100, -1900, 20);
+  scene::Camera cam = scene::look_at(1000.5, -2000.25, 300, 1100, -1900, 20);
   const int32_t w = 640, h = 360;
-  const glm::mat4 vp = render::view_projection(cam, w, h);
+  const glm::mat4 vp = scene::view_projection(cam, w, h);
   for (const auto& p : {std::array<double, 3>{1100, -1900, 20}, std::array<double, 3>{1040, -1980, 55}}) {
     // Where p lands (render frame: camera-relative, y flipped).
     const glm::vec4 clip =
         vp * glm::vec4(float(p[0] - cam.x), float(-(p[1] - cam.y)), float(p[2] - cam.z), 1.0f);
     const glm::vec3 ndc = glm::vec3(clip) / clip.w;
     const double px = (ndc.x + 1.0) * 0.5 * w - 0.5, py = (1.0 - ndc.y) * 0.5 * h - 0.5;
-    const auto back = render::unproject(cam, w, h, px, py, ndc.z);  // clip z 0..w: window depth is ndc z
+    const auto back = scene::unproject(cam, w, h, px, py, ndc.z);  // clip z 0..w: window depth is ndc z
     ASSERT_TRUE(back.has_value());
     EXPECT_NEAR((*back)[0], p[0], 0.05);
     EXPECT_NEAR((*back)[1], p[1], 0.05);
     EXPECT_NEAR((*back)[2], p[2], 0.05);
   }
-  EXPECT_FALSE(render::unproject(cam, w, h, 10, 10, render::kBackgroundDepth).has_value())
+  EXPECT_FALSE(scene::unproject(cam, w, h, 10, 10, scene::kBackgroundDepth).has_value())
       << "depth 0 is the background";
 }
 
@@ -66,31 +66,31 @@ TEST(Picking, UnprojectFindsThePointThatProjectsToThePixel) {
 // both lenses.
 TEST(Picking, ViewDistanceInvertsTheReversedDepthOfBothLenses) {
   for (const bool ortho : {false, true}) {
-    render::Camera cam = render::look_at(0, 0, 0, 1, 0, 0);
+    scene::Camera cam = scene::look_at(0, 0, 0, 1, 0, 0);
     cam.near_m = 0.5, cam.far_m = 40000, cam.ortho_half_height = ortho ? 100.0 : 0.0;
-    const glm::mat4 vp = render::view_projection(cam, 800, 600);
+    const glm::mat4 vp = scene::view_projection(cam, 800, 600);
     for (const double d : {0.5, 3.0, 250.0, 9000.0, 40000.0}) {
       const glm::vec4 clip = vp * glm::vec4(float(d), 0.0f, 0.0f, 1.0f);
       const float depth = clip.z / clip.w;
-      EXPECT_NEAR(render::view_distance(cam, depth), d, 1e-5 * d + (ortho ? 0.01 : 0.0))
+      EXPECT_NEAR(scene::view_distance(cam, depth), d, 1e-5 * d + (ortho ? 0.01 : 0.0))
           << (ortho ? "ortho " : "perspective ") << d;
     }
-    EXPECT_NEAR(render::view_distance(cam, 1.0f), cam.near_m, 1e-9);
-    EXPECT_NEAR(render::view_distance(cam, 0.0f), cam.far_m, 1e-6);
+    EXPECT_NEAR(scene::view_distance(cam, 1.0f), cam.near_m, 1e-9);
+    EXPECT_NEAR(scene::view_distance(cam, 0.0f), cam.far_m, 1e-6);
   }
 }
 
 // Behind a 0.5 m near plane, a float depth read at 10 km places the point within centimetres:
 // a depth read at a far silhouette lands on the terrain, not metres behind it.
 TEST(Picking, ReversedFloatDepthResolvesCentimetresTenKilometresAway) {
-  render::Camera cam = render::look_at(0, 0, 0, 1, 0, 0);
+  scene::Camera cam = scene::look_at(0, 0, 0, 1, 0, 0);
   cam.near_m = 0.5, cam.far_m = 40000;
-  const glm::mat4 vp = render::view_projection(cam, 800, 600);
+  const glm::mat4 vp = scene::view_projection(cam, 800, 600);
   const glm::vec4 clip = vp * glm::vec4(10000.0f, 0.0f, 0.0f, 1.0f);
   const float depth = clip.z / clip.w;
   const float next = std::nextafter(depth, 1.0f);  // one float step nearer
-  EXPECT_LT(render::view_distance(cam, depth) - render::view_distance(cam, next), 0.01);
-  const auto back = render::unproject(cam, 800, 600, 399.5, 299.5, depth);
+  EXPECT_LT(scene::view_distance(cam, depth) - scene::view_distance(cam, next), 0.01);
+  const auto back = scene::unproject(cam, 800, 600, 399.5, 299.5, depth);
   ASSERT_TRUE(back.has_value());
   EXPECT_NEAR((*back)[0], 10000.0, 0.05);
 }
@@ -99,7 +99,7 @@ TEST(Picking, ReversedFloatDepthResolvesCentimetresTenKilometresAway) {
 // its look point, a non-finite coordinate or a vertical view (parallel to the up vector) has
 // no look-at matrix, and each is named instead.
 TEST(Camera, LookAtProblemNamesACameraAtItsLookPointANonFiniteCoordinateAndAVerticalView) {
-  using render::look_at_problem;
+  using scene::look_at_problem;
   EXPECT_FALSE(look_at_problem(1024, 1700, 300, 1024, 800, 60).has_value());
   const auto same = look_at_problem(10, 20, 30, 10, 20, 30);
   ASSERT_TRUE(same.has_value());
@@ -112,7 +112,7 @@ TEST(Camera, LookAtProblemNamesACameraAtItsLookPointANonFiniteCoordinateAndAVert
   ASSERT_TRUE(down.has_value());
   EXPECT_NE(down->find("straight up or down"), std::string::npos) << *down;
   // Where the check passes, the view-projection matrix is finite.
-  const glm::mat4 m = render::view_projection(render::look_at(100, 100, 500, 101, 100, 0), 640, 480);
+  const glm::mat4 m = scene::view_projection(scene::look_at(100, 100, 500, 101, 100, 0), 640, 480);
   for (int c = 0; c < 4; ++c)
     for (int r = 0; r < 4; ++r) EXPECT_TRUE(std::isfinite(m[c][r]));
 }
@@ -124,16 +124,16 @@ TEST(StampTool, EveryToolGivesAStampTheWorldValidates) {
   w.tiles_y = 3;
   w.height_offset = -100;
   w.meters_per_unit = 0.01;
-  StampTool tool;
+  controls::StampTool tool;
   for (double radius : {0.5, 8.0, 120.0}) {
-    for (int t = 0; t < kToolCount; ++t) {
+    for (int t = 0; t < controls::kToolCount; ++t) {
       tool.radius_m = radius;
-      tool.select(Tool(t));
+      tool.select(controls::Tool(t));
       const StampParams p = tool.at(700, 600, 12.5);
       auto q = validate_stamp(p, w);
-      EXPECT_TRUE(q.ok()) << to_string(Tool(t)) << " radius " << radius << ": "
+      EXPECT_TRUE(q.ok()) << to_string(controls::Tool(t)) << " radius " << radius << ": "
                           << (q.ok() ? "" : q.error().describe());
-      EXPECT_EQ(p.layer, Tool(t) == Tool::kFootprint ? Layer::kDetail : Layer::kCoarse);
+      EXPECT_EQ(p.layer, controls::Tool(t) == controls::Tool::kFootprint ? Layer::kDetail : Layer::kCoarse);
     }
   }
   tool.grow(1e6);
@@ -155,8 +155,8 @@ TEST(StampTool, EveryKindAndBlendThePanelOffersValidates) {
   const uint64_t id = *textures.add(16, 16, img);
   for (int k = 0; k < kStampKindCount; ++k) {
     for (int b = 0; b < kBlendModeCount; ++b) {
-      StampTool tool;
-      tool.select(Tool::kCrater);
+      controls::StampTool tool;
+      tool.select(controls::Tool::kCrater);
       tool.set_kind(StampKind(k));
       tool.blend = BlendMode(b);
       tool.texture_id = id;
@@ -173,8 +173,8 @@ TEST(StampTool, EveryKindAndBlendThePanelOffersValidates) {
     }
   }
   // The volume-conserving crater, which the presets never send.
-  StampTool crater;
-  crater.select(Tool::kCrater);
+  controls::StampTool crater;
+  crater.select(controls::Tool::kCrater);
   crater.volume_conserving = true;
   auto q = validate_stamp(crater.at(700, 600, 12.5), w);
   ASSERT_TRUE(q.ok()) << q.error().describe();
@@ -182,13 +182,13 @@ TEST(StampTool, EveryKindAndBlendThePanelOffersValidates) {
 }
 
 TEST(StampTool, GrowingAPresetKeepsItsProportions) {
-  StampTool tool;
+  controls::StampTool tool;
   tool.radius_m = 8;
-  tool.select(Tool::kCrater);
+  tool.select(controls::Tool::kCrater);
   tool.grow(2.0);
   EXPECT_DOUBLE_EQ(tool.radius_m, 16.0);
   EXPECT_DOUBLE_EQ(tool.intensity, 4.0);
-  tool.select(Tool::kFlatten);
+  tool.select(controls::Tool::kFlatten);
   tool.grow(2.0);
   EXPECT_DOUBLE_EQ(tool.intensity, 0.8);  // a strength, not a height
 }

@@ -14,7 +14,7 @@
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
 
-namespace loam::view {
+namespace loam::controls {
 namespace {
 
 WorldParams params() {
@@ -197,4 +197,4 @@ TEST(Walker, BadTimeStepsChangeNothing) {
 }
 
 }  // namespace
-}  // namespace loam::view
+}  // namespace loam::controls
