@@ -526,7 +526,8 @@ std::vector<TileChange> World::commit(uint64_t seq) {
   if (seq == 0 && !changed.empty()) initial_is_base_ = false;  // version 0 is not the base's
   std::vector<TileChange> out;
   out.reserve(changed.size());
-  for (const auto& [c, r] : changed) {
+  for (const auto& [coord, r] : changed) {
+    const TileCoord& c = coord;  // a plain reference: lambdas capture no structured binding in C++20
     TileChange change{c, r, 0, seq};
     change.base_version = visit_layer(c.layer, [&](auto row) -> uint64_t {
       using R = decltype(row);
