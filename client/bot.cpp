@@ -31,7 +31,7 @@ QuantizedStamp bot_stamp(StampRng& rng, const WorldParams& w,
              StampKind::kGaussian,  StampKind::kGaussian, StampKind::kGaussian, StampKind::kGaussian,
              StampKind::kFootprint, StampKind::kShockwave};
   o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
-  o.detail_one_in = 4;  // of the gaussians: the other kinds stay on the coarse layer
+  o.layer_share = {{3, 1}};  // of the gaussians: the other kinds stay on the coarse layer
   o.layer_kinds[Layer::kDetail] = {StampKind::kGaussian};
   o.min_radius = 2.0;
   o.max_radius = 32.0;

@@ -43,7 +43,7 @@ QuantizedStamp session_stamp(StampRng& rng, const WorldParams& w) {
   RandomStampOptions o = random_stamp_options(w);
   o.kinds = {StampKind::kGaussian, StampKind::kCrater};
   o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
-  o.detail_one_in = 0;
+  o.layer_share = {{1, 0}};
   const double inset = 40.0 * w.meters_per_sample;
   o.x0 += inset, o.y0 += inset, o.x1 -= inset, o.y1 -= inset;
   o.min_radius = 3.0;

@@ -96,7 +96,7 @@ QuantizedStamp random_stamp(StampRng& rng, const WorldParams& w, const RectI& ar
                       : std::vector<StampKind>{StampKind::kGaussian, StampKind::kCrater,
                                                StampKind::kFootprint, StampKind::kFlatten};
   o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
-  o.detail_one_in = 0;
+  o.layer_share = {{1, 0}};
   o.x0 = double(area.x0) * mps, o.y0 = double(area.y0) * mps;
   o.x1 = double(area.x1) * mps, o.y1 = double(area.y1) * mps;
   o.min_radius = 4.0 * mps, o.max_radius = (shockwave ? 8.0 : 40.0) * mps;

@@ -131,7 +131,7 @@ SnapshotBench bench_snapshots(const Context& ctx, uint64_t stamps, uint64_t ever
     RandomStampOptions o = random_stamp_options(w);
     o.kinds = {StampKind::kCrater, StampKind::kGaussian, StampKind::kGaussian, StampKind::kFootprint};
     o.blends = {BlendMode::kAdd, BlendMode::kSubtract};
-    o.detail_one_in = 4;
+    o.layer_share = {{3, 1}};
     o.layer_kinds[Layer::kDetail] = {StampKind::kGaussian};
     o.min_radius = 2.0;
     o.max_radius = 32.0;

@@ -35,6 +35,28 @@ namespace {
 uint32_t steps(double lo, double hi, uint32_t per_meter) {
   return std::max<uint32_t>(1, uint32_t((hi - lo) * double(per_meter)));
 }
+
+// The layer of the next stamp by the shares: one draw in [0, sum) unless a single layer has
+// a share. The ranges run from the last layer to the first, the order the golden sequence
+// drew in (its detail third first).
+Layer draw_layer(StampRng& rng, const PerLayer<uint32_t>& share) {
+  uint32_t sum = 0;
+  int sharing = 0;
+  Layer only = kLayers[0];
+  for (const Layer l : kLayers) {
+    if (share[l] == 0) continue;
+    sum += share[l];
+    ++sharing;
+    only = l;
+  }
+  if (sharing <= 1) return only;
+  uint32_t x = rng.below(sum);
+  for (size_t i = kLayerCount; i-- > 0;) {
+    if (x < share[kLayers[i]]) return kLayers[i];
+    x -= share[kLayers[i]];
+  }
+  return kLayers[0];
+}
 }  // namespace
 
 // The order of the draws below is the golden sequence's: each one is made whether or not the
@@ -42,7 +64,7 @@ uint32_t steps(double lo, double hi, uint32_t per_meter) {
 StampParams random_stamp_params(StampRng& rng, const RandomStampOptions& o) {
   StampParams s;
   s.kind = o.kinds[rng.below(uint32_t(o.kinds.size()))];
-  if (o.detail_one_in > 0) s.layer = rng.below(o.detail_one_in) == 0 ? Layer::kDetail : Layer::kCoarse;
+  s.layer = draw_layer(rng, o.layer_share);
   const std::vector<StampKind>& takes = o.layer_kinds[s.layer];
   if (std::find(takes.begin(), takes.end(), s.kind) == takes.end()) s.layer = Layer::kCoarse;
   s.center_x =
@@ -82,7 +104,7 @@ StampParams random_edge_case_stamp_params(StampRng& rng, const WorldParams& p, d
   StampParams s;
   s.kind = o.kinds[rng.below(uint32_t(o.kinds.size()))];
   if (s.kind == StampKind::kTexture && o.texture_id == 0) s.kind = StampKind::kGaussian;
-  if (o.detail_one_in > 0) s.layer = rng.below(o.detail_one_in) == 0 ? Layer::kDetail : Layer::kCoarse;
+  s.layer = draw_layer(rng, o.layer_share);
   const double spacing = layer_meters_per_sample(p, s.layer);
   const double unit = layer_meters_per_unit(p, s.layer);
   const int64_t max_units = layer_max(s.layer) - layer_min(s.layer);
@@ -172,7 +194,7 @@ QuantizedStamp random_quantized_stamp(StampRng& rng, const WorldParams& world,
   QuantizedStamp q;
   const int kinds = allow_shockwave ? 6 : 5;
   q.kind = StampKind(rng.next() % uint64_t(kinds));
-  q.layer = rng.next() % 2 ? Layer::kDetail : Layer::kCoarse;
+  q.layer = kLayers[rng.next() % kLayerCount];
   const RectI r = layer_sample_rect(world, q.layer);
   const int64_t pick = int64_t(rng.next() % 4);
   q.center_x = pick_coordinate(rng, r, true, pick);

@@ -54,7 +54,9 @@ struct RandomStampOptions {
   std::vector<StampKind> kinds = all_stamp_kinds();  // drawn uniformly; not empty
   // Blends of gaussian and texture stamps, drawn uniformly; not empty. The others add.
   std::vector<BlendMode> blends = {BlendMode::kAdd, BlendMode::kSubtract, BlendMode::kMin, BlendMode::kMax};
-  uint32_t detail_one_in = 3;  // 1 in N stamps on the detail layer; 0: none
+  // Each layer's share of the stamps: a stamp goes on layer L with probability share[L] / the
+  // sum (a layer with no share: none). Default: 1 in 3 on the detail layer.
+  PerLayer<uint32_t> layer_share{{2, 1}};
   // Centers: world meters in [x0, x1) x [y0, y1) on a grid of 1 / center_steps_per_meter m.
   double x0 = -250.0, y0 = -250.0, x1 = 250.0, y1 = 250.0;
   uint32_t center_steps_per_meter = 8;
@@ -95,7 +97,7 @@ StampParams random_stamp_params(StampRng& rng, const RandomStampOptions& options
 // sub-sample offset; radii log-uniform from 1/256 sample to `max_radius_samples` samples of
 // the stamp's layer; intensities at the layer's limit one time in five, so every blend
 // saturates; all four blends (footprint and flatten: add). Uses options.kinds,
-// detail_one_in and texture_id (a texture draw becomes a gaussian where it is 0).
+// layer_share and texture_id (a texture draw becomes a gaussian where it is 0).
 StampParams random_edge_case_stamp_params(StampRng& rng, const WorldParams& world, double max_radius_samples,
                                           const RandomStampOptions& options);
 
