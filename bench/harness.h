@@ -4,6 +4,7 @@
 // line, so speeds can be read against the memory floor of the machine they ran on.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -43,6 +44,12 @@ Timing summarize(std::vector<double> samples);
 
 // Bytes per second -> text like "1.23 GB/s".
 std::string format_rate(double bytes_per_second);
+// Milliseconds from `t0` to now (steady clock).
+double ms_since(std::chrono::steady_clock::time_point t0);
+// `v` with `digits` decimals.
+std::string fmt(double v, int digits = 2);
+// `v` through a printf format that takes one double ("%.1f ms").
+std::string fmt(const char* format, double v);
 
 // A table that becomes a Markdown table in the report and a CSV file.
 class Table {

@@ -6,6 +6,11 @@ function(loam_warnings target)
     # GCC 12 at -O3 reports impossible overlaps inside std::string's inlined memcpy
     # ("lit" + std::string, GCC bug 105651): a false positive, not an error of ours.
     target_compile_options(${target} PRIVATE -Wno-restrict)
+    # In a unity build each .cpp is included into the batch, so GCC takes its anonymous-namespace
+    # types for a header's and warns where a lambda or template of the file captures them.
+    if(CMAKE_UNITY_BUILD)
+      target_compile_options(${target} PRIVATE -Wno-subobject-linkage)
+    endif()
   endif()
 endfunction()
 

@@ -202,20 +202,20 @@ std::string world_params_difference(const WorldParams& a, const WorldParams& b) 
     std::snprintf(buf, sizeof buf, "%.17g", v);
     return std::string(buf);
   };
-  struct Field {
+  struct ParamField {
     const char* name;
     double a, b;
   };
-  const Field fields[] = {{"meters_per_sample", a.meters_per_sample, b.meters_per_sample},
-                          {"height_offset", a.height_offset, b.height_offset},
-                          {"meters_per_unit", a.meters_per_unit, b.meters_per_unit},
-                          {"detail_factor", double(a.detail_factor), double(b.detail_factor)},
-                          {"detail_meters_per_unit", a.detail_meters_per_unit, b.detail_meters_per_unit},
-                          {"origin_tile_x", double(a.origin_tile_x), double(b.origin_tile_x)},
-                          {"origin_tile_y", double(a.origin_tile_y), double(b.origin_tile_y)},
-                          {"tiles_x", double(a.tiles_x), double(b.tiles_x)},
-                          {"tiles_y", double(a.tiles_y), double(b.tiles_y)}};
-  for (const Field& f : fields) {
+  const ParamField fields[] = {{"meters_per_sample", a.meters_per_sample, b.meters_per_sample},
+                               {"height_offset", a.height_offset, b.height_offset},
+                               {"meters_per_unit", a.meters_per_unit, b.meters_per_unit},
+                               {"detail_factor", double(a.detail_factor), double(b.detail_factor)},
+                               {"detail_meters_per_unit", a.detail_meters_per_unit, b.detail_meters_per_unit},
+                               {"origin_tile_x", double(a.origin_tile_x), double(b.origin_tile_x)},
+                               {"origin_tile_y", double(a.origin_tile_y), double(b.origin_tile_y)},
+                               {"tiles_x", double(a.tiles_x), double(b.tiles_x)},
+                               {"tiles_y", double(a.tiles_y), double(b.tiles_y)}};
+  for (const ParamField& f : fields) {
     if (!(f.a == f.b)) return std::string(f.name) + " " + num(f.a) + " against " + num(f.b);
   }
   return "";

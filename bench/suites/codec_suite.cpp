@@ -165,12 +165,6 @@ struct Cell {
   bool ok = true;
 };
 
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
-
 // A crater as the stamp kinds make one (bowl, raised rim), or a gaussian bump, added to `s`
 // (w x h, the whole world) with rounding and saturation. Returns the bounding rect touched.
 RectI apply_stamp(std::vector<uint16_t>& s, int64_t w, int64_t h, double cx, double cy, double r,

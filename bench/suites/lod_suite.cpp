@@ -48,21 +48,11 @@ namespace {
 
 using clock_type = std::chrono::steady_clock;
 
-std::string fmt(double v, int digits = 2) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.*f", digits, v);
-  return b;
-}
-
 // The median; -1 for none.
 double median(std::vector<double> v) {
   if (v.empty()) return -1.0;
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
-}
-
-double ms_since(clock_type::time_point t0) {
-  return std::chrono::duration<double, std::milli>(clock_type::now() - t0).count();
 }
 
 struct Terrain {

@@ -25,12 +25,6 @@
 namespace loam::bench {
 namespace {
 
-std::string fmt(double v, int digits = 3) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.*f", digits, v);
-  return b;
-}
-
 // A square height grid (m), spacing 1 m.
 struct Grid {
   int64_t n = 0;
@@ -154,8 +148,8 @@ int run_normals(const Context& ctx, Report& report) {
       const Grid exact = sample(s, n, 0.0), quantized = sample(s, n, 0.05);
       for (size_t k = 0; k < ms.size(); ++k) {
         const AngleStats e = angles(ms[k], exact, s), q = angles(ms[k], quantized, s);
-        table.add_row(
-            {fmt(wl, 0), fmt(slope, 0), ms[k].name, fmt(e.mean), fmt(e.p99), fmt(e.max), fmt(q.p99)});
+        table.add_row({fmt(wl, 0), fmt(slope, 0), ms[k].name, fmt(e.mean, 3), fmt(e.p99, 3), fmt(e.max, 3),
+                       fmt(q.p99, 3)});
         if (wl == 16) series[k].points.push_back({slope, std::max(e.max, 1e-4)});
       }
       std::printf("  wavelength %.0f, slope %.0f: done\n", wl, slope);

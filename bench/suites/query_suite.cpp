@@ -26,12 +26,6 @@
 namespace loam::bench {
 namespace {
 
-std::string fmt(double v, int digits = 3) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%.*f", digits, v);
-  return b;
-}
-
 std::vector<TileCoord> all_tiles(const WorldParams& p) {
   std::vector<TileCoord> out;
   const RectI t = p.tile_range(0);

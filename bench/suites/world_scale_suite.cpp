@@ -136,12 +136,6 @@ bool write_hillshade(const Field& f, const std::string& path) {
   return out->close() && ok;
 }
 
-std::string fmt(const char* f, double v) {
-  char b[64];
-  std::snprintf(b, sizeof b, f, v);
-  return b;
-}
-
 // Peak resident set (VmHWM) of a live process, MiB; 0 when unreadable.
 double peak_rss_mib(pid_t pid) {
   std::FILE* f = std::fopen(("/proc/" + std::to_string(pid) + "/status").c_str(), "r");

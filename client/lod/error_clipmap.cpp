@@ -333,11 +333,16 @@ ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const C
 
 float block_vertex_height(const ClipmapBlockGrid& grid, const HeightGrid& heights, const ClipmapBlock& block,
                           int32_t lx, int32_t ly) {
-  const int64_t s = int64_t(1) << block.id.level, c = grid.cells();
-  const int64_t x0 = int64_t(block.id.bx) * c, y0 = int64_t(block.id.by) * c;
+  const int64_t c = grid.cells();
+  // One captured reference: the callable fits std::function's inline storage (no allocation
+  // per vertex).
+  const struct {
+    const HeightGrid& heights;
+    int64_t x0, y0, s;
+  } b{heights, int64_t(block.id.bx) * c, int64_t(block.id.by) * c, int64_t(1) << block.id.level};
   return morphed_vertex_height(
       grid.cells(), std::countr_zero(uint32_t(grid.cells())) + 1, block.lod, lx, ly,
-      [&](int32_t x, int32_t y) { return double(heights.at((x0 + x) * s, (y0 + y) * s)); });
+      [&b](int32_t x, int32_t y) { return double(b.heights.at((b.x0 + x) * b.s, (b.y0 + y) * b.s)); });
 }
 
 namespace {

@@ -419,9 +419,15 @@ float morphed_vertex_height(int32_t c, int32_t levels, const PatchLod& lod, int3
 float displayed_height(const GeomipmapGrid& grid, const HeightGrid& heights, int32_t px, int32_t py,
                        const PatchLod& lod, int32_t lx, int32_t ly) {
   const int32_t c = grid.cells();
-  const int64_t x0 = int64_t(px) * c, y0 = int64_t(py) * c;
-  return morphed_vertex_height(c, grid.levels, lod, lx, ly,
-                               [&](int32_t x, int32_t y) { return double(heights.at(x0 + x, y0 + y)); });
+  // One captured reference: the callable fits std::function's inline storage (no allocation
+  // per vertex, which the replicas' displayed_surface asks for millions of times).
+  const struct {
+    const HeightGrid& heights;
+    int64_t x0, y0;
+  } patch{heights, int64_t(px) * c, int64_t(py) * c};
+  return morphed_vertex_height(c, grid.levels, lod, lx, ly, [&patch](int32_t x, int32_t y) {
+    return double(patch.heights.at(patch.x0 + x, patch.y0 + y));
+  });
 }
 
 namespace {

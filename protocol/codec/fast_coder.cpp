@@ -21,10 +21,6 @@
 namespace loam::codec {
 namespace {
 
-Error err(ErrorCode code, const char* field, std::string message) {
-  return make_error(code, field, std::move(message));
-}
-
 constexpr uint32_t kSymbolsPerContext = 64;  // sym index = context * 64 + token
 constexpr size_t kStatesBytes = 4 * rans::kLanes;
 
@@ -541,15 +537,18 @@ Status decode_body(const FastBody& fb, uint32_t width, uint32_t height, U* out, 
     residual_row(t, width, any, extras, above, y == 0 ? zeros : row - width, row, isa);
   }
   if (rw.overran())
-    return err(ErrorCode::kTruncated, "region.fast.rans", "word stream ended before the last sample");
+    return make_error(ErrorCode::kTruncated, "region.fast.rans", "word stream ended before the last sample");
   if (rw.left() != 0) {
-    return err(ErrorCode::kCorrupt, "region.fast.rans",
-               std::to_string(rw.left()) + " bytes after the last sample");
+    return make_error(ErrorCode::kCorrupt, "region.fast.rans",
+                      std::to_string(rw.left()) + " bytes after the last sample");
   }
   for (uint32_t x : rw.states)
-    if (x != rans::kStateLow) return err(ErrorCode::kCorrupt, "region.fast.rans", "final state mismatch");
-  if (extras.overran()) return err(ErrorCode::kTruncated, "region.fast.extras", "escape bits ended early");
-  if (!extras.exhausted()) return err(ErrorCode::kCorrupt, "region.fast.extras", "escape bits left over");
+    if (x != rans::kStateLow)
+      return make_error(ErrorCode::kCorrupt, "region.fast.rans", "final state mismatch");
+  if (extras.overran())
+    return make_error(ErrorCode::kTruncated, "region.fast.extras", "escape bits ended early");
+  if (!extras.exhausted())
+    return make_error(ErrorCode::kCorrupt, "region.fast.extras", "escape bits left over");
   if (fb.shift > 0) {
     const size_t n = size_t(width) * height;
     if constexpr (sizeof(U) == 2) {
@@ -579,54 +578,60 @@ Result<FastBody> parse_fast_body(std::span<const uint8_t> body, int bits) {
   FastBody fb;
   size_t at = 0;
   auto need = [&](size_t k) { return body.size() - at >= k; };
-  if (!need(1)) return err(ErrorCode::kTruncated, "region.fast", "body too short");
+  if (!need(1)) return make_error(ErrorCode::kTruncated, "region.fast", "body too short");
   fb.shift = body[at++];
   if (fb.shift > (bits == 16 ? 15u : 0u))
-    return err(ErrorCode::kCorrupt, "region.fast", "shift out of range");
+    return make_error(ErrorCode::kCorrupt, "region.fast", "shift out of range");
   if (fb.shift > 0) {
-    if (!need(2)) return err(ErrorCode::kTruncated, "region.fast", "body too short for the low bits");
+    if (!need(2)) return make_error(ErrorCode::kTruncated, "region.fast", "body too short for the low bits");
     fb.low = load_le<uint16_t>(body.data() + at);
     at += 2;
-    if (fb.low >= (1u << fb.shift)) return err(ErrorCode::kCorrupt, "region.fast", "low bits out of range");
+    if (fb.low >= (1u << fb.shift))
+      return make_error(ErrorCode::kCorrupt, "region.fast", "low bits out of range");
   }
-  if (!need(1)) return err(ErrorCode::kTruncated, "region.fast", "body too short for the predictor");
+  if (!need(1)) return make_error(ErrorCode::kTruncated, "region.fast", "body too short for the predictor");
   fb.predictor = body[at++];
-  if (fb.predictor > 1) return err(ErrorCode::kCorrupt, "region.fast", "unknown predictor");
+  if (fb.predictor > 1) return make_error(ErrorCode::kCorrupt, "region.fast", "unknown predictor");
   for (int c = 0; c < kContexts; ++c) {
-    if (!need(1)) return err(ErrorCode::kTruncated, "region.fast.tables", "body ends inside the tables");
+    if (!need(1))
+      return make_error(ErrorCode::kTruncated, "region.fast.tables", "body ends inside the tables");
     const uint32_t count = body[at++];
     if (count > tokens)
-      return err(ErrorCode::kCorrupt, "region.fast.tables", "more tokens than the sample type has");
+      return make_error(ErrorCode::kCorrupt, "region.fast.tables", "more tokens than the sample type has");
     uint32_t sum = 0;
     for (uint32_t t = 0; t < count; ++t) {
-      if (!need(1)) return err(ErrorCode::kTruncated, "region.fast.tables", "body ends inside the tables");
+      if (!need(1))
+        return make_error(ErrorCode::kTruncated, "region.fast.tables", "body ends inside the tables");
       uint32_t v = body[at++];
       if (v & 0x80u) {
-        if (!need(1)) return err(ErrorCode::kTruncated, "region.fast.tables", "body ends inside the tables");
+        if (!need(1))
+          return make_error(ErrorCode::kTruncated, "region.fast.tables", "body ends inside the tables");
         v = (v & 0x7Fu) | (uint32_t(body[at++]) << 7);
         if (v < 128)
-          return err(ErrorCode::kCorrupt, "region.fast.tables", "frequency not in its shortest form");
+          return make_error(ErrorCode::kCorrupt, "region.fast.tables", "frequency not in its shortest form");
       }
-      if (v > rans::kProbScale) return err(ErrorCode::kCorrupt, "region.fast.tables", "frequency above 1024");
+      if (v > rans::kProbScale)
+        return make_error(ErrorCode::kCorrupt, "region.fast.tables", "frequency above 1024");
       fb.freqs[size_t(c)][t] = uint16_t(v);
       sum += v;
     }
     if (count > 0 && (sum != rans::kProbScale || fb.freqs[size_t(c)][count - 1] == 0)) {
-      return err(ErrorCode::kCorrupt, "region.fast.tables", "frequencies do not sum to 1024");
+      return make_error(ErrorCode::kCorrupt, "region.fast.tables", "frequencies do not sum to 1024");
     }
   }
-  if (!need(4)) return err(ErrorCode::kTruncated, "region.fast.rans", "body ends before the rANS length");
+  if (!need(4))
+    return make_error(ErrorCode::kTruncated, "region.fast.rans", "body ends before the rANS length");
   const uint32_t rans_bytes = load_le<uint32_t>(body.data() + at);
   at += 4;
   if (rans_bytes < kStatesBytes || rans_bytes % 2 != 0) {
-    return err(ErrorCode::kCorrupt, "region.fast.rans", "rANS length is not 32 + 2 * words");
+    return make_error(ErrorCode::kCorrupt, "region.fast.rans", "rANS length is not 32 + 2 * words");
   }
   if (!need(rans_bytes))
-    return err(ErrorCode::kTruncated, "region.fast.rans", "body shorter than the rANS length");
+    return make_error(ErrorCode::kTruncated, "region.fast.rans", "body shorter than the rANS length");
   for (int k = 0; k < rans::kLanes; ++k) {
     fb.states[size_t(k)] = load_le<uint32_t>(body.data() + at + 4 * size_t(k));
     if (fb.states[size_t(k)] < rans::kStateLow) {
-      return err(ErrorCode::kCorrupt, "region.fast.rans", "initial state below 2^16");
+      return make_error(ErrorCode::kCorrupt, "region.fast.rans", "initial state below 2^16");
     }
   }
   fb.words = body.subspan(at + kStatesBytes, rans_bytes - kStatesBytes);

@@ -12,10 +12,6 @@
 namespace loam::codec {
 namespace {
 
-Error err(ErrorCode code, const char* field, std::string message) {
-  return make_error(code, field, std::move(message));
-}
-
 struct DctxDeleter {
   void operator()(ZSTD_DCtx* d) const { ZSTD_freeDCtx(d); }
 };
@@ -33,15 +29,15 @@ template <typename T>
 Status decode(const FastBodyV2& fb, uint32_t width, uint32_t height, std::span<T> out) {
   const size_t n = out.size();
   ZSTD_DCtx* dc = dctx();
-  if (dc == nullptr) return err(ErrorCode::kCorrupt, "region.fast", "no zstd context");
+  if (dc == nullptr) return make_error(ErrorCode::kCorrupt, "region.fast", "no zstd context");
   std::vector<uint8_t>& scratch = planes_scratch();
   if (scratch.size() < sizeof(T) * n) scratch.resize(sizeof(T) * n);
   uint8_t* planes = scratch.data();
   for (size_t p = 0; p < sizeof(T); ++p) {
     const size_t got = ZSTD_decompressDCtx(dc, planes + p * n, n, fb.frames[p].data(), fb.frames[p].size());
     if (ZSTD_isError(got) || got != n) {
-      return err(ErrorCode::kCorrupt, p == 0 ? "region.fast.frame0" : "region.fast.frame1",
-                 ZSTD_isError(got) ? ZSTD_getErrorName(got) : "zstd frame shorter than the plane");
+      return make_error(ErrorCode::kCorrupt, p == 0 ? "region.fast.frame0" : "region.fast.frame1",
+                        ZSTD_isError(got) ? ZSTD_getErrorName(got) : "zstd frame shorter than the plane");
     }
   }
   if constexpr (sizeof(T) == 2) {
@@ -57,16 +53,18 @@ Status decode(const FastBodyV2& fb, uint32_t width, uint32_t height, std::span<T
 }  // namespace
 
 Result<FastBodyV2> parse_fast_body_v2(std::span<const uint8_t> body, size_t planes, size_t n) {
-  if (body.empty()) return err(ErrorCode::kTruncated, "region.fast", "body too short");
+  if (body.empty()) return make_error(ErrorCode::kTruncated, "region.fast", "body too short");
   FastBodyV2 fb;
   fb.shift = body[0];
   if (fb.shift > (planes == 2 ? 15u : 0u))
-    return err(ErrorCode::kCorrupt, "region.fast", "shift out of range");
+    return make_error(ErrorCode::kCorrupt, "region.fast", "shift out of range");
   size_t at = 1;
   if (fb.shift > 0) {
-    if (body.size() < 3) return err(ErrorCode::kTruncated, "region.fast", "body too short for the low bits");
+    if (body.size() < 3)
+      return make_error(ErrorCode::kTruncated, "region.fast", "body too short for the low bits");
     fb.low = load_le<uint16_t>(body.data() + 1);
-    if (fb.low >= (1u << fb.shift)) return err(ErrorCode::kCorrupt, "region.fast", "low bits out of range");
+    if (fb.low >= (1u << fb.shift))
+      return make_error(ErrorCode::kCorrupt, "region.fast", "low bits out of range");
     at = 3;
   }
   std::span<const uint8_t> rest = body.subspan(at);
@@ -76,11 +74,11 @@ Result<FastBodyV2> parse_fast_body_v2(std::span<const uint8_t> body, size_t plan
     if (p + 1 < planes) {
       len = ZSTD_findFrameCompressedSize(rest.data(), rest.size());
       if (ZSTD_isError(len) || len > rest.size())
-        return err(ErrorCode::kCorrupt, field, "no complete zstd frame");
+        return make_error(ErrorCode::kCorrupt, field, "no complete zstd frame");
     }
     fb.frames[p] = rest.first(len);
     if (ZSTD_getFrameContentSize(fb.frames[p].data(), fb.frames[p].size()) != n) {
-      return err(ErrorCode::kCorrupt, field, "zstd frame size does not match the rect");
+      return make_error(ErrorCode::kCorrupt, field, "zstd frame size does not match the rect");
     }
     rest = rest.subspan(len);
   }

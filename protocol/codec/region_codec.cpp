@@ -43,10 +43,6 @@ constexpr uint8_t kMagic0 = 'L', kMagic1 = 'R';
 constexpr uint8_t kFormatVersion = 3;
 constexpr uint8_t kOldestFormatVersion = 2;
 
-Error err(ErrorCode code, const char* field, std::string message) {
-  return make_error(code, field, std::move(message));
-}
-
 // Per sample type: the field domain of the samples themselves and of signed differences, from
 // the layer's row (protocol/layer.h), and the type's tag in the header.
 template <LayerRow R, SampleType kTag>
@@ -77,10 +73,10 @@ T wrap_sample(int32_t v) {  // v modulo 2^bits, as a sample
 }
 
 Status check_dims(uint32_t width, uint32_t height) {
-  if (width == 0 || height == 0) return err(ErrorCode::kInvalidArgument, "region.size", "empty rect");
+  if (width == 0 || height == 0) return make_error(ErrorCode::kInvalidArgument, "region.size", "empty rect");
   if (width > kMaxRegionSide || height > kMaxRegionSide || uint64_t(width) * height > kMaxRegionSamples) {
-    return err(ErrorCode::kOversize, "region.size",
-               std::to_string(width) + "x" + std::to_string(height) + " exceeds the region cap");
+    return make_error(ErrorCode::kOversize, "region.size",
+                      std::to_string(width) + "x" + std::to_string(height) + " exceeds the region cap");
   }
   return {};
 }
@@ -179,13 +175,14 @@ void put_reduction(std::vector<uint8_t>& out, const Reduction& red) {
 // Reads and validates the preamble: the lattice must fit the sample type (`max_u` is the
 // largest unsigned offset, `max_bits` the widest reduced field).
 Result<Reduction> get_reduction(std::span<const uint8_t> body, uint32_t max_u, int max_bits) {
-  if (body.size() < kReductionSize) return err(ErrorCode::kTruncated, "region.reduction", "body too short");
+  if (body.size() < kReductionSize)
+    return make_error(ErrorCode::kTruncated, "region.reduction", "body too short");
   Reduction red;
   red.bits = body[0];
   red.g = load_le<uint16_t>(body.data() + 1);
   red.r = load_le<uint16_t>(body.data() + 3);
   if (red.bits < 1 || red.bits > max_bits || red.g < 1 || red.r >= red.g || red.g > max_u + 1) {
-    return err(ErrorCode::kCorrupt, "region.reduction", "bits/step/offset out of range");
+    return make_error(ErrorCode::kCorrupt, "region.reduction", "bits/step/offset out of range");
   }
   return red;
 }
@@ -239,9 +236,9 @@ Result<std::vector<uint8_t>> encode_any(RegionEncoding encoding, std::span<const
   LOAM_TRY(check_dims(width, height));
   const size_t n = size_t(width) * height;
   if (s.size() != n) {
-    return err(ErrorCode::kInvalidArgument, "region.samples",
-               std::to_string(s.size()) + " samples for a " + std::to_string(width) + "x" +
-                   std::to_string(height) + " rect");
+    return make_error(ErrorCode::kInvalidArgument, "region.samples",
+                      std::to_string(s.size()) + " samples for a " + std::to_string(width) + "x" +
+                          std::to_string(height) + " rect");
   }
   std::vector<uint8_t> out;
   switch (encoding) {
@@ -257,24 +254,25 @@ Result<std::vector<uint8_t>> encode_any(RegionEncoding encoding, std::span<const
       break;
     }
     case RegionEncoding::kDelta:
-      if (refs.base.size() != n) return err(ErrorCode::kInvalidArgument, "region.base", "base size differs");
+      if (refs.base.size() != n)
+        return make_error(ErrorCode::kInvalidArgument, "region.base", "base size differs");
       out = encode_delta(s, refs.base, width, height);
       break;
     case RegionEncoding::kRefine: {
       const size_t cw = (width + 1) / 2, ch = (height + 1) / 2;
       if (refs.coarser.size() != cw * ch) {
-        return err(ErrorCode::kInvalidArgument, "region.coarser", "coarser mip size differs");
+        return make_error(ErrorCode::kInvalidArgument, "region.coarser", "coarser mip size differs");
       }
       for (size_t y = 0; y < ch; ++y)
         for (size_t x = 0; x < cw; ++x)
           if (refs.coarser[y * cw + x] != s[2 * y * width + 2 * x]) {
-            return err(ErrorCode::kInvalidArgument, "region.coarser",
-                       "coarser mip does not match the rect's even samples");
+            return make_error(ErrorCode::kInvalidArgument, "region.coarser",
+                              "coarser mip does not match the rect's even samples");
           }
       out = encode_refine(s, width, height);
       break;
     }
-    default: return err(ErrorCode::kBadEnum, "region.encoding", "unknown encoding");
+    default: return make_error(ErrorCode::kBadEnum, "region.encoding", "unknown encoding");
   }
   // Raw is the floor: never send more than the samples themselves.
   if (out.empty() || out.size() >= kRegionHeaderSize + n * sizeof(T)) return encode_raw(s, width, height);
@@ -289,32 +287,32 @@ Result<std::vector<T>> decode_any(std::span<const uint8_t> payload, uint32_t wid
   if (!header) return header.error();
   const RegionHeader& hd = *header;
   if (hd.type != Traits<T>::kType) {
-    return err(ErrorCode::kCorrupt, "region.type", "payload holds the other layer's sample type");
+    return make_error(ErrorCode::kCorrupt, "region.type", "payload holds the other layer's sample type");
   }
   if (hd.width != width || hd.height != height) {
-    return err(ErrorCode::kCorrupt, "region.size",
-               "payload is " + std::to_string(hd.width) + "x" + std::to_string(hd.height) + ", rect is " +
-                   std::to_string(width) + "x" + std::to_string(height));
+    return make_error(ErrorCode::kCorrupt, "region.size",
+                      "payload is " + std::to_string(hd.width) + "x" + std::to_string(hd.height) +
+                          ", rect is " + std::to_string(width) + "x" + std::to_string(height));
   }
   const std::span<const uint8_t> body = payload.subspan(kRegionHeaderSize, hd.body_size);
   if (region_checksum(payload) != hd.body_checksum) {
-    return err(ErrorCode::kCorrupt, "region.checksum", "body checksum mismatch");
+    return make_error(ErrorCode::kCorrupt, "region.checksum", "body checksum mismatch");
   }
   const size_t n = size_t(width) * height;
   // References are checked before the output is allocated.
   if (hd.encoding == RegionEncoding::kDelta && refs.base.size() != n) {
-    return err(ErrorCode::kInvalidArgument, "region.base",
-               "delta needs the base rect (" + std::to_string(n) + " samples), got " +
-                   std::to_string(refs.base.size()));
+    return make_error(ErrorCode::kInvalidArgument, "region.base",
+                      "delta needs the base rect (" + std::to_string(n) + " samples), got " +
+                          std::to_string(refs.base.size()));
   }
   const size_t cw = (width + 1) / 2, ch = (height + 1) / 2;
   if (hd.encoding == RegionEncoding::kRefine && refs.coarser.size() != cw * ch) {
-    return err(ErrorCode::kInvalidArgument, "region.coarser",
-               "refinement needs the coarser mip (" + std::to_string(cw * ch) + " samples), got " +
-                   std::to_string(refs.coarser.size()));
+    return make_error(ErrorCode::kInvalidArgument, "region.coarser",
+                      "refinement needs the coarser mip (" + std::to_string(cw * ch) + " samples), got " +
+                          std::to_string(refs.coarser.size()));
   }
   if (hd.encoding == RegionEncoding::kRaw && body.size() != n * sizeof(T)) {
-    return err(
+    return make_error(
         ErrorCode::kCorrupt, "region.raw",
         "body holds " + std::to_string(body.size()) + " bytes, rect needs " + std::to_string(n * sizeof(T)));
   }
@@ -335,7 +333,8 @@ Result<std::vector<T>> decode_any(std::span<const uint8_t> payload, uint32_t wid
   }
   if (hd.encoding != RegionEncoding::kRaw && hd.encoding != RegionEncoding::kFast &&
       body.size() < kReductionSize + 5) {
-    return err(ErrorCode::kTruncated, "region.stream", "range coder stream shorter than its 5-byte flush");
+    return make_error(ErrorCode::kTruncated, "region.stream",
+                      "range coder stream shorter than its 5-byte flush");
   }
 
   std::vector<T> out(n);
@@ -379,24 +378,26 @@ Result<std::vector<T>> decode_any(std::span<const uint8_t> payload, uint32_t wid
           for (size_t x = 0; x < cw; ++x) {
             const uint32_t u = uint32_t(int32_t(refs.coarser[y * cw + x]) - Traits<T>::kLo);
             if (u < rd.r || (u - rd.r) % rd.g != 0 || (u - rd.r) / rd.g > top) {
-              return err(ErrorCode::kCorrupt, "region.coarser",
-                         "coarser mip is off the payload's sample lattice");
+              return make_error(ErrorCode::kCorrupt, "region.coarser",
+                                "coarser mip is off the payload's sample lattice");
             }
             f[2 * y * width + 2 * x] = int32_t((u - rd.r) / rd.g);
           }
         codec::decode_refinement(dec, f, width, height, rd.bits);
       }
-      if (dec.overran()) return err(ErrorCode::kTruncated, field, "stream ended before the last sample");
+      if (dec.overran())
+        return make_error(ErrorCode::kTruncated, field, "stream ended before the last sample");
       if (dec.remaining() != 0) {
-        return err(ErrorCode::kCorrupt, field,
-                   std::to_string(dec.remaining()) + " bytes after the last sample");
+        return make_error(ErrorCode::kCorrupt, field,
+                          std::to_string(dec.remaining()) + " bytes after the last sample");
       }
       for (size_t i = 0; i < n; ++i) {
         if (is_delta) {
           out[i] = wrap_sample<T>(int32_t(int64_t(refs.base[i]) + int64_t(f[i]) * rd.g));
         } else {
           const uint64_t u = uint64_t(uint32_t(f[i])) * rd.g + rd.r;
-          if (u > max_u) return err(ErrorCode::kCorrupt, field, "sample outside the sample type's range");
+          if (u > max_u)
+            return make_error(ErrorCode::kCorrupt, field, "sample outside the sample type's range");
           out[i] = T(int32_t(u) + Traits<T>::kLo);
         }
       }
@@ -411,7 +412,7 @@ Result<std::vector<T>> decode_any(std::span<const uint8_t> payload, uint32_t wid
       got = hash_detail_tile(out);
     }
     if (got != *expected_hash)
-      return err(ErrorCode::kCorrupt, "region.hash", "decoded samples do not match the hash");
+      return make_error(ErrorCode::kCorrupt, "region.hash", "decoded samples do not match the hash");
   }
   return out;
 }
@@ -427,26 +428,28 @@ uint32_t region_checksum(std::span<const uint8_t> payload) {
 
 Result<RegionHeader> read_region_header(std::span<const uint8_t> payload) {
   if (payload.size() < kRegionHeaderSize) {
-    return err(
+    return make_error(
         ErrorCode::kTruncated, "region.header",
         std::to_string(payload.size()) + " bytes, the header needs " + std::to_string(kRegionHeaderSize));
   }
   const uint8_t* p = payload.data();
   if (p[0] != kMagic0 || p[1] != kMagic1)
-    return err(ErrorCode::kCorrupt, "region.magic", "not a region payload");
+    return make_error(ErrorCode::kCorrupt, "region.magic", "not a region payload");
   if (p[2] < kOldestFormatVersion || p[2] > kFormatVersion) {
-    return err(ErrorCode::kUnsupported, "region.version", "format version " + std::to_string(p[2]));
+    return make_error(ErrorCode::kUnsupported, "region.version", "format version " + std::to_string(p[2]));
   }
   if (p[3] >= kRegionEncodingCount) {
-    return err(ErrorCode::kBadEnum, "region.encoding", "encoding " + std::to_string(p[3]));
+    return make_error(ErrorCode::kBadEnum, "region.encoding", "encoding " + std::to_string(p[3]));
   }
   if (p[2] < kFormatVersion && RegionEncoding(p[3]) == RegionEncoding::kRefine) {
-    return err(ErrorCode::kUnsupported, "region.version", "version 2 refinement payloads are not decoded");
+    return make_error(ErrorCode::kUnsupported, "region.version",
+                      "version 2 refinement payloads are not decoded");
   }
   if (p[4] > uint8_t(SampleType::kDetailI8)) {
-    return err(ErrorCode::kBadEnum, "region.type", "sample type " + std::to_string(p[4]));
+    return make_error(ErrorCode::kBadEnum, "region.type", "sample type " + std::to_string(p[4]));
   }
-  if (p[5] != 0) return err(ErrorCode::kUnsupported, "region.flags", "unknown flags " + std::to_string(p[5]));
+  if (p[5] != 0)
+    return make_error(ErrorCode::kUnsupported, "region.flags", "unknown flags " + std::to_string(p[5]));
   RegionHeader h;
   h.version = p[2];
   h.encoding = RegionEncoding(p[3]);
@@ -457,10 +460,11 @@ Result<RegionHeader> read_region_header(std::span<const uint8_t> payload) {
   h.body_checksum = load_le<uint32_t>(p + 14);
   LOAM_TRY(check_dims(h.width, h.height));
   if (h.body_size != payload.size() - kRegionHeaderSize) {
-    return err(h.body_size > payload.size() - kRegionHeaderSize ? ErrorCode::kTruncated : ErrorCode::kCorrupt,
-               "region.body_size",
-               "header says " + std::to_string(h.body_size) + " body bytes, payload has " +
-                   std::to_string(payload.size() - kRegionHeaderSize));
+    return make_error(
+        h.body_size > payload.size() - kRegionHeaderSize ? ErrorCode::kTruncated : ErrorCode::kCorrupt,
+        "region.body_size",
+        "header says " + std::to_string(h.body_size) + " body bytes, payload has " +
+            std::to_string(payload.size() - kRegionHeaderSize));
   }
   return h;
 }

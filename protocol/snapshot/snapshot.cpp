@@ -14,6 +14,7 @@
 
 #include "protocol/byte_order.h"
 #include "protocol/codec/region_codec.h"
+#include "protocol/file_io.h"
 #include "protocol/layer.h"
 #include "protocol/snapshot/snapshot_io.h"
 #include "protocol/snapshot/snapshot_store.h"
@@ -26,10 +27,6 @@ namespace {
 
 constexpr char kMagic[8] = {'L', 'O', 'A', 'M', 'S', 'N', 'A', 'P'};
 constexpr uint32_t kFormat = 2;  // 2: texture-stamp images after the tile sections
-
-Error io_error(const std::string& path, const std::string& what) {
-  return make_error(ErrorCode::kIo, path, what + ": " + std::strerror(errno));
-}
 
 // Writing a layer's decoded tile into a world.
 template <class R>
@@ -67,24 +64,24 @@ namespace snapshot_io {
 
 Status write_file_synced(const std::string& path, std::span<const uint8_t> bytes) {
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return io_error(path, "cannot create");
+  if (fd < 0) return file_error(path, "cannot create");
   size_t done = 0;
   while (done < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
     if (n < 0) {
       if (errno == EINTR) continue;
-      const Error e = io_error(path, "write failed");
+      const Error e = file_error(path, "write failed");
       ::close(fd);
       return e;
     }
     done += size_t(n);
   }
   if (::fsync(fd) != 0) {
-    const Error e = io_error(path, "fsync failed");
+    const Error e = file_error(path, "fsync failed");
     ::close(fd);
     return e;
   }
-  if (::close(fd) != 0) return io_error(path, "close failed");
+  if (::close(fd) != 0) return file_error(path, "close failed");
   return {};
 }
 
@@ -129,10 +126,10 @@ using snapshot_io::write_file_synced;
 
 Status fsync_path(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return io_error(path, "cannot open to fsync");
+  if (fd < 0) return file_error(path, "cannot open to fsync");
   const int rc = ::fsync(fd);
   ::close(fd);
-  if (rc != 0) return io_error(path, "fsync failed");
+  if (rc != 0) return file_error(path, "fsync failed");
   return {};
 }
 

@@ -41,8 +41,6 @@ constexpr uint8_t kKindCoarse = 0, kKindDetail = 1, kKindImage = 2;
 // image's is exactly its samples: checked against its size).
 constexpr uint32_t kMaxTilePayload = uint32_t(kRegionHeaderSize + kTileSamples * 2 + 64);
 
-Error io_error(const std::string& path, const std::string& what) { return file_error(path, what); }
-
 void put_record_header(std::vector<uint8_t>& out, uint8_t kind, uint8_t mip, int32_t tx, int32_t ty,
                        uint64_t version, uint64_t hash, uint32_t size) {
   append_le<uint8_t>(out, kind);
@@ -235,7 +233,7 @@ int SnapshotStore::fd_of(uint64_t file) const {
 Result<std::vector<uint8_t>> SnapshotStore::read_payload(const StoredTile& e) const {
   const std::string path = tiles_path(e.file);
   const int fd = fd_of(e.file);
-  if (fd < 0) return io_error(path, "cannot open");
+  if (fd < 0) return file_error(path, "cannot open");
   std::vector<uint8_t> rec(kRecordHeaderSize + e.size);
   LOAM_TRY(pread_exact(fd, e.offset, rec, path));
   const uint8_t* h = rec.data();
@@ -525,7 +523,7 @@ class TilesFileWriter {
   // Closes the files read for compaction and the tiles file; an error when the close fails.
   Status close() {
     for (const auto& [n, rfd] : readers_) ::close(rfd);
-    if (::close(fd_) != 0) return io_error(path_, "close failed");
+    if (::close(fd_) != 0) return file_error(path_, "close failed");
     return {};
   }
   uint64_t bytes() const { return offset_; }
@@ -625,7 +623,7 @@ class TilesFileWriter {
     LOAM_TRY(write_exact(fd_, buf_, path_));
     offset_ += buf_.size();
     buf_.clear();
-    if (::fsync(fd_) != 0) return io_error(path_, "fsync failed");
+    if (::fsync(fd_) != 0) return file_error(path_, "fsync failed");
     return {};
   }
 
@@ -636,7 +634,7 @@ class TilesFileWriter {
     if (it == readers_.end()) {
       const std::string rp = (fs::path(dir_) / snapshot_tiles_file_name(e.file)).string();
       const int rfd = ::open(rp.c_str(), O_RDONLY | O_CLOEXEC);
-      if (rfd < 0) return io_error(rp, "cannot open");
+      if (rfd < 0) return file_error(rp, "cannot open");
       it = readers_.emplace(e.file, rfd).first;
     }
     std::vector<uint8_t> rec(kRecordHeaderSize + e.size);
@@ -736,7 +734,7 @@ Status SnapshotStore::run(SnapshotJobHandle& handle) {
   if (ec) return make_error(ErrorCode::kIo, dir, "cannot create: " + ec.message());
   const std::string path = (fs::path(dir) / snapshot_tiles_file_name(job.file)).string();
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return io_error(path, "cannot create");
+  if (fd < 0) return file_error(path, "cannot create");
   TilesFileWriter tiles(job, dir, path, fd);
   const Status body = tiles.write();
   const Status closed = tiles.close();

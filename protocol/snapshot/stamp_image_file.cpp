@@ -10,14 +10,14 @@ namespace loam {
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'O', 'A', 'M', 'I', 'M', 'G', '\n'};
-constexpr size_t kFixedBytes = sizeof(kMagic) + 4 + 4;
+constexpr char kImageMagic[8] = {'L', 'O', 'A', 'M', 'I', 'M', 'G', '\n'};
+constexpr size_t kFixedBytes = sizeof(kImageMagic) + 4 + 4;
 
 }  // namespace
 
 std::vector<uint8_t> encode_stamp_image(const StampTexture& t) {
   std::vector<uint8_t> out(kFixedBytes + t.samples.size() * 2 + 8);
-  std::memcpy(out.data(), kMagic, sizeof kMagic);
+  std::memcpy(out.data(), kImageMagic, sizeof kImageMagic);
   store_le<uint32_t>(out.data() + 8, uint32_t(t.width));
   store_le<uint32_t>(out.data() + 12, uint32_t(t.height));
   for (size_t i = 0; i < t.samples.size(); ++i)
@@ -30,7 +30,7 @@ std::vector<uint8_t> encode_stamp_image(const StampTexture& t) {
 Result<StampTexture> decode_stamp_image(std::span<const uint8_t> bytes, const std::string& name) {
   if (bytes.size() < kFixedBytes + 8)
     return make_error(ErrorCode::kTruncated, name, "shorter than its header");
-  if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
+  if (std::memcmp(bytes.data(), kImageMagic, sizeof kImageMagic) != 0)
     return make_error(ErrorCode::kCorrupt, name, "not a Loam stamp image");
   const uint32_t w = load_le<uint32_t>(bytes.data() + 8);
   const uint32_t h = load_le<uint32_t>(bytes.data() + 12);

@@ -19,6 +19,7 @@
 #include "protocol/stamps/stamp_profile.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
+#include "tests/support/world_compare.h"
 
 namespace loam::gpu {
 namespace {
@@ -39,23 +40,6 @@ World sloped_world(int32_t tiles, int32_t origin, int32_t detail_factor = 2) {
     }
   }
   return std::move(World::from_samples(p, s).value());
-}
-
-int64_t layer_mismatches(const World& a, const World& b, Layer l) {
-  const RectI r = layer_sample_rect(a.params(), l);
-  int64_t n = 0;
-  if (l == Layer::kCoarse) {
-    std::vector<uint16_t> x(size_t(r.area())), y(size_t(r.area()));
-    a.read_coarse(r, x);
-    b.read_coarse(r, y);
-    for (size_t i = 0; i < x.size(); ++i) n += x[i] != y[i];
-  } else {
-    std::vector<int8_t> x(size_t(r.area())), y(size_t(r.area()));
-    a.read_detail(r, x);
-    b.read_detail(r, y);
-    for (size_t i = 0; i < x.size(); ++i) n += x[i] != y[i];
-  }
-  return n;
 }
 
 // The fastest speed that needs no sub-steps: nu^2 as close to the 0.49 cap as Q16 allows.
@@ -92,7 +76,7 @@ TEST(GpuShockwave, ThousandStepsAtTheCourantCapMatchCpuOnBothLayers) {
       auto want = apply_stamp(cpu, q);
       auto got = (*g)->apply(gpu_world, q);
       ASSERT_TRUE(want.ok() && got.ok());
-      const int64_t m = layer_mismatches(cpu, gpu_world, layer);
+      const int64_t m = loam::test::sample_mismatches(cpu, gpu_world, layer);
       std::printf(
           "shockwave %s, nu^2 = %d/65536 (cap %d), 1000 steps, damping %d: %lld mismatches, changed "
           "%lldx%lld\n",
@@ -123,7 +107,7 @@ TEST(GpuShockwave, SpeedAboveTheCapSplitsIntoSubstepsLikeCpu) {
   ASSERT_GT(shockwave_substeps(q.speed), 1);
   ASSERT_TRUE(apply_stamp(cpu, q).ok());
   ASSERT_TRUE((*g)->apply(gpu_world, q).ok());
-  const int64_t m = layer_mismatches(cpu, gpu_world, Layer::kCoarse);
+  const int64_t m = loam::test::sample_mismatches(cpu, gpu_world, Layer::kCoarse);
   std::printf("shockwave at speed 65535/65536 (%d sub-steps): %lld mismatches\n", shockwave_substeps(q.speed),
               static_cast<long long>(m));
   EXPECT_EQ(m, 0);
@@ -168,7 +152,7 @@ TEST(GpuStamp, GpuStampAcrossFourTileCornerMatchesCpu) {
       for (size_t i = 0; i < cw.size(); ++i) {
         EXPECT_TRUE(cw[i].coord == gw[i].coord && cw[i].rect == gw[i].rect) << to_string(cw[i].coord);
       }
-      const int64_t m = layer_mismatches(cpu, gpu_world, layer);
+      const int64_t m = loam::test::sample_mismatches(cpu, gpu_world, layer);
       EXPECT_EQ(m, 0) << to_string(kind) << " " << to_string(layer);
       total += m;
     }
@@ -311,7 +295,7 @@ TEST(GpuStamp, VertexPathRestoresTheCallersFramebufferVertexArrayAndRasterizerDi
   EXPECT_EQ(GLuint(bound_fbo), fbo);
   EXPECT_EQ(GLuint(bound_vao), vao);
   EXPECT_TRUE(discard);
-  EXPECT_EQ(layer_mismatches(cpu, gpu_world, Layer::kCoarse), 0);
+  EXPECT_EQ(loam::test::sample_mismatches(cpu, gpu_world, Layer::kCoarse), 0);
 }
 
 // kAuto sends a stamp to the vertex stage only on a software renderer and only up to

@@ -12,30 +12,10 @@
 #include "protocol/stamps/stamp_mix.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
+#include "tests/support/world_compare.h"
 
 namespace loam::gpu {
 namespace {
-
-int64_t layer_mismatches(const World& a, const World& b, Layer layer) {
-  const RectI r = layer_sample_rect(a.params(), layer);
-  int64_t n = 0;
-  // Row by row: a wide world's layer is tens of millions of samples.
-  for (int64_t y = r.y0; y < r.y1; ++y) {
-    const RectI row{r.x0, y, r.x1, y + 1};
-    if (layer == Layer::kCoarse) {
-      std::vector<uint16_t> ra(size_t(row.area())), rb(size_t(row.area()));
-      a.read_coarse(row, ra);
-      b.read_coarse(row, rb);
-      for (size_t i = 0; i < ra.size(); ++i) n += ra[i] != rb[i];
-    } else {
-      std::vector<int8_t> ra(size_t(row.area())), rb(size_t(row.area()));
-      a.read_detail(row, ra);
-      b.read_detail(row, rb);
-      for (size_t i = 0; i < ra.size(); ++i) n += ra[i] != rb[i];
-    }
-  }
-  return n;
-}
 
 // A rough base so stamps see varied samples; untouched tiles come from it on both sides.
 World hills(const WorldParams& p) {
@@ -86,8 +66,8 @@ PageRun run_paged(World& cpu, World& gpu_world, GpuStamper& g, int count, uint64
     ++seq;
     ++run.stamps;
   }
-  run.mismatches =
-      layer_mismatches(cpu, gpu_world, Layer::kCoarse) + layer_mismatches(cpu, gpu_world, Layer::kDetail);
+  run.mismatches = loam::test::sample_mismatches(cpu, gpu_world, Layer::kCoarse) +
+                   loam::test::sample_mismatches(cpu, gpu_world, Layer::kDetail);
   return run;
 }
 
@@ -186,7 +166,7 @@ TEST(GpuTilePages, FullCacheOfUncollectedStampsAnswersBusyUntilCollected) {
   (*g)->collect(gpu_world);
   ASSERT_TRUE(apply_stamp_reference(cpu, a).ok());
   ASSERT_TRUE(apply_stamp_reference(cpu, b).ok());
-  EXPECT_EQ(layer_mismatches(cpu, gpu_world, Layer::kCoarse), 0);
+  EXPECT_EQ(loam::test::sample_mismatches(cpu, gpu_world, Layer::kCoarse), 0);
   // A stamp over three tiles can never fit two pages.
   auto over = (*g)->submit(gaussian(512, 100, 300));
   ASSERT_FALSE(over.ok());

@@ -10,7 +10,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-const CoreTime kStart = CoreTime{} + 100s;
+const CoreTime kAdmissionStart = CoreTime{} + 100s;
 
 wire::AccessToken token(uint8_t b) {
   wire::AccessToken t{};
@@ -23,18 +23,18 @@ TEST(Admission, HandshakePoolsRefusePastTheirBoundsAndALeaverFreesItsSlot) {
   c.max_handshakes = 3;
   c.max_handshakes_per_address = 2;
   Admission a(c, {});
-  EXPECT_FALSE(a.connect("10.0.0.1", kStart).refused);
-  EXPECT_FALSE(a.connect("10.0.0.1", kStart).refused);
+  EXPECT_FALSE(a.connect("10.0.0.1", kAdmissionStart).refused);
+  EXPECT_FALSE(a.connect("10.0.0.1", kAdmissionStart).refused);
   // A third from the same address: over the per-address pool, though the whole pool has room.
-  const auto third = a.connect("10.0.0.1", kStart);
+  const auto third = a.connect("10.0.0.1", kAdmissionStart);
   ASSERT_TRUE(third.refused);
   EXPECT_EQ(third.refused->code, wire::WireErrorCode::kServerFull);
   EXPECT_EQ(third.refused->text, "too many connections in their handshake from 10.0.0.1 (2)");
   a.leave("10.0.0.1", false);
   EXPECT_EQ(a.handshakes(), 2u);
   EXPECT_EQ(a.handshakes_from("10.0.0.1"), 2u);
-  EXPECT_FALSE(a.connect("10.0.0.2", kStart).refused);
-  const auto fourth = a.connect("10.0.0.3", kStart);
+  EXPECT_FALSE(a.connect("10.0.0.2", kAdmissionStart).refused);
+  const auto fourth = a.connect("10.0.0.3", kAdmissionStart);
   ASSERT_TRUE(fourth.refused);
   EXPECT_EQ(fourth.refused->text, "too many connections in their handshake (3)");
   a.leave("10.0.0.3", false);
@@ -49,8 +49,8 @@ TEST(Admission, AHelloTradesItsHandshakeSlotForASessionUpToMaxClients) {
   ServerConfig c;
   c.max_clients = 1;
   Admission a(c, {});
-  a.connect("10.0.0.1", kStart);
-  a.connect("10.0.0.2", kStart);
+  a.connect("10.0.0.1", kAdmissionStart);
+  a.connect("10.0.0.2", kAdmissionStart);
   const auto first = a.enter_session("10.0.0.1", std::nullopt, wire::Role::kPlayer);
   ASSERT_TRUE(std::holds_alternative<wire::Role>(first));
   EXPECT_EQ(std::get<wire::Role>(first), wire::Role::kPlayer);
@@ -73,7 +73,7 @@ TEST(Admission, TokensGrantTheRoleAskedForOrSpectatorAndAWrongOneIsRefused) {
   tokens.editors = {token(1)};
   tokens.viewers = {token(2)};
   Admission a(ServerConfig{}, tokens);
-  for (int i = 0; i < 4; ++i) a.connect("h", kStart);
+  for (int i = 0; i < 4; ++i) a.connect("h", kAdmissionStart);
   EXPECT_EQ(std::get<wire::Role>(a.enter_session("h", token(1), wire::Role::kPlayer)), wire::Role::kPlayer);
   EXPECT_EQ(std::get<wire::Role>(a.enter_session("h", token(2), wire::Role::kPlayer)),
             wire::Role::kSpectator);
@@ -96,26 +96,26 @@ TEST(Admission, RequestsPastTheirRateAreRefusedAndOnlyTheFirstOfARunIsAnswered) 
   c.requests_per_second = 2;
   c.request_burst = 2;
   Admission a(c, {});
-  ClientAllowance al = a.connect("h", kStart).allowance;
-  EXPECT_TRUE(a.admit_request(al, wire::MessageType::kPing, kStart).admitted);
-  EXPECT_TRUE(a.admit_request(al, wire::MessageType::kSubscribe, kStart).admitted);
-  const auto first = a.admit_request(al, wire::MessageType::kStatsRequest, kStart);
+  ClientAllowance al = a.connect("h", kAdmissionStart).allowance;
+  EXPECT_TRUE(a.admit_request(al, wire::MessageType::kPing, kAdmissionStart).admitted);
+  EXPECT_TRUE(a.admit_request(al, wire::MessageType::kSubscribe, kAdmissionStart).admitted);
+  const auto first = a.admit_request(al, wire::MessageType::kStatsRequest, kAdmissionStart);
   EXPECT_FALSE(first.admitted);
   ASSERT_TRUE(first.answer);
   EXPECT_EQ(first.answer->code, wire::WireErrorCode::kRateLimited);
   EXPECT_EQ(first.answer->field, "requests.rate");
   EXPECT_EQ(first.answer->text, "StatsRequest refused: over 2 requests a second");
-  const auto again = a.admit_request(al, wire::MessageType::kPing, kStart + 100ms);
+  const auto again = a.admit_request(al, wire::MessageType::kPing, kAdmissionStart + 100ms);
   EXPECT_FALSE(again.admitted);
   EXPECT_FALSE(again.answer) << "a flood must not be answered with a flood";
   // Reads pause until the bucket holds a token: half a second at 2 a second.
-  EXPECT_EQ(a.reads_paused_until(al, kStart + 100ms), kStart + 500ms);
-  EXPECT_TRUE(a.admit_request(al, wire::MessageType::kPing, kStart + 500ms).admitted);
-  EXPECT_FALSE(a.reads_paused_until(al, kStart + 500ms));
+  EXPECT_EQ(a.reads_paused_until(al, kAdmissionStart + 100ms), kAdmissionStart + 500ms);
+  EXPECT_TRUE(a.admit_request(al, wire::MessageType::kPing, kAdmissionStart + 500ms).admitted);
+  EXPECT_FALSE(a.reads_paused_until(al, kAdmissionStart + 500ms));
   // Hello, Bye and Deform take no request token.
   for (int i = 0; i < 10; ++i) {
-    EXPECT_TRUE(a.admit_request(al, wire::MessageType::kDeform, kStart + 500ms).admitted);
-    EXPECT_TRUE(a.admit_request(al, wire::MessageType::kHello, kStart + 500ms).admitted);
+    EXPECT_TRUE(a.admit_request(al, wire::MessageType::kDeform, kAdmissionStart + 500ms).admitted);
+    EXPECT_TRUE(a.admit_request(al, wire::MessageType::kHello, kAdmissionStart + 500ms).admitted);
   }
 }
 
@@ -125,23 +125,23 @@ TEST(Admission, ADeformIsRefusedOverItsRateOrPastThePendingCapBeforeItsStampIsRe
   c.deform_burst = 2;
   c.max_pending_deforms = 3;
   Admission a(c, {});
-  ClientAllowance al = a.connect("h", kStart).allowance;
-  EXPECT_FALSE(a.check_deform(al, kStart));
+  ClientAllowance al = a.connect("h", kAdmissionStart).allowance;
+  EXPECT_FALSE(a.check_deform(al, kAdmissionStart));
   Admission::admit(al, 10);
   Admission::admit(al, 10);
-  const auto rate = a.check_deform(al, kStart);
+  const auto rate = a.check_deform(al, kAdmissionStart);
   ASSERT_TRUE(rate);
   EXPECT_EQ(rate->code, wire::WireErrorCode::kRateLimited);
   EXPECT_EQ(rate->text, "rate limit exceeded");
   // A second later one more may go; then three wait for acks, the cap.
-  EXPECT_FALSE(a.check_deform(al, kStart + 1s));
+  EXPECT_FALSE(a.check_deform(al, kAdmissionStart + 1s));
   Admission::admit(al, 10);
-  const auto pending = a.check_deform(al, kStart + 10s);
+  const auto pending = a.check_deform(al, kAdmissionStart + 10s);
   ASSERT_TRUE(pending);
   EXPECT_EQ(pending->code, wire::WireErrorCode::kTooManyPending);
   EXPECT_EQ(pending->text, "too many unacknowledged deforms (3)");
   Admission::acknowledged(al);
-  EXPECT_FALSE(a.check_deform(al, kStart + 10s));
+  EXPECT_FALSE(a.check_deform(al, kAdmissionStart + 10s));
   EXPECT_EQ(al.unacked, 2u);
 }
 
@@ -150,7 +150,7 @@ TEST(Admission, AStampOverTheCostCapIsOversizeAndOverWhatIsLeftIsRateLimited) {
   c.max_stamp_cost = 1000;
   c.stamp_cost_per_second = 500;
   Admission a(c, {});
-  ClientAllowance al = a.connect("h", kStart).allowance;
+  ClientAllowance al = a.connect("h", kAdmissionStart).allowance;
   const auto big = a.check_cost(al, 1001);
   ASSERT_TRUE(big);
   EXPECT_EQ(big->code, wire::WireErrorCode::kOversize);
@@ -163,7 +163,7 @@ TEST(Admission, AStampOverTheCostCapIsOversizeAndOverWhatIsLeftIsRateLimited) {
   EXPECT_EQ(spent->code, wire::WireErrorCode::kRateLimited);
   EXPECT_EQ(spent->text, "the stamp costs 1 sample updates, over what is left of this client's 500 a second");
   // Refilled by check_deform's clock: a second later, 500 more.
-  EXPECT_FALSE(a.check_deform(al, kStart + 1s));
+  EXPECT_FALSE(a.check_deform(al, kAdmissionStart + 1s));
   EXPECT_FALSE(a.check_cost(al, 500));
   EXPECT_TRUE(a.check_cost(al, 501));
 }

@@ -381,25 +381,25 @@ std::vector<std::string> run_script() {
   s.send(a, wire::Deform{++seq, s.stamp(StampKind::kCrater, 700, 400, 15)});
   const uint32_t waiting = seq;
   s.disconnected(a, "link lost");
-  const ClientId a2 = s.join("alice", "10.0.0.1:1001", kEditorToken, 42);
-  s.send(a2, wire::Deform{waiting - 1, s.stamp(StampKind::kShockwave, 512, 300, 12)});  // answered before
-  s.send(a2, wire::Deform{waiting, s.stamp(StampKind::kCrater, 700, 400, 15)});         // still waiting
+  const ClientId alice2 = s.join("alice", "10.0.0.1:1001", kEditorToken, 42);
+  s.send(alice2, wire::Deform{waiting - 1, s.stamp(StampKind::kShockwave, 512, 300, 12)});  // answered before
+  s.send(alice2, wire::Deform{waiting, s.stamp(StampKind::kCrater, 700, 400, 15)});         // still waiting
   s.tick(tick, 5.0);
   {
     // Back on the tiles she held, at version 0: the changed ones come as patches or deltas.
     wire::Subscribe sub = s.subscribe_all(true);
     sub.focus = wire::Focus{100, 100};
-    s.send(a2, sub);
+    s.send(alice2, sub);
   }
   for (int i = 0; i < 4; ++i) s.tick(200ms, 4.0);
-  s.send(a2, wire::Unsubscribe{{TileCoord{Layer::kCoarse, 0, 0, 0}, TileCoord{Layer::kCoarse, 0, 1, 0}}});
+  s.send(alice2, wire::Unsubscribe{{TileCoord{Layer::kCoarse, 0, 0, 0}, TileCoord{Layer::kCoarse, 0, 1, 0}}});
 
   s.step("a late joiner gets the whole tiles others already fetched (the cache, the best mode)");
   const ClientId h = s.join("heidi", "10.0.0.9:1", kEditorToken, 0, wire::Role::kPlayer);
   s.send(h, s.subscribe_all(false));
   for (int i = 0; i < 6; ++i) s.tick(300ms, 4.0);
   s.send(h, wire::Deform{1, s.stamp(StampKind::kGaussian, 128, 128, 40)});
-  s.send(a2, wire::Deform{++seq, s.stamp(StampKind::kFootprint, 130, 140, 6)});
+  s.send(alice2, wire::Deform{++seq, s.stamp(StampKind::kFootprint, 130, 140, 6)});
   s.tick(tick, 4.0);
   for (int i = 0; i < 12; ++i) s.tick(1s, 4.0);  // snapshots by count and by interval
   s.send(h, wire::StatsRequest{10});

@@ -16,7 +16,7 @@ namespace {
 
 using namespace std::chrono_literals;
 
-const CoreTime kStart = CoreTime{} + 100s;
+const CoreTime kStreamerStart = CoreTime{} + 100s;
 
 WorldParams small_world() {
   WorldParams p;
@@ -67,7 +67,7 @@ TEST(RegionStreamer, ANewClientsCreditStartsEmptyAndBulkLeavesUnderItsBudget) {
   ServerConfig config;
   config.client_bytes_per_second = 4000;
   RegionStreamer s(config);
-  StreamClient c = subscribed_to_all(w, s, kStart);
+  StreamClient c = subscribed_to_all(w, s, kStreamerStart);
   const size_t tiles = c.tiles.due_count();
   ASSERT_EQ(tiles, 8u);
   Sent sent;
@@ -76,9 +76,9 @@ TEST(RegionStreamer, ANewClientsCreditStartsEmptyAndBulkLeavesUnderItsBudget) {
     sent.order.push_back(id);
   };
   const BulkClient one[] = {{1, &c.tiles, &c.credit}};
-  EXPECT_EQ(s.stream(one, w, history, kStart, {}, send).regions, 0u) << "no credit yet";
+  EXPECT_EQ(s.stream(one, w, history, kStreamerStart, {}, send).regions, 0u) << "no credit yet";
   // A second later: a second's budget, spent whole regions at a time (the last may overdraw).
-  const BulkRound r = s.stream(one, w, history, kStart + 1s, {}, send);
+  const BulkRound r = s.stream(one, w, history, kStreamerStart + 1s, {}, send);
   EXPECT_GE(r.regions, 1u);
   EXPECT_LT(r.regions, tiles);
   EXPECT_LE(c.credit.level(), 0.0);
@@ -86,7 +86,7 @@ TEST(RegionStreamer, ANewClientsCreditStartsEmptyAndBulkLeavesUnderItsBudget) {
   // Enough seconds later, everything has gone, each tile once.
   uint64_t total = r.regions;
   for (int i = 2; i < 60 && c.tiles.due_count() > 0; ++i)
-    total += s.stream(one, w, history, kStart + std::chrono::seconds(i), {}, send).regions;
+    total += s.stream(one, w, history, kStreamerStart + std::chrono::seconds(i), {}, send).regions;
   EXPECT_EQ(total, tiles);
   EXPECT_EQ(c.tiles.due_count(), 0u);
 }
@@ -98,7 +98,7 @@ TEST(RegionStreamer, TurnsRotateAndEncodesAreBoundedPerRoundAndShared) {
   config.client_bytes_per_second = 0;  // no byte limit: only the encode bound
   config.max_encodes_per_tick = 3;
   RegionStreamer s(config);
-  StreamClient a = subscribed_to_all(w, s, kStart), b = subscribed_to_all(w, s, kStart);
+  StreamClient a = subscribed_to_all(w, s, kStreamerStart), b = subscribed_to_all(w, s, kStreamerStart);
   const BulkClient both[] = {{1, &a.tiles, &a.credit}, {2, &b.tiles, &b.credit}};
   Sent sent;
   const auto send = [&](uint32_t id, FramePtr f) {
@@ -106,14 +106,14 @@ TEST(RegionStreamer, TurnsRotateAndEncodesAreBoundedPerRoundAndShared) {
     sent.order.push_back(id);
   };
   // Round 1: client 1 first; three encodes, then the second client takes only what is cached.
-  const BulkRound r1 = s.stream(both, w, history, kStart, {}, send);
+  const BulkRound r1 = s.stream(both, w, history, kStreamerStart, {}, send);
   EXPECT_EQ(s.frames().counters().encodes, 3u);
   EXPECT_EQ(r1.regions, 6u) << "3 encoded for client 1, the same 3 from the cache for client 2";
   ASSERT_FALSE(sent.order.empty());
   EXPECT_EQ(sent.order.front(), 1u);
   // Round 2: client 2 goes first.
   sent.order.clear();
-  s.stream(both, w, history, kStart + 33ms, {}, send);
+  s.stream(both, w, history, kStreamerStart + 33ms, {}, send);
   ASSERT_FALSE(sent.order.empty());
   EXPECT_EQ(sent.order.front(), 2u);
   EXPECT_EQ(s.frames().counters().encodes, 6u);
@@ -126,16 +126,16 @@ TEST(RegionStreamer, AClientNotReadingGetsNoMoreBulk) {
   ServerConfig config;
   config.client_bytes_per_second = 4000;
   RegionStreamer s(config);
-  StreamClient c = subscribed_to_all(w, s, kStart);
+  StreamClient c = subscribed_to_all(w, s, kStreamerStart);
   const BulkClient one[] = {{1, &c.tiles, &c.credit}};
   int frames = 0;
   const auto send = [&](uint32_t, FramePtr) { ++frames; };
   // Over a second's budget still queued on its socket: nothing, whatever its credit.
   const auto unsent = [](uint32_t) { return uint64_t(4001); };
-  EXPECT_EQ(s.stream(one, w, history, kStart + 5s, unsent, send).regions, 0u);
+  EXPECT_EQ(s.stream(one, w, history, kStreamerStart + 5s, unsent, send).regions, 0u);
   EXPECT_EQ(frames, 0);
   EXPECT_GT(s.stream(
-                 one, w, history, kStart + 6s, [](uint32_t) { return uint64_t(0); }, send)
+                 one, w, history, kStreamerStart + 6s, [](uint32_t) { return uint64_t(0); }, send)
                 .regions,
             0u);
 }

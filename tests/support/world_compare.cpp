@@ -3,8 +3,23 @@
 #include <algorithm>
 
 #include "protocol/geometry.h"
+#include "protocol/world_layers.h"
 
 namespace loam::test {
+
+int64_t sample_mismatches(const World& a, const World& b, Layer layer) {
+  return visit_layer(layer, [&](auto row) {
+    using R = decltype(row);
+    const RectI r = R::sample_rect(a.params());
+    int64_t n = 0;
+    for (int64_t y = r.y0; y < r.y1; ++y) {
+      const RectI line{r.x0, y, r.x1, y + 1};
+      const auto sa = read_rect<R>(a, line), sb = read_rect<R>(b, line);
+      for (size_t i = 0; i < sa.size(); ++i) n += sa[i] != sb[i];
+    }
+    return n;
+  });
+}
 
 std::optional<std::string> first_tile_difference(const World& a, const World& b, TileComparison what) {
   const auto state_differs = [&](const TileCoord& c) -> std::optional<std::string> {

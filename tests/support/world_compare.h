@@ -19,4 +19,8 @@ struct TileComparison {
 // compared tile agrees.
 std::optional<std::string> first_tile_difference(const World& a, const World& b, TileComparison what = {});
 
+// Samples of `layer` (mip 0, the whole layer) that differ between the two worlds; read row by
+// row, so a wide world's layer never sits in memory twice.
+int64_t sample_mismatches(const World& a, const World& b, Layer layer);
+
 }  // namespace loam::test

@@ -16,7 +16,7 @@ namespace {
 
 using namespace test;
 
-QuadtreeGrid grid_for(const Terrain& t, int32_t block) {
+QuadtreeGrid quadtree_grid_for(const Terrain& t, int32_t block) {
   auto g = QuadtreeGrid::make(t.width, t.height, block);
   EXPECT_TRUE(g.ok()) << g.error().describe();
   return *g;
@@ -36,7 +36,7 @@ TEST(QuadtreeLod, BlockSizesArePowersOfTwoAndBlocksCoverTheWorld) {
 
 TEST(QuadtreeLod, ALeafsErrorBoundsItsSurfaceWhateverItsSidesCarry) {
   const Terrain t = rough(129, 129, 3);
-  const QuadtreeGrid g = grid_for(t, 32);
+  const QuadtreeGrid g = quadtree_grid_for(t, 32);
   const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
   // Subdivide everything down to `level`, so every leaf is of that level, with every side's
   // midpoint present (neighbours subdivided) or none (nothing below).
@@ -67,7 +67,7 @@ TEST(QuadtreeLod, RandomSubdivisionsMadeRestrictedAreWatertight) {
   std::mt19937 rng(5);
   const Terrain t = rough(200, 140, 5);
   for (int32_t block : {8, 32, 64}) {
-    const QuadtreeGrid g = grid_for(t, block);
+    const QuadtreeGrid g = quadtree_grid_for(t, block);
     const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
     for (int round = 0; round < 5; ++round) {
       // A random camera with a random budget gives a different tree each round.
@@ -82,7 +82,7 @@ TEST(QuadtreeLod, RandomSubdivisionsMadeRestrictedAreWatertight) {
 
 TEST(QuadtreeLod, TheDrawnSurfaceStaysWithinTheScreenErrorBudget) {
   const Terrain t = rough(257, 201, 9);
-  const QuadtreeGrid g = grid_for(t, 64);
+  const QuadtreeGrid g = quadtree_grid_for(t, 64);
   const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
   for (const LodView& v :
        {view_at(100, 100, 700, 1.0), view_at(400, 300, 1500, 4.0), view_at(-200, 50, 800, 2.0)}) {
@@ -101,7 +101,7 @@ TEST(QuadtreeLod, TheDrawnSurfaceStaysWithinTheScreenErrorBudget) {
 
 TEST(QuadtreeLod, GeomorphingBoundsTheSurfaceChangePerCameraStepWhereSubdivisionsJump) {
   const Terrain t = rough(257, 201, 13);
-  const QuadtreeGrid g = grid_for(t, 64);
+  const QuadtreeGrid g = quadtree_grid_for(t, 64);
   const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
   double max_step[2] = {0, 0};
   for (int morph = 0; morph < 2; ++morph) {
@@ -119,7 +119,7 @@ TEST(QuadtreeLod, GeomorphingBoundsTheSurfaceChangePerCameraStepWhereSubdivision
 
 TEST(QuadtreeLod, AStampRecomputesExactlyTheSquaresHoldingItsSamples) {
   Terrain t = rough(203, 150, 17);
-  const QuadtreeGrid g = grid_for(t, 32);
+  const QuadtreeGrid g = quadtree_grid_for(t, 32);
   QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
   const RectI changed{90, 40, 120, 70};
   for (int64_t y = changed.y0; y < changed.y1; ++y)
@@ -154,7 +154,7 @@ TEST(QuadtreeLod, AStampRecomputesExactlyTheSquaresHoldingItsSamples) {
 
 TEST(QuadtreeLod, OnlyBlocksWhoseSubdivisionChangedAreRebuilt) {
   const Terrain t = rough(257, 257, 19);
-  const QuadtreeGrid g = grid_for(t, 32);
+  const QuadtreeGrid g = quadtree_grid_for(t, 32);
   const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
   QuadtreeState s(g);
   // Without morphing a square's state changes only when it is subdivided or joined.
@@ -188,7 +188,7 @@ TEST(TiledBlocks, QuadtreeBlocksOnTheirOwnCrackOnlyAsDeepAsTheirSkirtsReach) {
   const Terrain t = rough(300, 257, 23);
   for (int32_t block : {16, 32, 64}) {
     for (bool independent : {true, false}) {
-      QuadtreeGrid g = grid_for(t, block);
+      QuadtreeGrid g = quadtree_grid_for(t, block);
       g.independent_blocks = independent;
       const QuadtreeErrors e = QuadtreeErrors::compute(g, t.grid());
       int64_t cracked = 0;

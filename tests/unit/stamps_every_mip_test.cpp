@@ -51,14 +51,14 @@ World rough_world(const WorldParams& p) {
   return w;
 }
 
-struct Case {
+struct MipCase {
   std::string name;
   StampParams params;
 };
 
 using stamps_test::make_params;
 
-std::vector<Case> cases(const WorldParams& p, uint64_t texture_id) {
+std::vector<MipCase> cases(const WorldParams& p, uint64_t texture_id) {
   const RectI r = p.sample_rect();
   // Centers: the four-tile corner, a tile edge, a sub-sample offset, and the world's corners
   // and edges (stamps partly outside the world).
@@ -71,7 +71,7 @@ std::vector<Case> cases(const WorldParams& p, uint64_t texture_id) {
       {double(r.x1) - 10.0, 0.0},
       {double(r.x0) + 0.2, double(r.y1) - 0.3},
   };
-  std::vector<Case> out;
+  std::vector<MipCase> out;
   int n = 0;
   for (const auto& [x, y] : centers) {
     const std::string at = " at (" + std::to_string(x) + ", " + std::to_string(y) + ")";
@@ -117,7 +117,7 @@ TEST(StampsEveryMip, PerSampleStampOnAMipTileEqualsDecimatingTheMip0Result) {
   const uint64_t texture_id = textures.add(7, 5, img).value();
   const World before = rough_world(p);
   int mip_tiles_changed = 0, cases_run = 0;
-  for (const Case& c : cases(p, texture_id)) {
+  for (const MipCase& c : cases(p, texture_id)) {
     SCOPED_TRACE(c.name);
     auto q = validate_stamp(c.params, p, {}, &textures);
     ASSERT_TRUE(q.ok()) << q.error().describe();

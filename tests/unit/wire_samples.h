@@ -102,7 +102,7 @@ inline std::vector<std::pair<std::string, wire::Message>> sample_messages() {
   reg.patch = true;
   reg.base_version = 100;
   reg.new_version = 123457;
-  reg.encoding = RegionEncoding::kRaw;
+  reg.encoding = wire::RegionEncoding::kRaw;
   reg.total_bytes = 8;
   reg.chunk_offset = 0;
   reg.chunk = {1, 0, 2, 0, 3, 0, 0xFF, 0xFF};
