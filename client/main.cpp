@@ -6,6 +6,7 @@
 //   probe    the health check: joins as a spectator, asks for Stats, prints one line or JSON
 #include <CLI/CLI.hpp>
 #include <cstdio>
+#include <map>
 
 #include "app/cli_checks.h"
 #include "client/bot.h"
@@ -137,7 +138,21 @@ int main(int argc, char** argv) {
       ->check(cli::FiniteRange(0, 1e7));
   view_cmd->add_option("--screenshot", vo.screenshot, "PNG file (numbered when several)")
       ->capture_default_str();
-  view_cmd->add_option("--n", vo.renderer.n, "Vertices per clipmap level side (2^k - 1)")
+  view_cmd
+      ->add_option("--lod", vo.lod,
+                   "Level of detail: error (blocks chosen for a screen-space error budget) or classic "
+                   "(geometry clipmap rings)")
+      ->capture_default_str()
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, render::LodScheme>{{"error", render::LodScheme::kError},
+                                                   {"classic", render::LodScheme::kClassic}},
+          CLI::ignore_case));
+  view_cmd
+      ->add_option("--lod-tolerance", vo.error_clipmap.tolerance_px,
+                   "Error-driven clipmap: the screen-space error budget (pixels)")
+      ->capture_default_str()
+      ->check(cli::FiniteRange(0.1, 64));
+  view_cmd->add_option("--n", vo.renderer.n, "Classic clipmap: vertices per level side (2^k - 1)")
       ->capture_default_str()
       ->check(cli::IntRange(7, 1023));
   vo.renderer.view_distance = 0;  // auto: the world's (render/start_view.h)

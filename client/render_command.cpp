@@ -119,6 +119,7 @@ int run_render_command(const RenderCommandOptions& o) {
       return fail("--server wants HOST:PORT, got " + o.server, 2);
     }
     ViewerOptions vo;
+    vo.lod = LodScheme::kClassic;  // the renderer these frames are drawn with
     vo.renderer = cfg;
     vo.role = wire::Role::kSpectator;
     vo.name = "render";
@@ -142,7 +143,7 @@ int run_render_command(const RenderCommandOptions& o) {
     local = std::move(*r);
     what = !o.snapshot.empty() ? o.snapshot : o.dem.empty() ? "default terrain" : o.dem;
   }
-  ClipmapRenderer& renderer = live ? live->renderer() : *local;
+  ClipmapRenderer& renderer = live ? *live->classic() : *local;
   std::printf("render: %s, %dx%d, n %d, %d levels, morph %s, renderer %s\n", what.c_str(), o.width, o.height,
               o.n, renderer.levels(), o.morph ? "on" : "off", ctx->renderer().c_str());
   for (size_t i = 0; i < frames->size(); ++i) {

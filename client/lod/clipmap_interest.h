@@ -1,4 +1,5 @@
-// Which tiles a clipmap viewer subscribes to: level l reads mip l (or the coarsest mip the
+// Which tiles a clipmap viewer subscribes to (the classic clipmap's levels placed here, or any
+// scheme's level regions given): level l reads mip l (or the coarsest mip the
 // world has, for levels beyond it), so it needs the mip tiles under its texture region; the
 // finest levels also want mip 0 near the camera (edits are predicted only on held mip-0 tiles)
 // and the detail tiles there; the coarsest mip's tiles are always held, so something shows
@@ -9,6 +10,7 @@
 
 #include <cstdint>
 #include <set>
+#include <span>
 #include <vector>
 
 #include "protocol/geometry.h"
@@ -28,6 +30,11 @@ struct InterestConfig {
 // samples, and meters scaled alike for the mip-0 and detail radii), clipped to the world.
 std::set<TileCoord> clipmap_tiles(const WorldParams& world, const InterestConfig& config, double cam_x,
                                   double cam_y, int32_t margin);
+// The same where the levels' regions are given (the error-driven clipmap places its own):
+// regions[l] holds level l's samples (the world's grid at spacing 2^l, half-open), each grown
+// by `margin`; n, levels and pad are not used.
+std::set<TileCoord> region_tiles(const WorldParams& world, const InterestConfig& config,
+                                 std::span<const RectI> regions, double cam_x, double cam_y, int32_t margin);
 
 class ClipmapInterest {
  public:
@@ -38,8 +45,8 @@ class ClipmapInterest {
     bool empty() const { return subscribe.empty() && unsubscribe.empty(); }
   };
   // New tiles needed within the margin are subscribed; held ones no longer needed within
-  // twice the margin are dropped.
-  Delta update(double cam_x, double cam_y);
+  // twice the margin are dropped. With `regions`, the levels hold those (region_tiles).
+  Delta update(double cam_x, double cam_y, std::span<const RectI> regions = {});
   const std::set<TileCoord>& subscribed() const { return subscribed_; }
 
  private:

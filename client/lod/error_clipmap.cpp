@@ -36,9 +36,10 @@ GeomipmapGrid ClipmapBlockGrid::patch_grid() const {
 // --- errors ---
 
 const ClipmapErrorPyramid::Entry* ClipmapErrorPyramid::find(int32_t l, int64_t bx, int64_t by) const {
-  if (l < 0 || size_t(l) >= entries_.size() || bx < 0 || by < 0 || bx >= row_[size_t(l)]) return nullptr;
-  const size_t i = size_t(by) * size_t(row_[size_t(l)]) + size_t(bx);
-  return i < entries_[size_t(l)].size() ? &entries_[size_t(l)][i] : nullptr;
+  if (l < 0 || size_t(l) >= level_.size()) return nullptr;
+  const Level& v = level_[size_t(l)];
+  if (!v.blocks.contains(bx, by)) return nullptr;
+  return &v.entries[size_t((by - v.blocks.y0) * v.blocks.width() + (bx - v.blocks.x0))];
 }
 
 float ClipmapErrorPyramid::error(int32_t l, int64_t bx, int64_t by) const {
@@ -56,7 +57,7 @@ uint16_t ClipmapErrorPyramid::max_height(int32_t l, int64_t bx, int64_t by) cons
 
 size_t ClipmapErrorPyramid::bytes() const {
   size_t n = 0;
-  for (const auto& v : entries_) n += v.size() * sizeof(Entry);
+  for (const Level& v : level_) n += v.entries.size() * sizeof(Entry);
   return n;
 }
 
@@ -89,14 +90,15 @@ float bound(double worst) { return worst == 0 ? 0.0f : std::nextafter(float(wors
 }  // namespace
 
 void ClipmapErrorPyramid::compute_block(const ClipmapBlockGrid& grid, const MipReader& read, int32_t l,
-                                        int32_t bx, int32_t by) {
-  Entry& e = entries_[size_t(l)][size_t(by) * size_t(row_[size_t(l)]) + size_t(bx)];
+                                        int64_t bx, int64_t by) {
+  Level& v = level_[size_t(l)];
+  Entry& e = v.entries[size_t((by - v.blocks.y0) * v.blocks.width() + (bx - v.blocks.x0))];
   float children = 0;
   uint16_t lo = 65535, hi = 0;
   if (l > 0) {
-    for (int32_t j = 0; j < 2; ++j) {
-      for (int32_t i = 0; i < 2; ++i) {
-        if (const Entry* c = find(l - 1, 2 * int64_t(bx) + i, 2 * int64_t(by) + j)) {
+    for (int64_t j = 0; j < 2; ++j) {
+      for (int64_t i = 0; i < 2; ++i) {
+        if (const Entry* c = find(l - 1, 2 * bx + i, 2 * by + j)) {
           children = std::max(children, c->error);
           lo = std::min(lo, c->lo), hi = std::max(hi, c->hi);
         }
@@ -115,42 +117,113 @@ void ClipmapErrorPyramid::compute_block(const ClipmapBlockGrid& grid, const MipR
                                 bound(surface_error(scratch_, grid.span(l), int64_t(1) << l, r.x0, r.y0)));
     return;
   }
-  // The children's bound plus the level-(l-1) samples against the level-l surface.
+  // The children's bound plus the level-(l-1) samples against the level-l surface. The samples
+  // join the height range: where the finer window does not hold the children, they are what
+  // can be drawn there (mips are decimated, so where it does, the children's range holds them).
   const int64_t k = 2 * int64_t(grid.cells());
   const RectI r{bx * k, by * k, bx * k + k + 1, by * k + k + 1};
   scratch_.resize(size_t(r.area()));
   read(l - 1, r, scratch_);
-  e.lo = lo, e.hi = hi;
+  const auto [mn, mx] = std::minmax_element(scratch_.begin(), scratch_.end());
+  e.lo = std::min(lo, *mn), e.hi = std::max(hi, *mx);
   e.error = bound(double(children) + surface_error(scratch_, k, 2, r.x0, r.y0));
+}
+
+RectI blocks_inside(const ClipmapBlockGrid& grid, int32_t l, const RectI& r) {
+  const int64_t c = grid.cells();
+  const int32_t L = grid.levels;
+  // Blocks whose vertices [b c, b c + c] lie in the region, none before the world's start ...
+  const int64_t x0 = std::max<int64_t>(0, ceil_div(r.x0, c)), y0 = std::max<int64_t>(0, ceil_div(r.y0, c));
+  int64_t x1 = floor_div(r.x1 - 1 - c, c) + 1, y1 = floor_div(r.y1 - 1 - c, c) + 1;
+  // ... and within the roots' blocks: the coarsest level's that hold a world sample.
+  x1 = std::min<int64_t>(x1, int64_t(grid.blocks_x(L - 1)) << (L - 1 - l));
+  y1 = std::min<int64_t>(y1, int64_t(grid.blocks_y(L - 1)) << (L - 1 - l));
+  return {x0, y0, std::max(x0, x1), std::max(y0, y1)};
+}
+
+ClipmapErrorPyramid ClipmapErrorPyramid::windowed(const ClipmapBlockGrid& grid, int32_t exact_levels) {
+  ClipmapErrorPyramid p;
+  p.exact_levels_ = std::max(exact_levels, 0);
+  p.level_.resize(size_t(grid.levels));
+  return p;
 }
 
 ClipmapErrorPyramid ClipmapErrorPyramid::compute(const ClipmapBlockGrid& grid, const MipReader& read,
                                                  int32_t exact_levels) {
-  ClipmapErrorPyramid p;
-  p.exact_levels_ = std::max(exact_levels, 0);
-  for (int32_t l = 0; l < grid.levels; ++l) {
-    p.row_.push_back(grid.blocks_x(l));
-    p.entries_.emplace_back(size_t(grid.blocks_x(l)) * size_t(grid.blocks_y(l)));
-    for (int32_t by = 0; by < grid.blocks_y(l); ++by)
-      for (int32_t bx = 0; bx < grid.blocks_x(l); ++bx) p.compute_block(grid, read, l, bx, by);
-  }
+  ClipmapErrorPyramid p = windowed(grid, exact_levels);
+  std::vector<RectI> all;
+  for (int32_t l = 0; l < grid.levels; ++l) all.push_back({0, 0, grid.blocks_x(l), grid.blocks_y(l)});
+  p.move_windows(grid, read, all);
   return p;
+}
+
+int64_t ClipmapErrorPyramid::move_windows(const ClipmapBlockGrid& grid, const MipReader& read,
+                                          std::span<const RectI> windows) {
+  level_.resize(size_t(grid.levels));
+  int64_t computed = 0;
+  // The finer level's windows before and after, and which of its new window's blocks were
+  // computed in this move: a parent is recomputed when a child changed or entered or left.
+  RectI finer_old, finer_new;
+  std::vector<uint8_t> finer_dirty;
+  for (int32_t l = 0; l < grid.levels; ++l) {
+    const RectI asked = size_t(l) < windows.size() ? windows[size_t(l)] : RectI{};
+    const RectI w = asked.intersect({0, 0, grid.blocks_x(l), grid.blocks_y(l)});
+    Level next;
+    next.blocks = w.empty() ? RectI{} : w;
+    next.entries.resize(size_t(next.blocks.area()));
+    std::vector<uint8_t> dirty(next.entries.size(), 0);
+    Level& old = level_[size_t(l)];
+    for (int64_t by = next.blocks.y0; by < next.blocks.y1; ++by) {
+      for (int64_t bx = next.blocks.x0; bx < next.blocks.x1; ++bx) {
+        const size_t i = size_t((by - next.blocks.y0) * next.blocks.width() + (bx - next.blocks.x0));
+        bool keep = old.blocks.contains(bx, by);
+        for (int64_t j = 0; j < 2 && keep && l > 0; ++j) {
+          for (int64_t k = 0; k < 2 && keep; ++k) {
+            const int64_t cx = 2 * bx + k, cy = 2 * by + j;
+            const bool was = finer_old.contains(cx, cy), is = finer_new.contains(cx, cy);
+            keep = was == is &&
+                   (!is ||
+                    finer_dirty[size_t((cy - finer_new.y0) * finer_new.width() + (cx - finer_new.x0))] == 0);
+          }
+        }
+        if (keep) {
+          next.entries[i] =
+              old.entries[size_t((by - old.blocks.y0) * old.blocks.width() + (bx - old.blocks.x0))];
+        } else {
+          dirty[i] = 1;
+        }
+      }
+    }
+    finer_old = old.blocks;
+    old = std::move(next);
+    finer_new = old.blocks;
+    for (int64_t by = finer_new.y0; by < finer_new.y1; ++by) {
+      for (int64_t bx = finer_new.x0; bx < finer_new.x1; ++bx) {
+        if (dirty[size_t((by - finer_new.y0) * finer_new.width() + (bx - finer_new.x0))] == 0) continue;
+        compute_block(grid, read, l, bx, by);
+        ++computed;
+      }
+    }
+    finer_dirty = std::move(dirty);
+  }
+  return computed;
 }
 
 std::vector<ClipmapBlockId> ClipmapErrorPyramid::update(const ClipmapBlockGrid& grid, const MipReader& read,
                                                         const RectI& changed) {
   std::vector<ClipmapBlockId> out;
   if (changed.empty()) return out;
-  for (int32_t l = 0; l < grid.levels; ++l) {
+  for (int32_t l = 0; l < grid.levels && size_t(l) < level_.size(); ++l) {
     const int64_t s = grid.span(l);
+    const RectI& w = level_[size_t(l)].blocks;
     // Block b holds samples [b s, b s + s].
-    const int64_t x0 = std::max<int64_t>(0, ceil_div(changed.x0 - s, s)),
-                  x1 = std::min<int64_t>(grid.blocks_x(l) - 1, floor_div(changed.x1 - 1, s));
-    const int64_t y0 = std::max<int64_t>(0, ceil_div(changed.y0 - s, s)),
-                  y1 = std::min<int64_t>(grid.blocks_y(l) - 1, floor_div(changed.y1 - 1, s));
+    const int64_t x0 = std::max<int64_t>(w.x0, ceil_div(changed.x0 - s, s)),
+                  x1 = std::min<int64_t>(w.x1 - 1, floor_div(changed.x1 - 1, s));
+    const int64_t y0 = std::max<int64_t>(w.y0, ceil_div(changed.y0 - s, s)),
+                  y1 = std::min<int64_t>(w.y1 - 1, floor_div(changed.y1 - 1, s));
     for (int64_t by = y0; by <= y1; ++by) {
       for (int64_t bx = x0; bx <= x1; ++bx) {
-        compute_block(grid, read, l, int32_t(bx), int32_t(by));
+        compute_block(grid, read, l, bx, by);
         out.push_back({l, int32_t(bx), int32_t(by)});
       }
     }
@@ -186,21 +259,14 @@ ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const C
   ErrorClipmapSelection sel;
   const int32_t L = std::min<int32_t>(grid.levels, int32_t(regions.size()));
   if (L < 1) return sel;
-  const int64_t c = grid.cells();
   std::vector<LevelBlocks> lv;
   lv.resize(size_t(L));
   for (int32_t l = 0; l < L; ++l) {
-    const RectI& r = regions[size_t(l)];
     LevelBlocks& b = lv[size_t(l)];
-    // Blocks whose vertices [b c, b c + c] lie in the region, none before the world's start.
-    b.x0 = std::max<int64_t>(0, ceil_div(r.x0, c));
-    b.y0 = std::max<int64_t>(0, ceil_div(r.y0, c));
-    int64_t x1 = floor_div(r.x1 - 1 - c, c), y1 = floor_div(r.y1 - 1 - c, c);
-    // Within the roots' blocks: the coarsest level's that hold a world sample.
-    x1 = std::min<int64_t>(x1, (int64_t(grid.blocks_x(L - 1)) << (L - 1 - l)) - 1);
-    y1 = std::min<int64_t>(y1, (int64_t(grid.blocks_y(L - 1)) << (L - 1 - l)) - 1);
-    b.nx = std::max<int64_t>(0, x1 - b.x0 + 1);
-    b.ny = std::max<int64_t>(0, y1 - b.y0 + 1);
+    ClipmapBlockGrid g = grid;
+    g.levels = L;
+    const RectI in = blocks_inside(g, l, regions[size_t(l)]);
+    b.x0 = in.x0, b.y0 = in.y0, b.nx = in.width(), b.ny = in.height();
     b.state.assign(size_t(b.nx * b.ny), kAbsent);
     b.morph.assign(size_t(b.nx * b.ny), 0.0f);
   }

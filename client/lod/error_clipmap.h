@@ -73,18 +73,38 @@ struct ClipmapBlockId {
   auto operator<=>(const ClipmapBlockId&) const = default;
 };
 
+// The blocks of level l whose vertices lie in `region` (level samples, half-open) and under the
+// coarsest level's blocks: the blocks the selection may use there (block coordinates, half-open).
+RectI blocks_inside(const ClipmapBlockGrid& grid, int32_t l, const RectI& region);
+
+// Block errors kept for a window of blocks per level. compute() windows the whole world (the
+// `lod` suite, tests); a viewer's windows follow its level regions (move_windows), so memory and
+// work follow the regions and never the world's size: a 131 km world costs what a 4 km one does.
+// A block whose children lie outside the finer window takes the level-(l-1) samples as the
+// finest there (none finer can be drawn there: the selection splits a block only into children
+// inside the finer region), so a windowed bound equals the whole world's wherever the finer
+// windows hold the block's subtree.
 class ClipmapErrorPyramid {
  public:
   static ClipmapErrorPyramid compute(const ClipmapBlockGrid& grid, const MipReader& read,
                                      int32_t exact_levels = 3);
-  // Recomputes every block (all levels) holding a sample of `changed` (mip-0 samples), finest
-  // first; returns them.
+  // An empty pyramid for move_windows().
+  static ClipmapErrorPyramid windowed(const ClipmapBlockGrid& grid, int32_t exact_levels = 3);
+  // Moves level l's window to windows[l] (block coordinates, clipped to the level's blocks),
+  // finest level first: entries that stay and whose subtree the finer windows still hold the same
+  // are kept; the others are computed. Returns the blocks computed. Windows must nest as level
+  // regions centred on the camera do (blocks_inside of each level's region).
+  int64_t move_windows(const ClipmapBlockGrid& grid, const MipReader& read, std::span<const RectI> windows);
+  // Recomputes every block (all levels) in the windows holding a sample of `changed` (mip-0
+  // samples), finest first; returns them.
   std::vector<ClipmapBlockId> update(const ClipmapBlockGrid& grid, const MipReader& read,
                                      const RectI& changed);
-  // Height units; level 0 is 0; a parent's is at least its children's. 0 outside the world.
+  // Height units; level 0 is 0; a parent's is at least its children's. 0 outside the windows.
   float error(int32_t l, int64_t bx, int64_t by) const;
   uint16_t min_height(int32_t l, int64_t bx, int64_t by) const;
   uint16_t max_height(int32_t l, int64_t bx, int64_t by) const;
+  // Level l's window (block coordinates).
+  RectI window(int32_t l) const { return size_t(l) < level_.size() ? level_[size_t(l)].blocks : RectI{}; }
   int32_t exact_levels() const { return exact_levels_; }
   size_t bytes() const;
 
@@ -93,11 +113,14 @@ class ClipmapErrorPyramid {
     float error = 0;
     uint16_t lo = 0, hi = 0;
   };
+  struct Level {
+    RectI blocks;                // the window, block coordinates
+    std::vector<Entry> entries;  // row-major over the window
+  };
   const Entry* find(int32_t l, int64_t bx, int64_t by) const;
-  void compute_block(const ClipmapBlockGrid& grid, const MipReader& read, int32_t l, int32_t bx, int32_t by);
+  void compute_block(const ClipmapBlockGrid& grid, const MipReader& read, int32_t l, int64_t bx, int64_t by);
   int32_t exact_levels_ = 0;
-  std::vector<int32_t> row_;                 // blocks per row, per level
-  std::vector<std::vector<Entry>> entries_;  // per level, row-major
+  std::vector<Level> level_;
   std::vector<uint16_t> scratch_;
 };
 

@@ -45,19 +45,20 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
   r->region_ = int32_t(std::min<int64_t>(
       config.region, std::max<int64_t>(16 * cells, std::max(r->level_extent(0)[0], r->level_extent(0)[1]))));
   r->patch_ = r->grid_.patch_grid();
-  r->errors_ = lod::ClipmapErrorPyramid::compute(
-      r->grid_, [&](int32_t l, const RectI& rect, std::span<uint16_t> out) { r->read_level(l, rect, out); },
-      config.exact_levels);
+  // Block errors for the level regions only, computed as they move (select()).
+  r->errors_ = lod::ClipmapErrorPyramid::windowed(r->grid_, config.exact_levels);
   {
-    // Material range from the coarsest mip, as the clipmap renderer takes it.
-    const int32_t top = levels - 1;
-    uint16_t lo = 65535, hi = 0;
-    for (int64_t by = 0; by < r->grid_.blocks_y(top); ++by)
-      for (int64_t bx = 0; bx < r->grid_.blocks_x(top); ++bx)
-        lo = std::min(lo, r->errors_.min_height(top, bx, by)),
-        hi = std::max(hi, r->errors_.max_height(top, bx, by));
-    r->min_height_m_ = double(lo) * p.meters_per_unit;
-    r->max_height_m_ = double(hi) * p.meters_per_unit;
+    // Material range from the coarsest mip, as the clipmap renderer takes it: every source holds
+    // it (a viewer subscribes it first).
+    const int32_t mip = p.mip_count() - 1;
+    const int64_t s = int64_t(1) << mip;
+    const RectI w = p.sample_rect();
+    const RectI m{ceil_div(w.x0, s), ceil_div(w.y0, s), ceil_div(w.x1, s), ceil_div(w.y1, s)};
+    std::vector<uint16_t> samples(size_t(m.area()));
+    source.read(mip, m, samples);
+    const auto [lo, hi] = std::minmax_element(samples.begin(), samples.end());
+    r->min_height_m_ = double(*lo) * p.meters_per_unit;
+    r->max_height_m_ = double(*hi) * p.meters_per_unit;
   }
   r->level_.resize(size_t(levels));
   r->regions_.resize(size_t(levels));
@@ -135,6 +136,36 @@ void ErrorClipmapRenderer::read_level(int32_t l, const RectI& rect, std::span<ui
 
 RectI ErrorClipmapRenderer::region(int32_t l) const { return regions_[size_t(l)]; }
 
+RectI ErrorClipmapRenderer::level_region(int32_t l) const {
+  // Clipped to the world's level samples: a coarse level's region reaches far past a small world.
+  const int64_t s = int64_t(1) << l;
+  const RectI r =
+      regions_[size_t(l)].intersect({0, 0, ceil_div(world_.width(), s), ceil_div(world_.height(), s)});
+  const int64_t ox = floor_div(world_.x0, s), oy = floor_div(world_.y0, s);
+  return r.empty() ? RectI{} : RectI{r.x0 + ox, r.y0 + oy, r.x1 + ox, r.y1 + oy};
+}
+
+std::vector<RectI> ErrorClipmapRenderer::regions_for(const scene::Camera& lod_camera) const {
+  const double mps = scale_.meters_per_sample;
+  const int64_t n = region_;
+  // The LOD centre, world-relative meters.
+  const auto c = lod_camera.lod_center.value_or(std::array<double, 2>{lod_camera.x, lod_camera.y});
+  const double ex = c[0] - double(world_.x0) * mps, ey = c[1] - double(world_.y0) * mps;
+  std::vector<RectI> out;
+  for (int32_t l = 0; l < grid_.levels; ++l) {
+    const double s = double(int64_t(1) << l) * mps;
+    // Centred on the camera, but inside what the level's blocks need: nothing is held outside
+    // the world, and a level whose blocks fit is held whole.
+    const std::array<int64_t, 2> e = level_extent(l);
+    auto place = [&](double eye, int64_t extent) {
+      return std::clamp<int64_t>(int64_t(std::floor(eye / s)) - n / 2, 0, std::max<int64_t>(0, extent - n));
+    };
+    const int64_t rx = place(ex, e[0]), ry = place(ey, e[1]);
+    out.push_back({rx, ry, rx + n, ry + n});
+  }
+  return out;
+}
+
 std::array<int64_t, 2> ErrorClipmapRenderer::level_extent(int32_t l) const {
   return {int64_t(grid_.blocks_x(l)) * grid_.cells() + 1, int64_t(grid_.blocks_y(l)) * grid_.cells() + 1};
 }
@@ -181,15 +212,9 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
   const lod::LodView view = lod_view(lod_camera, viewport_height);
   const double mps = scale_.meters_per_sample;
   const int64_t n = region_;
+  const std::vector<RectI> placed = regions_for(lod_camera);
   for (int32_t l = 0; l < grid_.levels; ++l) {
-    const double s = double(int64_t(1) << l) * mps;
-    // Centred on the camera, but inside what the level's blocks need: nothing is held outside
-    // the world, and a level whose blocks fit is held whole.
-    const std::array<int64_t, 2> e = level_extent(l);
-    auto place = [&](double eye, int64_t extent) {
-      return std::clamp<int64_t>(int64_t(std::floor(eye / s)) - n / 2, 0, std::max<int64_t>(0, extent - n));
-    };
-    const int64_t rx = place(view.x, e[0]), ry = place(view.y, e[1]);
+    const int64_t rx = placed[size_t(l)].x0, ry = placed[size_t(l)].y0;
     Level& level = level_[size_t(l)];
     std::optional<std::array<int64_t, 2>> old;
     if (level.valid) old = std::array<int64_t, 2>{level.region_x, level.region_y};
@@ -197,8 +222,16 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
       stats.texels_uploaded += upload(l, strip);
     level.valid = true;
     level.region_x = rx, level.region_y = ry;
-    regions_[size_t(l)] = {rx, ry, rx + n, ry + n};
+    regions_[size_t(l)] = placed[size_t(l)];
   }
+  // The error pyramid follows the regions: blocks that entered one (or whose finer window
+  // changed under them) are computed, the rest kept.
+  std::vector<RectI> windows;
+  for (int32_t l = 0; l < grid_.levels; ++l)
+    windows.push_back(lod::blocks_inside(grid_, l, regions_[size_t(l)]));
+  stats.blocks_computed = errors_.move_windows(
+      grid_, [&](int32_t l, const RectI& rect, std::span<uint16_t> out) { read_level(l, rect, out); },
+      windows);
   // Blocks outside the view are drawn by nobody: they are not split (the draw culls them).
   const int32_t width = viewport_width > 0 ? viewport_width : 2 * viewport_height;
   const scene::Frustum frustum =

@@ -4,7 +4,8 @@
 // world's blocks need less, and a region stays inside the world) drawn as the blocks client/lod/
 // error_clipmap.h selects for a screen-space error budget, instead of rings at fixed
 // distances. GPU memory is set by P and the level count, never by the world's size; the CPU
-// keeps the blocks' error pyramid (a few bytes per 16 x 16 samples) and no heights.
+// keeps the error bounds of the blocks inside the regions (8 bytes a block, computed as the
+// regions move) and no heights: a 131 km world costs what a 4 km one does.
 //
 // Each frame: the regions move with the camera (uploads), the blocks are chosen on the CPU,
 // culled against the frustum (render/frustum.h), sorted by side pattern and drawn instanced,
@@ -48,7 +49,8 @@ struct ErrorClipmapFrameStats {
   int32_t draw_calls = 0;
   int32_t blocks = 0, blocks_culled = 0;
   int64_t texels_uploaded = 0;  // by this frame's region moves
-  double cpu_ms = 0;            // region moves and uploads, selection, culling, instance upload
+  int64_t blocks_computed = 0;  // error bounds computed for blocks that entered the regions
+  double cpu_ms = 0;            // region moves and uploads, error bounds, selection, culling, instance upload
   lod::ErrorClipmapSelectStats select;
 };
 
@@ -83,6 +85,12 @@ class ErrorClipmapRenderer {
   const lod::ErrorClipmapSelection& selection() const { return selection_; }
   // Level l's region of level samples (world-relative: sample i is mip-0 sample i 2^l of the world).
   RectI region(int32_t l) const;
+  // The same in the world's global grid at spacing 2^l, clipped to the world (the minimap and
+  // the viewer's coverage read it).
+  RectI level_region(int32_t l) const;
+  // Where select() places the regions for `lod_camera` (its LOD centre), world-relative: a
+  // viewer subscribes their tiles before they are drawn.
+  std::vector<RectI> regions_for(const scene::Camera& lod_camera) const;
   // Level l's sample (x, y) as the textures and the pyramid read it (world-relative level grid).
   void read_level(int32_t l, const RectI& rect, std::span<uint16_t> out) const;
   int32_t levels() const { return grid_.levels; }

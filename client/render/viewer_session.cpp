@@ -58,13 +58,20 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   RendererConfig rc = options.renderer;
   if (!(rc.view_distance > 0))
     rc.view_distance = scene::view_scale(world).view_distance_m;  // auto: the world's
-  auto renderer = ClipmapRenderer::create(*v->display_, rc);
-  if (!renderer) return renderer.error();
-  v->renderer_ = std::move(*renderer);
+  v->view_distance_m_ = rc.view_distance;
   lod::InterestConfig ic = options.interest;
-  ic.n = v->renderer_->config().n;
-  ic.levels = v->renderer_->levels();
-  ic.pad = ClipmapRenderer::kLevelPad;
+  if (options.lod == LodScheme::kError) {
+    auto renderer = ErrorClipmapRenderer::create(*v->display_, options.error_clipmap);
+    if (!renderer) return renderer.error();
+    v->error_renderer_ = std::move(*renderer);
+  } else {
+    auto renderer = ClipmapRenderer::create(*v->display_, rc);
+    if (!renderer) return renderer.error();
+    v->renderer_ = std::move(*renderer);
+    ic.n = v->renderer_->config().n;
+    ic.levels = v->renderer_->levels();
+    ic.pad = ClipmapRenderer::kLevelPad;
+  }
   v->interest_ = std::make_unique<lod::ClipmapInterest>(world, ic);
   const terrain::HeightSource& ground = *v->display_;
   LOAM_TRY(
@@ -76,7 +83,17 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
 
 Status ViewerSession::follow(const scene::Camera& camera) {
   const auto c = camera.lod_center.value_or(std::array<double, 2>{camera.x, camera.y});
-  const lod::ClipmapInterest::Delta d = interest_->update(c[0], c[1]);
+  std::vector<RectI> regions;
+  if (error_renderer_) {
+    // The error-driven clipmap's regions where it will place them for this camera.
+    const RectI w = client_.welcome().world.sample_rect();
+    const std::vector<RectI> local = error_renderer_->regions_for(camera);
+    for (size_t l = 0; l < local.size(); ++l) {
+      const int64_t ox = floor_div(w.x0, int64_t(1) << l), oy = floor_div(w.y0, int64_t(1) << l);
+      regions.push_back({local[l].x0 + ox, local[l].y0 + oy, local[l].x1 + ox, local[l].y1 + oy});
+    }
+  }
+  const lod::ClipmapInterest::Delta d = interest_->update(c[0], c[1], regions);
   if (!d.unsubscribe.empty()) LOAM_TRY(client_.unsubscribe(d.unsubscribe));
   // The focus travels with new subscriptions, and on its own once the camera has moved a
   // quarter of a mip-0 tile since it was last sent.
@@ -106,7 +123,9 @@ Status ViewerSession::update(const scene::Camera& camera, std::chrono::milliseco
   LOAM_TRY(follow(camera));
   const std::vector<terrain::DisplayDirty> dirty = display_->sync(client_);
   for (const terrain::DisplayDirty& d : dirty) {
-    if (d.layer == Layer::kCoarse) {
+    if (error_renderer_) {
+      if (d.layer == Layer::kCoarse) error_renderer_->invalidate(d.rect);
+    } else if (d.layer == Layer::kCoarse) {
       renderer_->invalidate(d.rect);
     } else {
       renderer_->invalidate_detail(d.rect);
@@ -137,7 +156,32 @@ Status ViewerSession::reconnect(const std::string& host, uint16_t port) {
 }
 
 FrameStats ViewerSession::render(const scene::Camera& camera, int32_t width, int32_t height) {
-  return renderer_->render(camera, width, height);
+  if (!error_renderer_) return renderer_->render(camera, width, height);
+  const ErrorClipmapFrameStats e = error_renderer_->render(camera, width, height);
+  FrameStats f;
+  f.triangles = e.triangles;
+  f.draw_calls = e.draw_calls;
+  f.pieces_culled = e.blocks_culled;
+  f.texels_uploaded = e.texels_uploaded;
+  return f;
+}
+
+int32_t ViewerSession::levels() const {
+  return error_renderer_ ? error_renderer_->levels() : renderer_->levels();
+}
+
+RectI ViewerSession::level_region(int32_t l) const {
+  return error_renderer_ ? error_renderer_->level_region(l) : renderer_->level_region(l);
+}
+
+std::array<float, 2> ViewerSession::sun() const {
+  // The error-driven clipmap's shading has the classic renderer's default sun.
+  const RendererConfig c = renderer_ ? renderer_->config() : RendererConfig{};
+  return {c.sun_azimuth_degrees, c.sun_elevation_degrees};
+}
+
+void ViewerSession::set_sun(float azimuth_degrees, float elevation_degrees) {
+  if (renderer_) renderer_->set_sun(azimuth_degrees, elevation_degrees);
 }
 
 Result<uint32_t> ViewerSession::deform(const QuantizedStamp& stamp) {
@@ -163,14 +207,14 @@ LevelCoverage ViewerSession::coverage() {
   const client::ConfirmedStore& store = client_.store();
   const int32_t mips = w.mip_count();
   LevelCoverage cov;
-  cov.levels = renderer_->levels();
+  cov.levels = levels();
   lacking_since_.resize(size_t(cov.levels));
   const auto now = std::chrono::steady_clock::now();
   for (int32_t l = 0; l < cov.levels; ++l) {
     // Level l's region in the grid of the mip it reads (levels past the coarsest mip read it).
     const int32_t m = std::min(l, mips - 1);
     const int64_t up = int64_t(1) << (l - m);
-    const RectI r = renderer_->level_region(l);
+    const RectI r = level_region(l);
     const RectI region{r.x0 * up, r.y0 * up, r.x1 * up, r.y1 * up};
     const RectI tiles = tiles_overlapping(region).intersect(w.tile_range(m));
     bool lacking = false;
@@ -207,7 +251,8 @@ ViewerStats ViewerSession::stats() const {
   s.gpu_page_bytes = m.gpu.total();
   s.gpu_pages_resident = 0;
   for (const int32_t n : m.gpu.resident_pages) s.gpu_pages_resident += n;
-  s.gpu_terrain_bytes = m.gpu.total() + renderer_->gpu_bytes();
+  s.gpu_terrain_bytes =
+      m.gpu.total() + (error_renderer_ ? error_renderer_->gpu_bytes() : renderer_->gpu_bytes());
   s.cpu_terrain_bytes = m.cpu_bytes + store.held_bytes();
   s.rtt_ms = client_.rtt_ms().value_or(-1.0);
   s.bytes_in_per_s = bytes_in_per_s_;

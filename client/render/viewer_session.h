@@ -1,6 +1,7 @@
 // A connected viewer: the network client (confirmed store), the display terrain (store +
 // overlay, stamped on the GPU), the tiles the clipmap needs (subscribed as the camera moves)
-// and the clipmap renderer fed from the display. The windowed viewer, `loam-client render
+// and the terrain renderer fed from the display: the classic clipmap or the error-driven one
+// (--lod). The windowed viewer, `loam-client render
 // --server` and the end-to-end tests drive it the same way: update() once per frame, then
 // render(). Needs the GL 4.5 context current for every call; not thread-safe.
 #pragma once
@@ -14,6 +15,8 @@
 #include "client/net/terrain_client.h"
 #include "client/query/snapshot_builder.h"
 #include "client/render/clipmap_renderer.h"
+#include "client/render/error_clipmap_renderer.h"
+#include "client/render/lod_scheme.h"
 #include "client/terrain/display_terrain.h"
 #include "protocol/result.h"
 
@@ -23,8 +26,10 @@ namespace loam::render {
 enum class DisplayStamping { kGpu, kCpu };
 
 struct ViewerOptions {
-  RendererConfig renderer;
-  lod::InterestConfig interest;  // n and levels are taken from the renderer
+  LodScheme lod = LodScheme::kClassic;
+  RendererConfig renderer;           // the classic clipmap's (and the view distance of both)
+  ErrorClipmapConfig error_clipmap;  // the error-driven clipmap's
+  lod::InterestConfig interest;      // n and levels are taken from the renderer
   DisplayStamping stamping = DisplayStamping::kGpu;
   wire::Role role = wire::Role::kPlayer;
   std::string name = "viewer";
@@ -85,7 +90,18 @@ class ViewerSession {
 
   client::TerrainClient& client() { return client_; }
   terrain::DisplayTerrain& display() { return *display_; }
-  ClipmapRenderer& renderer() { return *renderer_; }
+  LodScheme lod() const { return error_renderer_ ? LodScheme::kError : LodScheme::kClassic; }
+  // The classic clipmap renderer; null when the error-driven clipmap draws.
+  ClipmapRenderer* classic() { return renderer_.get(); }
+  // The error-driven clipmap renderer; null when the classic clipmap draws.
+  ErrorClipmapRenderer* error_clipmap() { return error_renderer_.get(); }
+  int32_t levels() const;
+  // Level l's region (the world's grid at spacing 2^l) as of the last render.
+  RectI level_region(int32_t l) const;
+  double view_distance_m() const { return view_distance_m_; }
+  // The sun (degrees: azimuth clockwise from north, elevation above the horizon).
+  std::array<float, 2> sun() const;
+  void set_sun(float azimuth_degrees, float elevation_degrees);
   const lod::ClipmapInterest& interest() const { return *interest_; }
   // The display as the game library's queries see it (heights, rays, sweeps: the walk mode),
   // brought up to date by update().
@@ -102,6 +118,8 @@ class ViewerSession {
   client::TerrainClient client_;
   std::unique_ptr<terrain::DisplayTerrain> display_;
   std::unique_ptr<ClipmapRenderer> renderer_;
+  std::unique_ptr<ErrorClipmapRenderer> error_renderer_;
+  double view_distance_m_ = 0;
   std::unique_ptr<lod::ClipmapInterest> interest_;
   std::unique_ptr<query::SnapshotBuilder> snapshots_;
   std::shared_ptr<const query::TerrainSnapshot> terrain_;

@@ -117,7 +117,9 @@ bool reconnect(render::ViewerSession& s, const ViewerAppOptions& o, const Status
 
 render::ViewerOptions session_options(const ViewerAppOptions& o) {
   render::ViewerOptions vo;
+  vo.lod = o.lod;
   vo.renderer = o.renderer;
+  vo.error_clipmap = o.error_clipmap;
   vo.name = o.name;
   vo.token = o.token;
   vo.tls = o.tls;
@@ -143,8 +145,9 @@ int run_headless(const ViewerAppOptions& o) {
     std::fprintf(stderr, "loam-client view: %s\n", target.error().describe().c_str());
     return 1;
   }
-  std::printf("viewer (headless): %s, %dx%d, %d levels, joined as client %u\n", ctx->renderer().c_str(),
-              o.width, o.height, s.renderer().levels(), s.client().welcome().client_id);
+  std::printf("viewer (headless): %s, %dx%d, %s clipmap, %d levels, joined as client %u\n",
+              ctx->renderer().c_str(), o.width, o.height, render::to_string(s.lod()), s.levels(),
+              s.client().welcome().client_id);
   // The start view: an orbit around the world's centre sized for the world (on a world of tens
   // of kilometres, a low orbit of 1.5 km: what a player sees, not the whole world from afar).
   const scene::ViewScale scale = scene::view_scale(s.client().welcome().world);
@@ -298,10 +301,11 @@ int run_window(const ViewerAppOptions& o) {
   tool.select(controls::Tool::kCrater);
   scale_tool(tool, scale);
   std::printf(
-      "viewer (window): %s, %dx%d, %d levels, joined as client %u; camera at %.0f, %.0f, %.0f m, "
+      "viewer (window): %s, %dx%d, %s clipmap, %d levels, joined as client %u; camera at %.0f, %.0f, %.0f m, "
       "speed %.0f m/s, stamp radius %.1f m (%.1f .. %.0f)\n",
-      window->renderer().c_str(), o.width, o.height, s.renderer().levels(), s.client().welcome().client_id,
-      fly.x(), fly.y(), fly.z(), fly.speed(), tool.radius_m, tool.min_radius_m, tool.max_radius_m);
+      window->renderer().c_str(), o.width, o.height, render::to_string(s.lod()), s.levels(),
+      s.client().welcome().client_id, fly.x(), fly.y(), fly.z(), fly.speed(), tool.radius_m,
+      tool.min_radius_m, tool.max_radius_m);
   terrain::TileStates tiles;
   StampPreviews previews;
   double next_tiles = 0;
@@ -353,9 +357,8 @@ int run_window(const ViewerAppOptions& o) {
       const double turn = (key(GLFW_KEY_X) - key(GLFW_KEY_Z)) * 30.0 * dt,
                    lift = (key(GLFW_KEY_V) - key(GLFW_KEY_C)) * 10.0 * dt;
       if (turn != 0 || lift != 0) {
-        const render::RendererConfig& rc = s.renderer().config();
-        s.renderer().set_sun(float(std::fmod(rc.sun_azimuth_degrees + turn + 360.0, 360.0)),
-                             float(rc.sun_elevation_degrees + lift));
+        const std::array<float, 2> sun = s.sun();
+        s.set_sun(float(std::fmod(sun[0] + turn + 360.0, 360.0)), float(sun[1] + lift));
       }
     }
     const bool over_hud = hud && overlay.wants_mouse();
@@ -391,7 +394,7 @@ int run_window(const ViewerAppOptions& o) {
     int w = 0, h = 0;
     glfwGetFramebufferSize(win, &w, &h);
     if (w <= 0 || h <= 0) continue;  // minimised
-    const scene::Camera cam = window_camera(fly, s.renderer().config(), scale, walking);
+    const scene::Camera cam = window_camera(fly, s.view_distance_m(), scale, walking);
     // A timed run's last frame shows the settled view: every tile it needs, every own stamp
     // confirmed (what a screenshot of it is compared on).
     if (final) (void)s.wait_settled(cam, std::chrono::seconds(20));

@@ -11,6 +11,8 @@
 #include <string>
 
 #include "client/render/clipmap_renderer.h"
+#include "client/render/error_clipmap_renderer.h"
+#include "client/render/lod_scheme.h"
 #include "protocol/wire/messages.h"
 #include "transport/tls_context.h"
 
@@ -22,7 +24,9 @@ struct ViewerAppOptions {
   std::string name = "viewer";
   std::optional<wire::AccessToken> token;  // needed where the server has tokens
   transport::TlsClientOptions tls;
-  render::RendererConfig renderer;
+  render::LodScheme lod = render::LodScheme::kClassic;
+  render::RendererConfig renderer;           // the classic clipmap's, and the view distance
+  render::ErrorClipmapConfig error_clipmap;  // the error-driven clipmap's
   int32_t width = 1280, height = 720;
   bool headless = false;                  // EGL + offscreen instead of a window
   double seconds = 0;                     // stop after this long (0: until the window closes; headless: 30)

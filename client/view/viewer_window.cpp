@@ -29,9 +29,9 @@ controls::FlyCamera window_start(render::ViewerSession& s, const scene::ViewScal
   return fly;
 }
 
-scene::Camera window_camera(const controls::FlyCamera& fly, const render::RendererConfig& renderer,
+scene::Camera window_camera(const controls::FlyCamera& fly, double view_distance_m,
                             const scene::ViewScale& scale, bool walking) {
-  scene::Camera cam = fly.camera(60.0, std::max(4.0 * renderer.view_distance, scale.far_m));
+  scene::Camera cam = fly.camera(60.0, std::max(4.0 * view_distance_m, scale.far_m));
   if (walking) cam.near_m = 0.1;
   return cam;
 }
@@ -46,8 +46,8 @@ terrain::MinimapInput minimap_input(render::ViewerSession& s, const scene::Camer
                                     const terrain::TileStates& tiles) {
   terrain::MinimapInput in;
   in.world = s.client().welcome().world;
-  for (int32_t l = 0; l < s.renderer().levels(); ++l) {
-    const RectI r = s.renderer().level_region(l);
+  for (int32_t l = 0; l < s.levels(); ++l) {
+    const RectI r = s.level_region(l);
     in.level_regions.push_back({r.x0 << l, r.y0 << l, r.x1 << l, r.y1 << l});
   }
   in.camera = cam;

@@ -33,7 +33,7 @@ scene::GroundFn display_ground(render::ViewerSession& s);
 controls::FlyCamera window_start(render::ViewerSession& s, const scene::ViewScale& scale);
 // The camera a window draws from `fly`: 60 degrees, its far plane past both the renderer's
 // view distance and the start view's horizon; a walker's eye sees from 10 cm.
-scene::Camera window_camera(const controls::FlyCamera& fly, const render::RendererConfig& renderer,
+scene::Camera window_camera(const controls::FlyCamera& fly, double view_distance_m,
                             const scene::ViewScale& scale, bool walking);
 // The stamp tool sized for the world: its radius range and a radius visible from the orbit.
 void scale_tool(controls::StampTool& tool, const scene::ViewScale& scale);

@@ -80,7 +80,7 @@ TEST(ViewerEndToEnd, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrect
   view.display().world().read_coarse(r, shown);
   view.client().store().mirror().read_coarse(r, confirmed);
   EXPECT_NE(shown, confirmed) << "the overlay did not change the display";
-  for (const RectI& d : {r}) view.renderer().invalidate(d);
+  for (const RectI& d : {r}) view.classic()->invalidate(d);
   EXPECT_NE(render_view(view, cam, 160, 100), before) << "the crater does not show in the render";
 
   ASSERT_TRUE(view.wait_settled(cam, 30s));
@@ -99,6 +99,43 @@ TEST(ViewerEndToEnd, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrect
 // layer measures against what the store kept of each tile's version 0. An own crater reads as
 // dug as soon as it shows (its tiles still at version 0) and still once the server confirmed
 // it (the kept copies); ground away from it reads as unchanged.
+TEST(ViewerEndToEnd, ErrorDrivenClipmapViewerHoldsItsRegionsTilesAndShowsAStampOnceSettled) {
+  LOAM_REQUIRE_GL();
+  const std::string dir = temp_data_dir("error_lod");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--hashes-every", "10"})) << server.log();
+  const scene::Camera cam = overview();
+  render::ViewerOptions o = small_viewer("viewer");
+  o.lod = render::LodScheme::kError;
+  o.error_clipmap.region = 256;
+  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), o, cam);
+  ASSERT_TRUE(v.ok()) << v.error().describe();
+  render::ViewerSession& view = **v;
+  ASSERT_EQ(view.lod(), render::LodScheme::kError);
+  ASSERT_EQ(view.classic(), nullptr);
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  const auto before = render_view(view, cam, 160, 100);
+  // Every level's region is held at the level's own mip: the interest followed the error-driven
+  // clipmap's regions, not the classic clipmap's rings.
+  const render::LevelCoverage cov = view.coverage();
+  EXPECT_EQ(cov.levels, view.levels());
+  EXPECT_EQ(cov.levels_lacking, 0);
+  int64_t terrain_pixels = 0;  // alpha 1: terrain (the clear's is 0)
+  for (size_t i = 3; i < before.size(); i += 4) terrain_pixels += before[i] != 0;
+  EXPECT_GT(terrain_pixels, 160 * 100 / 4) << "the error-driven clipmap drew no terrain";
+
+  const QuantizedStamp q = crater_at(view.client().welcome().world, 1000, 760, 40, 6);
+  ASSERT_TRUE(view.deform(q).ok());
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  const RectI r{475, 355, 525, 405};  // the crater's middle, samples
+  std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
+  view.display().world().read_coarse(r, shown);
+  view.client().store().mirror().read_coarse(r, confirmed);
+  EXPECT_EQ(shown, confirmed);
+  EXPECT_NE(render_view(view, cam, 160, 100), before) << "the crater does not show in the render";
+  EXPECT_EQ(view.stats().hash_mismatches, 0u);
+}
+
 TEST(ViewerEndToEnd, OnAnImportedDemACraterDugInViewReadsAsDug) {
   LOAM_REQUIRE_GL();
   const std::string dir = temp_data_dir("imported_dug");

@@ -103,7 +103,7 @@ void window_on(uint16_t port, const std::string& name) {
   render::ViewerSession& s = **session;
   const scene::ViewScale scale = scene::view_scale(s.client().welcome().world);
   const controls::FlyCamera fly = view::window_start(s, scale);
-  const scene::Camera cam = view::window_camera(fly, s.renderer().config(), scale, false);
+  const scene::Camera cam = view::window_camera(fly, s.view_distance_m(), scale, false);
   ASSERT_TRUE(s.wait_settled(cam, 120s)) << name << ": the start view's tiles did not all arrive";
   int w = 0, h = 0;
   glfwGetFramebufferSize(window->window(), &w, &h);

@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <set>
+#include <vector>
+
 #include "client/lod/clipmap_mesh.h"
 
 namespace loam::lod {
@@ -91,5 +94,46 @@ TEST(ClipmapInterest, FarMoveDropsTheTilesLeftBehind) {
   for (const TileCoord& t : d.unsubscribe) EXPECT_FALSE(interest.subscribed().count(t));
 }
 
+TEST(ClipmapInterest, GivenRegionsAreHeldAtEachLevelsMipAndFollowedWithHysteresis) {
+  const WorldParams w = big_world();
+  InterestConfig c = config();
+  c.mip0_radius_m = 0;
+  c.detail_radius_m = 0;
+  // An error-driven clipmap's regions: 600 level samples a side, level 6 past the coarsest mip.
+  auto regions_at = [](int64_t x, int64_t y) {
+    std::vector<RectI> r;
+    for (int32_t l = 0; l < 7; ++l)
+      r.push_back({(x >> l) - 300, (y >> l) - 300, (x >> l) + 300, (y >> l) + 300});
+    return r;
+  };
+  const std::vector<RectI> regions = regions_at(1000, -500);
+  const std::set<TileCoord> tiles = region_tiles(w, c, regions, 1000, -500, 0);
+  const int32_t mips = w.mip_count();
+  for (int32_t l = 0; l < 7; ++l) {
+    const int32_t m = std::min(l, mips - 1);
+    const int64_t up = int64_t(1) << (l - m);
+    const RectI& r = regions[size_t(l)];
+    const RectI need =
+        tiles_overlapping({r.x0 * up, r.y0 * up, r.x1 * up, r.y1 * up}).intersect(w.tile_range(m));
+    ASSERT_FALSE(need.empty());
+    for (int64_t ty = need.y0; ty < need.y1; ++ty)
+      for (int64_t tx = need.x0; tx < need.x1; ++tx)
+        EXPECT_TRUE(tiles.count({Layer::kCoarse, uint8_t(m), int32_t(tx), int32_t(ty)}))
+            << l << ": " << tx << "," << ty;
+  }
+  for (const TileCoord& t : tiles) EXPECT_TRUE(w.tile_range(t.mip).contains(t.tx, t.ty)) << to_string(t);
+  // A few samples back and forth: nothing is dropped or added again.
+  ClipmapInterest interest(w, c);
+  const auto first = interest.update(1000, -500, regions);
+  EXPECT_EQ(first.subscribe.size(), interest.subscribed().size());
+  const auto there = interest.update(1004, -500, regions_at(1004, -500));
+  const auto back = interest.update(1000, -500, regions);
+  EXPECT_TRUE(back.unsubscribe.empty());
+  EXPECT_TRUE(there.unsubscribe.empty());
+  // Far away: the tiles left behind go, the coarsest mip stays.
+  const auto far = interest.update(-15000, 9000, regions_at(-15000, 9000));
+  EXPECT_FALSE(far.unsubscribe.empty());
+  for (const TileCoord& t : far.unsubscribe) EXPECT_NE(int32_t(t.mip), mips - 1);
+}
 }  // namespace
 }  // namespace loam::lod

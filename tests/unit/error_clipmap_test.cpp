@@ -11,6 +11,7 @@
 #include <cmath>
 #include <map>
 #include <set>
+#include <string>
 
 #include "lod_test_terrain.h"
 
@@ -255,5 +256,117 @@ TEST(ErrorClipmap, AStampRecomputesExactlyTheBlocksHoldingItsSamples) {
   EXPECT_EQ(per_level[4], 1);
 }
 
+std::vector<RectI> windows_for(const ClipmapBlockGrid& g, const std::vector<RectI>& regions) {
+  std::vector<RectI> out;
+  for (int32_t l = 0; l < g.levels; ++l) out.push_back(blocks_inside(g, l, regions[size_t(l)]));
+  return out;
+}
+
+void expect_same_in_windows(const ClipmapErrorPyramid& a, const ClipmapErrorPyramid& b, int32_t levels,
+                            const char* where) {
+  for (int32_t l = 0; l < levels; ++l) {
+    ASSERT_EQ(a.window(l), b.window(l)) << where << ", level " << l;
+    const RectI w = a.window(l);
+    for (int64_t by = w.y0; by < w.y1; ++by) {
+      for (int64_t bx = w.x0; bx < w.x1; ++bx) {
+        ASSERT_EQ(a.error(l, bx, by), b.error(l, bx, by))
+            << where << ", block " << l << " " << bx << "," << by;
+        ASSERT_EQ(a.min_height(l, bx, by), b.min_height(l, bx, by)) << where;
+        ASSERT_EQ(a.max_height(l, bx, by), b.max_height(l, bx, by)) << where;
+      }
+    }
+  }
+}
+
+TEST(ErrorClipmap, WindowsMovedAlongAPathHoldWhatAFreshWindowedPyramidComputes) {
+  const Terrain t = rough(611, 389, 21);
+  const ClipmapBlockGrid g = grid_for(t, 9, 6);
+  ClipmapErrorPyramid moving = ClipmapErrorPyramid::windowed(g, 2);
+  int64_t window_blocks = 0, computed_after_first = 0, moves = 0;
+  for (int step = 0; step < 24; ++step) {
+    // A walk with a jump back: windows slide by parts of a block, by several, and back.
+    const double x = step == 17 ? 60.0 : 100.0 + 37.0 * step, y = 90.0 + 11.0 * step;
+    const std::vector<RectI> windows = windows_for(g, regions_around(g, view_at(x, y, 300), 120));
+    const int64_t computed = moving.move_windows(g, reader(t), windows);
+    ClipmapErrorPyramid fresh = ClipmapErrorPyramid::windowed(g, 2);
+    const int64_t all = fresh.move_windows(g, reader(t), windows);
+    expect_same_in_windows(moving, fresh, g.levels, ("step " + std::to_string(step)).c_str());
+    EXPECT_LE(computed, all);
+    if (step > 0 && step != 17) computed_after_first += computed, window_blocks += all, ++moves;
+  }
+  // A slide recomputes the strips that entered and the coarser blocks over them, not the windows.
+  EXPECT_LT(computed_after_first, window_blocks / 2) << moves << " moves";
+}
+
+TEST(ErrorClipmap, WindowedBoundsMatchTheWholeWorldsWhereTheFinerWindowsHoldEveryChild) {
+  const Terrain t = rough(513, 401, 23);
+  const ClipmapBlockGrid g = grid_for(t, 9, 6);
+  const ClipmapErrorPyramid whole = ClipmapErrorPyramid::compute(g, reader(t), 2);
+  ClipmapErrorPyramid win = ClipmapErrorPyramid::windowed(g, 2);
+  win.move_windows(g, reader(t), windows_for(g, regions_around(g, view_at(400, 300, 300), 136)));
+  // Which blocks have their whole subtree inside the finer windows.
+  std::vector<std::set<std::pair<int64_t, int64_t>>> complete(size_t(g.levels));
+  int64_t compared = 0, partial = 0;
+  for (int32_t l = 0; l < g.levels; ++l) {
+    const RectI w = win.window(l);
+    for (int64_t by = w.y0; by < w.y1; ++by) {
+      for (int64_t bx = w.x0; bx < w.x1; ++bx) {
+        bool all = true;
+        for (int64_t j = 0; j < 2 && l > 0; ++j)
+          for (int64_t i = 0; i < 2; ++i) {
+            const int64_t cx = 2 * bx + i, cy = 2 * by + j;
+            const bool exists = cx < g.blocks_x(l - 1) && cy < g.blocks_y(l - 1);
+            all = all && (!exists || complete[size_t(l - 1)].count({cx, cy}) > 0);
+          }
+        if (!all) {
+          // The finest the viewer can draw there is level l - 1: the bound covers that surface.
+          ++partial;
+          EXPECT_LE(win.error(l, bx, by), whole.error(l, bx, by));
+          EXPECT_LE(win.min_height(l, bx, by), win.max_height(l, bx, by));
+          continue;
+        }
+        complete[size_t(l)].insert({bx, by});
+        ++compared;
+        EXPECT_EQ(win.error(l, bx, by), whole.error(l, bx, by)) << l << " " << bx << "," << by;
+        EXPECT_EQ(win.min_height(l, bx, by), whole.min_height(l, bx, by));
+        EXPECT_EQ(win.max_height(l, bx, by), whole.max_height(l, bx, by));
+      }
+    }
+  }
+  EXPECT_GT(compared, 200);
+  EXPECT_GT(partial, 10);
+}
+
+TEST(ErrorClipmap, AWorldOfAHundredKilometresCostsWhatItsRegionsHold) {
+  // 131072 x 98304 samples (the refined default world's size), heights made on demand.
+  auto g = ClipmapBlockGrid::make(131072, 98304, 9, 15);
+  ASSERT_TRUE(g.ok());
+  const MipReader procedural = [](int32_t mip, const RectI& r, std::span<uint16_t> out) {
+    size_t i = 0;
+    for (int64_t y = r.y0; y < r.y1; ++y)
+      for (int64_t x = r.x0; x < r.x1; ++x) {
+        const uint64_t gx = uint64_t(x) << mip, gy = uint64_t(y) << mip;
+        out[i++] = uint16_t(20000 + (gx * 7 + gy * 13) % 997 + ((gx * 2654435761u) ^ (gy * 40503u)) % 31);
+      }
+  };
+  ClipmapErrorPyramid e = ClipmapErrorPyramid::windowed(*g, 1);
+  const LodView v =
+      view_at(131072.0 * kScale.meters_per_sample / 2, 98304.0 * kScale.meters_per_sample / 3, 500);
+  const int64_t region = 256;
+  const std::vector<RectI> regions = regions_around(*g, v, region);
+  const int64_t computed = e.move_windows(*g, procedural, windows_for(*g, regions));
+  // At most (region / cells)^2 blocks a level: nothing scales with the world.
+  const int64_t per_level = (region / g->cells()) * (region / g->cells());
+  EXPECT_LE(computed, per_level * g->levels);
+  EXPECT_LE(e.bytes(), size_t(per_level * g->levels) * 8);
+  const ErrorClipmapSelection sel = select_error_clipmap(*g, e, kScale, v, regions);
+  EXPECT_GT(sel.blocks.size(), 100u);
+  EXPECT_EQ(sel.stats.unrestricted, 0);
+  // The camera moves a block's width: only the entering strips are computed.
+  const LodView w = view_at(v.x + 8 * kScale.meters_per_sample, v.y, v.z);
+  const int64_t moved = e.move_windows(*g, procedural, windows_for(*g, regions_around(*g, w, region)));
+  EXPECT_GT(moved, 0);
+  EXPECT_LT(moved, computed / 4);
+}
 }  // namespace
 }  // namespace loam::lod
