@@ -163,16 +163,24 @@ int64_t ClipmapErrorPyramid::move_windows(const ClipmapBlockGrid& grid, const Mi
   int64_t computed = 0;
   // The finer level's windows before and after, and which of its new window's blocks were
   // computed in this move: a parent is recomputed when a child changed or entered or left.
+  // (Empty finer_dirty: nothing was computed there.)
   RectI finer_old, finer_new;
   std::vector<uint8_t> finer_dirty;
+  bool finer_changed = false;
   for (int32_t l = 0; l < grid.levels; ++l) {
     const RectI asked = size_t(l) < windows.size() ? windows[size_t(l)] : RectI{};
     const RectI w = asked.intersect({0, 0, grid.blocks_x(l), grid.blocks_y(l)});
+    Level& old = level_[size_t(l)];
     Level next;
     next.blocks = w.empty() ? RectI{} : w;
+    if (next.blocks == old.blocks && !finer_changed) {
+      // A camera that stayed within its blocks: the level is as it was (no copy, no allocation).
+      finer_old = finer_new = old.blocks;
+      finer_dirty.clear();
+      continue;
+    }
     next.entries.resize(size_t(next.blocks.area()));
     std::vector<uint8_t> dirty(next.entries.size(), 0);
-    Level& old = level_[size_t(l)];
     for (int64_t by = next.blocks.y0; by < next.blocks.y1; ++by) {
       for (int64_t bx = next.blocks.x0; bx < next.blocks.x1; ++bx) {
         const size_t i = size_t((by - next.blocks.y0) * next.blocks.width() + (bx - next.blocks.x0));
@@ -182,7 +190,7 @@ int64_t ClipmapErrorPyramid::move_windows(const ClipmapBlockGrid& grid, const Mi
             const int64_t cx = 2 * bx + k, cy = 2 * by + j;
             const bool was = finer_old.contains(cx, cy), is = finer_new.contains(cx, cy);
             keep = was == is &&
-                   (!is ||
+                   (!is || finer_dirty.empty() ||
                     finer_dirty[size_t((cy - finer_new.y0) * finer_new.width() + (cx - finer_new.x0))] == 0);
           }
         }
@@ -197,13 +205,16 @@ int64_t ClipmapErrorPyramid::move_windows(const ClipmapBlockGrid& grid, const Mi
     finer_old = old.blocks;
     old = std::move(next);
     finer_new = old.blocks;
+    int64_t here = 0;
     for (int64_t by = finer_new.y0; by < finer_new.y1; ++by) {
       for (int64_t bx = finer_new.x0; bx < finer_new.x1; ++bx) {
         if (dirty[size_t((by - finer_new.y0) * finer_new.width() + (bx - finer_new.x0))] == 0) continue;
         compute_block(grid, read, l, bx, by);
-        ++computed;
+        ++here;
       }
     }
+    computed += here;
+    finer_changed = here > 0 || finer_old != finer_new;
     finer_dirty = std::move(dirty);
   }
   return computed;

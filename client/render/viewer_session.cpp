@@ -123,12 +123,12 @@ Status ViewerSession::update(const scene::Camera& camera, std::chrono::milliseco
   LOAM_TRY(follow(camera));
   const std::vector<terrain::DisplayDirty> dirty = display_->sync(client_);
   for (const terrain::DisplayDirty& d : dirty) {
-    if (error_renderer_) {
-      if (d.layer == Layer::kCoarse) error_renderer_->invalidate(d.rect);
-    } else if (d.layer == Layer::kCoarse) {
-      renderer_->invalidate(d.rect);
+    if (d.layer != Layer::kCoarse) {
+      if (renderer_) renderer_->invalidate_detail(d.rect);  // the error-driven clipmap draws no detail yet
+    } else if (error_renderer_) {
+      error_renderer_->invalidate(d.rect);
     } else {
-      renderer_->invalidate_detail(d.rect);
+      renderer_->invalidate(d.rect);
     }
   }
   refresh_terrain(dirty);
