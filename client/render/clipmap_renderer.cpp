@@ -86,17 +86,9 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::
   r->tex_size_ = int32_t(std::bit_ceil(uint32_t(r->region_size_)));
   r->mesh_ = std::move(*mesh);
   if (config.min_height_m >= config.max_height_m) {
-    // Material range from the coarsest mip: every source holds it (a live session's viewer
-    // subscribes it first), so the same terrain gets the same colours from a DEM, a snapshot
-    // or a session.
-    const RectI world = p.sample_rect();
-    const int32_t mip = p.mip_count() - 1;
-    const RectI r_mip = in_level_grid(world, int64_t(1) << mip);
-    std::vector<uint16_t> s(size_t(r_mip.area()));
-    source.read(mip, r_mip, s);
-    const auto [lo, hi] = std::minmax_element(s.begin(), s.end());
-    r->config_.min_height_m = double(*lo) * p.meters_per_unit;
-    r->config_.max_height_m = double(*hi) * p.meters_per_unit;
+    const auto [lo, hi] = terrain::coarsest_height_range_m(source);
+    r->config_.min_height_m = lo;
+    r->config_.max_height_m = hi;
   }
   auto integer_texture = [](GLenum format, int32_t size) {
     gpu::GlTexture t = gpu::make_texture(GL_TEXTURE_2D);

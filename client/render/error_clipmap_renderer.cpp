@@ -47,19 +47,9 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
   r->patch_ = r->grid_.patch_grid();
   // Block errors for the level regions only, computed as they move (select()).
   r->errors_ = lod::ClipmapErrorPyramid::windowed(r->grid_, config.exact_levels);
-  {
-    // Material range from the coarsest mip, as the clipmap renderer takes it: every source holds
-    // it (a viewer subscribes it first).
-    const int32_t mip = p.mip_count() - 1;
-    const int64_t s = int64_t(1) << mip;
-    const RectI w = p.sample_rect();
-    const RectI m{ceil_div(w.x0, s), ceil_div(w.y0, s), ceil_div(w.x1, s), ceil_div(w.y1, s)};
-    std::vector<uint16_t> samples(size_t(m.area()));
-    source.read(mip, m, samples);
-    const auto [lo, hi] = std::minmax_element(samples.begin(), samples.end());
-    r->min_height_m_ = double(*lo) * p.meters_per_unit;
-    r->max_height_m_ = double(*hi) * p.meters_per_unit;
-  }
+  const auto [lo, hi] = terrain::coarsest_height_range_m(source);
+  r->min_height_m_ = lo;
+  r->max_height_m_ = hi;
   r->level_.resize(size_t(levels));
   r->regions_.resize(size_t(levels));
 
@@ -136,13 +126,20 @@ void ErrorClipmapRenderer::read_level(int32_t l, const RectI& rect, std::span<ui
 
 RectI ErrorClipmapRenderer::region(int32_t l) const { return regions_[size_t(l)]; }
 
-RectI ErrorClipmapRenderer::level_region(int32_t l) const {
+RectI ErrorClipmapRenderer::to_global(int32_t l, const RectI& local) const {
   // Clipped to the world's level samples: a coarse level's region reaches far past a small world.
   const int64_t s = int64_t(1) << l;
-  const RectI r =
-      regions_[size_t(l)].intersect({0, 0, ceil_div(world_.width(), s), ceil_div(world_.height(), s)});
+  const RectI r = local.intersect({0, 0, ceil_div(world_.width(), s), ceil_div(world_.height(), s)});
   const int64_t ox = floor_div(world_.x0, s), oy = floor_div(world_.y0, s);
   return r.empty() ? RectI{} : RectI{r.x0 + ox, r.y0 + oy, r.x1 + ox, r.y1 + oy};
+}
+
+RectI ErrorClipmapRenderer::level_region(int32_t l) const { return to_global(l, regions_[size_t(l)]); }
+
+std::vector<RectI> ErrorClipmapRenderer::level_regions_for(const scene::Camera& lod_camera) const {
+  std::vector<RectI> out = regions_for(lod_camera);
+  for (size_t l = 0; l < out.size(); ++l) out[l] = to_global(int32_t(l), out[l]);
+  return out;
 }
 
 std::vector<RectI> ErrorClipmapRenderer::regions_for(const scene::Camera& lod_camera) const {

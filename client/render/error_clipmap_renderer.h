@@ -88,9 +88,10 @@ class ErrorClipmapRenderer {
   // The same in the world's global grid at spacing 2^l, clipped to the world (the minimap and
   // the viewer's coverage read it).
   RectI level_region(int32_t l) const;
-  // Where select() places the regions for `lod_camera` (its LOD centre), world-relative: a
-  // viewer subscribes their tiles before they are drawn.
+  // Where select() places the regions for `lod_camera` (its LOD centre), world-relative.
   std::vector<RectI> regions_for(const scene::Camera& lod_camera) const;
+  // The same as level_region() gives them: a viewer subscribes their tiles before they are drawn.
+  std::vector<RectI> level_regions_for(const scene::Camera& lod_camera) const;
   // Level l's sample (x, y) as the textures and the pyramid read it (world-relative level grid).
   void read_level(int32_t l, const RectI& rect, std::span<uint16_t> out) const;
   int32_t levels() const { return grid_.levels; }
@@ -109,6 +110,8 @@ class ErrorClipmapRenderer {
   ErrorClipmapRenderer() = default;
   int64_t upload(int32_t l, const RectI& rect);
   lod::LodView lod_view(const scene::Camera& camera, int32_t viewport_height) const;
+  // Level l's world-relative `local` in the global grid, clipped to the world.
+  RectI to_global(int32_t l, const RectI& local) const;
   // Level samples level l's blocks reach, per axis: [0, extent).
   std::array<int64_t, 2> level_extent(int32_t l) const;
 

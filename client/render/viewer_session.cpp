@@ -7,6 +7,7 @@
 #include "client/render/display_gpu_stamper.h"
 #include "client/scene/start_view.h"
 #include "dem/refined_default.h"
+#include "protocol/layer.h"
 
 namespace loam::render {
 
@@ -83,16 +84,9 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
 
 Status ViewerSession::follow(const scene::Camera& camera) {
   const auto c = camera.lod_center.value_or(std::array<double, 2>{camera.x, camera.y});
-  std::vector<RectI> regions;
-  if (error_renderer_) {
-    // The error-driven clipmap's regions where it will place them for this camera.
-    const RectI w = client_.welcome().world.sample_rect();
-    const std::vector<RectI> local = error_renderer_->regions_for(camera);
-    for (size_t l = 0; l < local.size(); ++l) {
-      const int64_t ox = floor_div(w.x0, int64_t(1) << l), oy = floor_div(w.y0, int64_t(1) << l);
-      regions.push_back({local[l].x0 + ox, local[l].y0 + oy, local[l].x1 + ox, local[l].y1 + oy});
-    }
-  }
+  // The error-driven clipmap's regions where it will place them for this camera.
+  const std::vector<RectI> regions =
+      error_renderer_ ? error_renderer_->level_regions_for(camera) : std::vector<RectI>{};
   const lod::ClipmapInterest::Delta d = interest_->update(c[0], c[1], regions);
   if (!d.unsubscribe.empty()) LOAM_TRY(client_.unsubscribe(d.unsubscribe));
   // The focus travels with new subscriptions, and on its own once the camera has moved a
@@ -123,8 +117,10 @@ Status ViewerSession::update(const scene::Camera& camera, std::chrono::milliseco
   LOAM_TRY(follow(camera));
   const std::vector<terrain::DisplayDirty> dirty = display_->sync(client_);
   for (const terrain::DisplayDirty& d : dirty) {
-    if (d.layer != Layer::kCoarse) {
-      if (renderer_) renderer_->invalidate_detail(d.rect);  // the error-driven clipmap draws no detail yet
+    // The levels read the layer with mips (level l its mip l); the classic renderer's detail
+    // region the other (the error-driven clipmap draws no detail layer yet).
+    if (!layer_info(d.layer).has_mips) {
+      if (renderer_) renderer_->invalidate_detail(d.rect);
     } else if (error_renderer_) {
       error_renderer_->invalidate(d.rect);
     } else {

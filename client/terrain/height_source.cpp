@@ -86,6 +86,18 @@ void WorldHeightSource::read_detail(const RectI& rect, std::span<int8_t> out) co
   world_.read_detail(rect, out);
 }
 
+std::array<double, 2> coarsest_height_range_m(const HeightSource& source) {
+  const WorldParams& p = source.params();
+  const int32_t mip = p.mip_count() - 1;
+  const int64_t s = int64_t(1) << mip;
+  const RectI w = p.sample_rect();
+  const RectI m{ceil_div(w.x0, s), ceil_div(w.y0, s), ceil_div(w.x1, s), ceil_div(w.y1, s)};
+  std::vector<uint16_t> samples(size_t(m.area()));
+  source.read(mip, m, samples);
+  const auto [lo, hi] = std::minmax_element(samples.begin(), samples.end());
+  return {double(*lo) * p.meters_per_unit, double(*hi) * p.meters_per_unit};
+}
+
 double ground_height(const HeightSource& source, double x, double y) {
   const WorldParams& p = source.params();
   const double sx = x / p.meters_per_sample, sy = y / p.meters_per_sample;

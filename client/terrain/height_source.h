@@ -5,6 +5,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <span>
 
@@ -54,6 +55,11 @@ class HeightSource {
   // False (nothing written) when the source does not know the initial terrain.
   virtual bool read_change(int32_t mip, const RectI& rect, std::span<float> out) const;
 };
+
+// The lowest and highest height of the source's coarsest mip, in meters above the height
+// offset: the renderers' material range. Every source holds that mip (a viewer subscribes it
+// first), so the same terrain gets the same colours from a DEM, a snapshot or a session.
+std::array<double, 2> coarsest_height_range_m(const HeightSource& source);
 
 // The ground's height (m) at world point (x, y) (m): bilinear between mip-0 samples, as the
 // finest level draws it (past the world's edge, its edge samples).
