@@ -13,6 +13,10 @@ layout(binding = 0) uniform usampler2DArray g_levels;
 
 out vec3 v_rel;
 out float v_height;
+out vec2 v_tex;         // the vertex's texel in its level's layer, unwrapped within the block
+out vec2 v_tex_coarse;  // its position in the next level's layer
+flat out int v_level;
+out float v_alpha;
 
 float patch_height(ivec2 local) {
   int torus = textureSize(g_levels, 0).x;
@@ -27,5 +31,11 @@ void main() {
   float z = g_scale.z + height * g_scale.y;
   v_rel = vec3(a_misc.y + float(local.x) * a_misc.w, a_misc.z - float(local.y) * a_misc.w, z);
   v_height = height * g_scale.y;
+  int torus = textureSize(g_levels, 0).x;
+  // Block origins are multiples of the block's cells (even): exact halves in the next level.
+  v_tex = vec2(a_block.xy % torus + local);
+  v_tex_coarse = vec2((a_block.xy / 2) % torus) + 0.5 * vec2(local);
+  v_level = a_block.z;
+  v_alpha = a_misc.x;
   gl_Position = g_view_proj * vec4(v_rel, 1.0);
 }

@@ -1,6 +1,5 @@
-// Geomipmap shading: the triangle's own normal (from screen-space derivatives), height and
-// slope colours and a sun with sky ambient. Alpha 1 marks terrain for the tests and the
-// error evaluator.
+// Geomipmap shading: the triangle's own normal (from screen-space derivatives) shaded by
+// patch_shading.glsl.
 in vec3 v_rel;
 in float v_height;
 
@@ -9,11 +8,5 @@ out vec4 o_color;
 void main() {
   vec3 n = normalize(cross(dFdx(v_rel), dFdy(v_rel)));
   if (n.z < 0.0) n = -n;
-  float t = clamp((v_height - g_height_range.x) / max(g_height_range.y - g_height_range.x, 1e-3), 0.0, 1.0);
-  vec3 albedo = mix(vec3(0.13, 0.21, 0.07), vec3(0.27, 0.25, 0.14), smoothstep(0.2, 0.5, t));
-  albedo = mix(albedo, vec3(0.24, 0.22, 0.21), smoothstep(0.18, 0.40, 1.0 - n.z));
-  albedo = mix(albedo, vec3(0.85, 0.88, 0.93), smoothstep(0.7, 0.8, t));
-  float sun = max(dot(n, g_sun.xyz), 0.0);
-  vec3 color = albedo * (0.25 + 0.15 * n.z + 0.9 * sun);
-  o_color = vec4(pow(color, vec3(1.0 / 2.2)), 1.0);
+  o_color = shade_patch(n, v_height);
 }

@@ -12,6 +12,18 @@
 
 namespace loam::render {
 
+namespace {
+
+// A 2D texture viewing one layer of a 2D array texture (its storage shared).
+gpu::GlTexture layer_view(GLuint array, GLenum format, int32_t layer) {
+  GLuint v = 0;
+  glGenTextures(1, &v);  // a view needs a name never bound, which glCreateTextures would give
+  glTextureView(v, GL_TEXTURE_2D, array, format, 0, 1, GLuint(layer), 1);
+  return gpu::GlTexture(v);
+}
+
+}  // namespace
+
 Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
     const terrain::HeightSource& source, const ErrorClipmapConfig& config) {
   const WorldParams& p = source.params();
@@ -52,14 +64,37 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
   r->max_height_m_ = hi;
   r->level_.resize(size_t(levels));
   r->regions_.resize(size_t(levels));
+  r->drawable_.resize(size_t(levels));
 
   r->levels_texture_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
   glTextureStorage3D(r->levels_texture_.get(), 1, GL_R16UI, r->region_, r->region_, levels);
   glTextureParameteri(r->levels_texture_.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTextureParameteri(r->levels_texture_.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+  // FD4 normals per level, toroidal like the heights, filtered (GL_REPEAT joins the seams).
+  r->normals_texture_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
+  const GLuint normals = r->normals_texture_.get();
+  glTextureStorage3D(normals, 1, GL_RG16_SNORM, r->region_, r->region_, levels);
+  glTextureParameteri(normals, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTextureParameteri(normals, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(normals, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  glTextureParameteri(normals, GL_TEXTURE_WRAP_T, GL_REPEAT);
+  // The shared normal pass reads and writes 2D textures: one view of each level's layers.
+  for (int32_t l = 0; l < levels; ++l) {
+    Level& level = r->level_[size_t(l)];
+    level.heights_view = layer_view(r->levels_texture_.get(), GL_R16UI, l);
+    glTextureParameteri(level.heights_view.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(level.heights_view.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    level.normals_view = layer_view(normals, GL_RG16_SNORM, l);
+  }
+  if (glGetError() != GL_NO_ERROR)
+    return make_error(ErrorCode::kUnsupported, "error_clipmap.normals",
+                      "texture views of the level layers failed");
+  auto normal_pass = gpu::LevelNormalPass::create();
+  if (!normal_pass) return normal_pass.error();
+  r->normal_pass_.emplace(std::move(*normal_pass));
 
   const std::string_view vertex[] = {"geomipmap_blocks.glsl", "patch_morph.glsl", "error_clipmap.vert.glsl"};
-  auto program = build_patch_program(vertex);
+  auto program = build_patch_program(vertex, "error_clipmap.frag.glsl");
   if (!program) return program.error();
   r->program_ = std::move(*program);
   r->frame_block_.emplace(1);
@@ -181,6 +216,47 @@ int64_t ErrorClipmapRenderer::upload(int32_t l, const RectI& rect) {
   return texels;
 }
 
+RectI ErrorClipmapRenderer::drawable(int32_t l) const {
+  // Normals' stencils reach 2 samples (4, one-sided, at the world's edges): where the world
+  // goes on past the region, its last 4 samples hold heights but no normals.
+  const RectI& r = regions_[size_t(l)];
+  const int64_t s = int64_t(1) << l;
+  const int64_t wx = (world_.width() - 1) / s + 1, wy = (world_.height() - 1) / s + 1;
+  return {r.x0 > 0 ? r.x0 + 4 : r.x0, r.y0 > 0 ? r.y0 + 4 : r.y0, r.x1 < wx ? r.x1 - 4 : r.x1,
+          r.y1 < wy ? r.y1 - 4 : r.y1};
+}
+
+void ErrorClipmapRenderer::update_normals(int32_t l, const RectI& changed) {
+  // Heights changed in `changed`: normals up to 4 samples around it, where they are defined.
+  const RectI r =
+      RectI{changed.x0 - 4, changed.y0 - 4, changed.x1 + 4, changed.y1 + 4}.intersect(drawable_[size_t(l)]);
+  if (r.empty()) return;
+  const int64_t s = int64_t(1) << l;
+  const RectI world{0, 0, (world_.width() - 1) / s + 1, (world_.height() - 1) / s + 1};
+  const Level& level = level_[size_t(l)];
+  normal_pass_->update(level.heights_view.get(), level.normals_view.get(), region_, regions_[size_t(l)], r,
+                       world, source_->params(), scale_.meters_per_sample * double(s));
+}
+
+std::vector<uint32_t> ErrorClipmapRenderer::read_level_normals(int32_t l, const RectI& rect) const {
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  // Signed normalized 16-bit reads back as GL_SHORT exactly; packed like protocol/normal_map.h.
+  const int64_t n = region_;
+  std::vector<int16_t> layer(size_t(n * n * 2));
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  glGetTextureSubImage(normals_texture_.get(), 0, 0, 0, l, GLsizei(n), GLsizei(n), 1, GL_RG, GL_SHORT,
+                       GLsizei(layer.size() * sizeof(int16_t)), layer.data());
+  std::vector<uint32_t> out;
+  out.reserve(size_t(rect.area()));
+  for (int64_t y = rect.y0; y < rect.y1; ++y) {
+    for (int64_t x = rect.x0; x < rect.x1; ++x) {
+      const size_t i = size_t(floor_mod(y, n) * n + floor_mod(x, n)) * 2;
+      out.push_back(uint32_t(uint16_t(layer[i])) | (uint32_t(uint16_t(layer[i + 1])) << 16));
+    }
+  }
+  return out;
+}
+
 lod::LodView ErrorClipmapRenderer::lod_view(const scene::Camera& camera, int32_t viewport_height) const {
   const double mps = scale_.meters_per_sample;
   lod::LodView view;
@@ -215,17 +291,19 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
     Level& level = level_[size_t(l)];
     std::optional<std::array<int64_t, 2>> old;
     if (level.valid) old = std::array<int64_t, 2>{level.region_x, level.region_y};
-    for (const RectI& strip : lod::toroidal_strips(old, {rx, ry}, n))
-      stats.texels_uploaded += upload(l, strip);
+    const std::vector<RectI> strips = lod::toroidal_strips(old, {rx, ry}, n);
+    for (const RectI& strip : strips) stats.texels_uploaded += upload(l, strip);
     level.valid = true;
     level.region_x = rx, level.region_y = ry;
     regions_[size_t(l)] = placed[size_t(l)];
+    drawable_[size_t(l)] = drawable(l);
+    for (const RectI& strip : strips) update_normals(l, strip);
   }
   // The error pyramid follows the regions: blocks that entered one (or whose finer window
   // changed under them) are computed, the rest kept.
   std::vector<RectI> windows;
   for (int32_t l = 0; l < grid_.levels; ++l)
-    windows.push_back(lod::blocks_inside(grid_, l, regions_[size_t(l)]));
+    windows.push_back(lod::blocks_inside(grid_, l, drawable_[size_t(l)]));
   stats.blocks_computed = errors_.move_windows(
       grid_, [&](int32_t l, const RectI& rect, std::span<uint16_t> out) { read_level(l, rect, out); },
       windows);
@@ -244,7 +322,7 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
                        float(scale_.meters(errors_.max_height(l, bx, by)) - lod_camera.z));
     return !scene::box_outside(frustum, lo, hi);
   };
-  selection_ = lod::select_error_clipmap(grid_, errors_, scale_, view, regions_, config_.morph,
+  selection_ = lod::select_error_clipmap(grid_, errors_, scale_, view, drawable_, config_.morph,
                                          config_.cull ? lod::BlockFilter(visible) : lod::BlockFilter());
   stats.select = selection_.stats;
   stats.cpu_ms = ms_since(t0);
@@ -320,6 +398,9 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const scene::Camera& camera, i
   glUseProgram(program_.get());
   glBindVertexArray(vao_.get());
   glBindTextureUnit(0, levels_texture_.get());
+  glBindTextureUnit(1, normals_texture_.get());
+  // Normals written by compute must be visible to the draw.
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
   const ReversedDepthTest depth_test;
   glViewport(0, 0, width, height);
   for (const Draw& d : draws) {
@@ -353,7 +434,9 @@ ErrorClipmapUpdate ErrorClipmapRenderer::invalidate(const RectI& mip0_rect) {
     if (local.x1 == world_.width()) in_level.x1 = INT64_MAX / 4;
     if (local.y1 == world_.height()) in_level.y1 = INT64_MAX / 4;
     const RectI dirty = in_level.intersect(regions_[size_t(l)]);
-    if (!dirty.empty()) u.texels += upload(l, dirty);
+    if (dirty.empty()) continue;
+    u.texels += upload(l, dirty);
+    update_normals(l, dirty);
   }
   u.blocks = int32_t(
       errors_
@@ -366,7 +449,8 @@ ErrorClipmapUpdate ErrorClipmapRenderer::invalidate(const RectI& mip0_rect) {
 }
 
 size_t ErrorClipmapRenderer::gpu_bytes() const {
-  return size_t(region_) * size_t(region_) * size_t(grid_.levels) * sizeof(uint16_t) + indices_->bytes() +
+  // R16UI heights and RG16_SNORM normals per level.
+  return size_t(region_) * size_t(region_) * size_t(grid_.levels) * (2 + 4) + indices_->bytes() +
          instances_->bytes();
 }
 

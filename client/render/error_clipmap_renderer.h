@@ -7,6 +7,10 @@
 // keeps the error bounds of the blocks inside the regions (8 bytes a block, computed as the
 // regions move) and no heights: a 131 km world costs what a 4 km one does.
 //
+// Each level also holds its FD4 normal map (an RG16_SNORM layer, computed by the clipmap's level
+// normal pass where heights entered or changed); the fragment stage lights with it, blended toward
+// the next level's as far as the block morphs, and blocks stay where normals are defined.
+//
 // Each frame: the regions move with the camera (uploads), the blocks are chosen on the CPU,
 // culled against the frustum (render/frustum.h), sorted by side pattern and drawn instanced,
 // one draw per pattern (at most 16 with restricted sides). A stamp re-reads its rect into
@@ -30,6 +34,7 @@
 #include "client/render/patch_draw.h"
 #include "client/scene/camera.h"
 #include "gpu/gl_handle.h"
+#include "gpu/normal_pass.h"
 #include "gpu/uniform_block.h"
 
 namespace loam::render {
@@ -97,6 +102,9 @@ class ErrorClipmapRenderer {
   int32_t levels() const { return grid_.levels; }
   // Level samples held per side (the torus).
   int32_t region_size() const { return region_; }
+  // Level l's FD4 normals over `rect` (level samples inside its drawn part), packed like
+  // protocol/normal_map.h (tests).
+  std::vector<uint32_t> read_level_normals(int32_t l, const RectI& rect) const;
   // Level textures, index and instance buffers.
   size_t gpu_bytes() const;
   // The error pyramid.
@@ -105,10 +113,15 @@ class ErrorClipmapRenderer {
  private:
   struct Level {
     bool valid = false;
-    int64_t region_x = 0, region_y = 0;  // low corner of the region (level samples)
+    int64_t region_x = 0, region_y = 0;         // low corner of the region (level samples)
+    gpu::GlTexture heights_view, normals_view;  // 2D views of the level's layers
   };
   ErrorClipmapRenderer() = default;
   int64_t upload(int32_t l, const RectI& rect);
+  // Level l's samples that blocks may use: its region less the 4-sample rim, on the sides where
+  // the world goes on, whose normals the region cannot compute.
+  RectI drawable(int32_t l) const;
+  void update_normals(int32_t l, const RectI& changed);
   lod::LodView lod_view(const scene::Camera& camera, int32_t viewport_height) const;
   // Level l's world-relative `local` in the global grid, clipped to the world.
   RectI to_global(int32_t l, const RectI& local) const;
@@ -125,11 +138,14 @@ class ErrorClipmapRenderer {
   lod::ErrorClipmapSelection selection_;
   std::vector<Level> level_;
   std::vector<RectI> regions_;
-  int32_t region_ = 0;  // the torus: level samples held per side
+  std::vector<RectI> drawable_;  // per level, drawable()
+  int32_t region_ = 0;           // the torus: level samples held per side
   double min_height_m_ = 0, max_height_m_ = 0;
   std::vector<uint16_t> scratch_;
 
-  gpu::GlTexture levels_texture_;  // R16UI, region x region x levels
+  gpu::GlTexture levels_texture_;   // R16UI, region x region x levels
+  gpu::GlTexture normals_texture_;  // RG16_SNORM, the same: FD4 normals as the clipmap renderer's
+  std::optional<gpu::LevelNormalPass> normal_pass_;
   gpu::GlProgram program_;
   gpu::GlVertexArray vao_;
   std::optional<PatchIndexBuffer> indices_;

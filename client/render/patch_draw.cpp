@@ -10,8 +10,9 @@
 
 namespace loam::render {
 
-Result<gpu::GlProgram> build_patch_program(std::span<const std::string_view> vertex_files) {
-  const std::string_view fragment[] = {"geomipmap_blocks.glsl", "geomipmap.frag.glsl"};
+Result<gpu::GlProgram> build_patch_program(std::span<const std::string_view> vertex_files,
+                                           std::string_view fragment_file) {
+  const std::string_view fragment[] = {"geomipmap_blocks.glsl", "patch_shading.glsl", fragment_file};
   auto program = gpu::build_graphics_program_from(vertex_files, fragment);
   if (!program) return program.error();
   LOAM_TRY(gpu::verify_uniform_block(program->get(), "GeomipmapFrame", sizeof(GeomipmapFrameBlock),

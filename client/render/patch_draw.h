@@ -52,9 +52,11 @@ inline double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The program of a patch vertex stage (after geomipmap_blocks.glsl) with the shared shading
-// (geomipmap.frag.glsl), its GeomipmapFrame block checked member by member and nothing loose.
-Result<gpu::GlProgram> build_patch_program(std::span<const std::string_view> vertex_files);
+// The program of a patch vertex stage (after geomipmap_blocks.glsl) with a fragment stage that
+// shades by patch_shading.glsl (geomipmap.frag.glsl: the triangles' own normals), its
+// GeomipmapFrame block checked member by member and nothing loose.
+Result<gpu::GlProgram> build_patch_program(std::span<const std::string_view> vertex_files,
+                                           std::string_view fragment_file = "geomipmap.frag.glsl");
 
 // The whole mip-0 world as the full-resolution schemes keep it on the CPU, and its height range.
 struct WorldHeights {

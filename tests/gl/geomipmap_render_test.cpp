@@ -15,6 +15,7 @@
 #include "client/render/error_clipmap_renderer.h"
 #include "client/render/offscreen_target.h"
 #include "gl_test_context.h"
+#include "protocol/normal_map.h"
 #include "protocol/world.h"
 
 namespace loam::render {
@@ -283,5 +284,45 @@ TEST(ErrorClipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfter
         EXPECT_EQ((*r)->errors().error(l, bx, by), fresh.error(l, bx, by));
 }
 
+// Every level's normals, where blocks may be drawn, are the world's FD4 normal map at that
+// level's spacing bit for bit: after the first placement, after the regions slide (strips and
+// the rims that became drawable), and after a stamp.
+TEST(ErrorClipmapRender, LevelNormalsAreTheWorldsNormalMapAfterSlidesAndAStamp) {
+  LOAM_REQUIRE_GL();
+  World w = ridges();
+  terrain::WorldHeightSource source(w);
+  ErrorClipmapConfig cfg;
+  cfg.block_size = 9;
+  cfg.region = 128;  // half the world: regions with rims inside it
+  cfg.levels = 4;
+  auto r = ErrorClipmapRenderer::create(source, cfg);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  const RectI world = w.params().sample_rect();
+  auto check = [&](const char* when) {
+    for (int32_t l = 0; l < (*r)->levels(); ++l) {
+      const int64_t s = int64_t(1) << l;
+      // The region less 4 samples everywhere (inside what may be drawn), within the world.
+      const RectI reg = (*r)->region(l);
+      const RectI in = RectI{reg.x0 + 4, reg.y0 + 4, reg.x1 - 4, reg.y1 - 4}.intersect(
+          {0, 0, (world.width() - 1) / s + 1, (world.height() - 1) / s + 1});
+      ASSERT_FALSE(in.empty());
+      const RectI global{in.x0 + world.x0 / s, in.y0 + world.y0 / s, in.x1 + world.x0 / s,
+                         in.y1 + world.y0 / s};
+      const auto want = generate_decimated_normal_map(w, l, global);
+      const auto got = (*r)->read_level_normals(l, in);
+      size_t bad = 0;
+      for (size_t i = 0; i < got.size(); ++i) bad += got[i] != want[i];
+      EXPECT_EQ(bad, 0u) << when << ", level " << l;
+    }
+  };
+  (*r)->select(perspective_at(60, 60, 500, 200, 200), 256);
+  check("placed");
+  (*r)->select(perspective_at(90, 75, 500, 200, 200), 256);
+  (*r)->select(perspective_at(150, 140, 500, 20, 20), 256);
+  check("slid");
+  const RectI crater = dig_crater(w);
+  (*r)->invalidate(crater);
+  check("stamped");
+}
 }  // namespace
 }  // namespace loam::render
