@@ -42,10 +42,10 @@ void main() {
   bool skirt = inside != s;
   float z = u_height_base + h * u_meters_per_unit;
   if (u_detail_displace != 0 && !skirt) {
-    ivec2 dp = s * u_detail_factor - u_detail_rel_origin;
-    if (all(greaterThanEqual(dp, ivec2(0))) && all(lessThan(dp, ivec2(u_detail_size)))) {
-      ivec2 t = (u_detail_base + dp) % u_detail_size;
-      z += float(texelFetch(u_detail, t, 0).r) * u_detail_meters_per_unit;
+    ivec2 dp = s * t_detail_factor - t_detail_rel_origin;
+    if (all(greaterThanEqual(dp, ivec2(0))) && all(lessThan(dp, ivec2(t_detail_size)))) {
+      ivec2 t = (t_detail_base + dp) % t_detail_size;
+      z += float(texelFetch(u_detail, t, 0).r) * t_detail_meters_per_unit;
     }
   }
   if (skirt) z = u_skirt_z;

@@ -1,15 +1,20 @@
 // Error-driven clipmap shading: the FD4 normal of the block's level (one layer of an RG16_SNORM
 // array texture per level, toroidal like the heights, filtered), blended toward the next
-// level's as far as the block morphs, shaded by patch_shading.glsl: a smooth surface whatever
-// the block's size, as the clipmap renderer's normal maps give.
+// level's as far as the block morphs, and the level's change layer, shaded by
+// terrain_shading.glsl as the clipmap's levels are: the same materials, dug earth, sun, shadows,
+// detail normals and fog whatever the block's size.
 in vec3 v_rel;
+in vec2 v_sample;
 in float v_height;
 in vec2 v_tex;         // level texel coordinates (unwrapped within the block)
 in vec2 v_tex_coarse;  // the same in the next level
 flat in int v_level;
 in float v_alpha;      // the block's morph toward the next level
+in float v_skirt;
+in float v_curv;
 
 layout(binding = 1) uniform sampler2DArray g_normals;
+layout(binding = 5) uniform sampler2DArray g_change;  // R16F meters against the initial terrain
 
 out vec4 o_color;
 
@@ -20,8 +25,14 @@ void main() {
     vec2 coarse = texture(g_normals, vec3((v_tex_coarse + 0.5) / size.x, float(v_level + 1))).rg;
     nxy = mix(nxy, coarse, v_alpha);
   }
-  // The normal maps hold (nx, ny) in the world's frame (y along +gy); the render frame's y is
-  // north.
-  vec3 n = normalize(vec3(nxy.x, -nxy.y, sqrt(max(1.0 - dot(nxy, nxy), 0.0))));
-  o_color = shade_patch(n, v_height);
+  TerrainPoint p;
+  p.rel = v_rel;
+  p.sample_pos = v_sample;
+  p.height_m = v_height;
+  p.nxy = nxy;
+  p.curv = v_curv;
+  p.change = t_change_on != 0 ? texture(g_change, vec3((v_tex + 0.5) / size.x, float(v_level))).r : 0.0;
+  p.skirt = v_skirt;
+  p.morph = v_alpha;
+  o_color = shade_terrain(p);
 }

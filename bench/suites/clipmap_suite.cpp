@@ -114,8 +114,8 @@ int run_clipmap(const Context& ctx, Report& report) {
     cfg.n = c.n;
     cfg.morph = c.morph;
     // The geometry's cost and error alone; the shading's is the second table.
-    cfg.materials = false;
-    cfg.shadows = false;
+    cfg.look.materials = false;
+    cfg.look.shadows = false;
     auto r = render::ClipmapRenderer::create(source, cfg);
     if (!r) {
       std::fprintf(stderr, "clipmap: %s\n", r.error().describe().c_str());
@@ -178,10 +178,10 @@ int run_clipmap(const Context& ctx, Report& report) {
   if (ctx.quick) shadings = {shadings.front(), shadings[3]};
   for (const Shading& sh : shadings) {
     render::RendererConfig cfg;
-    cfg.materials = sh.materials;
-    cfg.anisotropy = sh.anisotropy;
-    cfg.shadows = sh.shadows;
-    if (sh.shadows) cfg.shadow_size = sh.shadow_size;
+    cfg.look.materials = sh.materials;
+    cfg.look.anisotropy = sh.anisotropy;
+    cfg.look.shadows = sh.shadows;
+    if (sh.shadows) cfg.look.shadow_size = sh.shadow_size;
     auto r = render::ClipmapRenderer::create(source, cfg);
     if (!r) {
       std::fprintf(stderr, "clipmap: %s\n", r.error().describe().c_str());

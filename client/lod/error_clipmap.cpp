@@ -470,8 +470,9 @@ std::vector<float> displayed_surface(const ClipmapBlockGrid& grid, const HeightG
       std::array<double, 3> z{};
       for (size_t k = 0; k < 3; ++k) {
         z[k] = block_vertex_height(grid, heights, b, int32_t(t[k] % n), int32_t(t[k] / n));
-        x[k] = (int64_t(b.id.bx) * c + t[k] % n) * s;
-        y[k] = (int64_t(b.id.by) * c + t[k] / n) * s;
+        // Past the world's last sample the renderer draws a vertex at it.
+        x[k] = std::min((int64_t(b.id.bx) * c + t[k] % n) * s, grid.width - 1);
+        y[k] = std::min((int64_t(b.id.by) * c + t[k] / n) * s, grid.height - 1);
       }
       rasterize_heights(x, y, z, cov, out);
     }

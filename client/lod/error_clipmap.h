@@ -162,7 +162,8 @@ float block_vertex_height(const ClipmapBlockGrid& grid, const HeightGrid& height
                           int32_t lx, int32_t ly);
 
 // CPU replica of the selection (mip-0 sample coordinates), for lod::check_watertight over
-// `covered`; and the drawn surface (height units) at every sample of `covered`, row-major.
+// `covered`; and the drawn surface (height units) at every sample of `covered`, row-major (a
+// vertex past the world's last sample drawn at it, as the renderer draws it).
 std::vector<lod::ReplicaTriangle> replicate(const ClipmapBlockGrid& grid, const ErrorClipmapSelection& sel);
 std::vector<float> displayed_surface(const ClipmapBlockGrid& grid, const HeightGrid& heights,
                                      const ErrorClipmapSelection& sel);

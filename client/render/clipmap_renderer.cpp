@@ -14,43 +14,21 @@
 #include "client/render/reversed_depth.h"
 #include "client/render/toroidal_upload.h"
 #include "client/scene/frustum.h"
-#include "client/scene/material_textures.h"
 #include "client/scene/sun_shadow.h"
-#include "gpu/egl_context.h"
 #include "gpu/shader_library.h"
 
 namespace loam::render {
 
 namespace {
 
-// The uniform buffer binding points of shaders/clipmap_blocks.glsl and detail_gradient.comp.glsl.
-constexpr GLuint kFrameBinding = 0, kLevelBinding = 1, kDetailGradientBinding = 2;
+// The uniform buffer binding points of shaders/clipmap_blocks.glsl.
+constexpr GLuint kFrameBinding = 0, kLevelBinding = 1;
 
 void put(float* out, const glm::vec2& v) { out[0] = v.x, out[1] = v.y; }
-void put(float* out, const glm::vec3& v) { out[0] = v.x, out[1] = v.y, out[2] = v.z; }
 
 // Level samples whose mip-0 sample (i * s) lies in [x0, x1): [ceil(x0 / s), ceil(x1 / s)).
 RectI in_level_grid(const RectI& mip0, int64_t s) {
   return {ceil_div(mip0.x0, s), ceil_div(mip0.y0, s), ceil_div(mip0.x1, s), ceil_div(mip0.y1, s)};
-}
-
-constexpr double kSkirtDepthM = 30.0;  // the earth skirt reaches this far below the lowest terrain
-
-// Texture units of the clipmap program (shaders/clipmap.frag.glsl).
-constexpr GLuint kChangeUnit = 5, kMaterialsUnit = 6, kShadowUnit = 7;
-constexpr int32_t kMaterialTextureSize = 256;
-// Material texture scales (meters per repeat): two, at an irrational ratio and turned against
-// each other, so neither's repetition lines up; and a slow variation that mixes them.
-constexpr double kMaterialScaleA = 5.3, kMaterialScaleB = 37.0, kMaterialScaleMacro = 431.0;
-constexpr double kMaterialTurnB = 0.6458;  // radians (37 degrees)
-
-// (x, y) / scale, turned by `turn`, as a phase in [0, 1): the texture coordinate of an anchor
-// (world meters), so a fragment's coordinate is phase + its offset from the anchor / scale,
-// exact however far the anchor is.
-std::array<float, 2> tile_phase(double x, double y, double scale, double turn) {
-  const double c = std::cos(turn), s = std::sin(turn);
-  const double u = (c * x - s * y) / scale, v = (s * x + c * y) / scale;
-  return {float(u - std::floor(u)), float(v - std::floor(v))};
 }
 
 }  // namespace
@@ -59,14 +37,9 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::
                                                                  const RendererConfig& config) {
   auto mesh = lod::ClipmapMesh::build(config.n);
   if (!mesh) return mesh.error();
-  if (config.detail_size < 0 || config.detail_size > 4096 ||
-      (config.detail_size & (config.detail_size - 1)) != 0) {
-    // A power of two, like the level tori (see region_size_): far-origin shifts are multiples.
+  if (config.detail_size < 0) {
     return make_error(ErrorCode::kInvalidArgument, "clipmap.detail_size",
                       "must be 0 or a power of two up to 4096");
-  }
-  if (!(config.anisotropy == 0.0f || (config.anisotropy >= 1.0f && config.anisotropy <= 16.0f))) {
-    return make_error(ErrorCode::kInvalidArgument, "clipmap.anisotropy", "must be 0 (auto) or 1..16");
   }
   std::unique_ptr<ClipmapRenderer> r(new ClipmapRenderer());
   r->source_ = &source;
@@ -108,7 +81,7 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::
     glTextureParameteri(level.normals.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTextureParameteri(level.normals.get(), GL_TEXTURE_WRAP_S, GL_REPEAT);
     glTextureParameteri(level.normals.get(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-    if (config.materials) {
+    if (config.look.materials) {
       level.change = gpu::make_texture(GL_TEXTURE_2D);
       glTextureStorage2D(level.change.get(), 1, GL_R16F, r->tex_size_, r->tex_size_);
       glTextureParameteri(level.change.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -123,23 +96,14 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::
     r->level_.push_back(std::move(level));
   }
   if (config.detail_size > 0) {
-    r->detail_.offsets = integer_texture(GL_R8I, config.detail_size);
-    r->detail_.gradient = gpu::make_texture(GL_TEXTURE_2D);
-    const GLuint g = r->detail_.gradient.get();
-    glTextureStorage2D(g, 1, GL_RG16F, config.detail_size, config.detail_size);
-    // Filtered, and wrapping: the region is toroidal, so GL_REPEAT joins its seams.
-    glTextureParameteri(g, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(g, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(g, GL_TEXTURE_WRAP_S, GL_REPEAT);
-    glTextureParameteri(g, GL_TEXTURE_WRAP_T, GL_REPEAT);
-    auto gradient = gpu::build_compute_program("detail_gradient.comp.glsl");
-    if (!gradient) return gradient.error();
-    r->gradient_program_ = std::move(*gradient);
-    LOAM_TRY(gpu::verify_uniform_block(r->gradient_program_.get(), "DetailGradient",
-                                       sizeof(DetailGradientBlock), kDetailGradientMembers));
-    LOAM_TRY(gpu::verify_no_loose_uniforms(r->gradient_program_.get()));
-    r->gradient_block_.emplace(1);
+    // A power of two, like the level tori (see region_size_): far-origin shifts are multiples.
+    auto detail = DetailRegion::create(config.detail_size);
+    if (!detail) return detail.error();
+    r->detail_.emplace(std::move(*detail));
   }
+  auto look = TerrainLook::create(config.look);
+  if (!look) return look.error();
+  r->look_.emplace(std::move(*look));
   auto normal_pass = gpu::LevelNormalPass::create();
   if (!normal_pass) return normal_pass.error();
   r->normal_pass_.emplace(std::move(*normal_pass));
@@ -150,8 +114,10 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::
   glCreateVertexArrays(1, &vao);
   r->vao_ = gpu::GlVertexArray(vao);
   glVertexArrayElementBuffer(vao, r->indices_.get());
-  const std::string_view vertex[] = {"clipmap_blocks.glsl", "clipmap.vert.glsl"};
-  const std::string_view fragment[] = {"clipmap_blocks.glsl", "clipmap.frag.glsl"};
+  const std::string_view vertex[] = {"clipmap_blocks.glsl", "terrain_shading_block.glsl",
+                                     "clipmap.vert.glsl"};
+  const std::string_view fragment[] = {"clipmap_blocks.glsl", "terrain_shading_block.glsl",
+                                       "terrain_shading.glsl", "clipmap.frag.glsl"};
   auto program = gpu::build_graphics_program_from(vertex, fragment);
   if (!program) return program.error();
   r->program_ = std::move(*program);
@@ -160,60 +126,11 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::
                                      kClipmapFrameMembers));
   LOAM_TRY(gpu::verify_uniform_block(r->program_.get(), "ClipmapLevel", sizeof(ClipmapLevelBlock),
                                      kClipmapLevelMembers));
+  LOAM_TRY(TerrainLook::verify(r->program_.get()));
   LOAM_TRY(gpu::verify_no_loose_uniforms(r->program_.get()));
-  if (config.materials) {
-    const int32_t size = kMaterialTextureSize;
-    const int32_t mips = std::bit_width(uint32_t(size));
-    r->materials_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
-    glTextureStorage3D(r->materials_.get(), mips, GL_RGBA8, size, size, scene::kMaterialCount);
-    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
-    for (int32_t m = 0; m < scene::kMaterialCount; ++m) {
-      const std::vector<uint8_t> texels = scene::material_texture(scene::Material(m), size);
-      glTextureSubImage3D(r->materials_.get(), 0, 0, 0, m, size, size, 1, GL_RGBA, GL_UNSIGNED_BYTE,
-                          texels.data());
-    }
-    glGenerateTextureMipmap(r->materials_.get());
-    glTextureParameteri(r->materials_.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-    glTextureParameteri(r->materials_.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(r->materials_.get(), GL_TEXTURE_WRAP_S, GL_REPEAT);
-    glTextureParameteri(r->materials_.get(), GL_TEXTURE_WRAP_T, GL_REPEAT);
-    // Anisotropic filtering keeps grazing views sharp without shimmer where the driver has it.
-    r->anisotropy_ = config.anisotropy;
-    if (r->anisotropy_ == 0.0f) {
-      const auto* renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-      r->anisotropy_ = renderer != nullptr && gpu::is_software_renderer(renderer) ? 1.0f : 8.0f;
-    }
-    if (!epoxy_has_gl_extension("GL_EXT_texture_filter_anisotropic") &&
-        !epoxy_has_gl_extension("GL_ARB_texture_filter_anisotropic")) {
-      r->anisotropy_ = 1.0f;
-    }
-    if (r->anisotropy_ > 1.0f) {
-      glTextureParameterf(r->materials_.get(), GL_TEXTURE_MAX_ANISOTROPY_EXT, r->anisotropy_);
-    }
-  }
-  if (config.shadows) {
-    if (config.shadow_size < 64 || config.shadow_size > 8192) {
-      return make_error(ErrorCode::kInvalidArgument, "clipmap.shadow_size", "must be 64..8192");
-    }
-    r->shadow_map_ = gpu::make_texture(GL_TEXTURE_2D);
-    glTextureStorage2D(r->shadow_map_.get(), 1, GL_DEPTH_COMPONENT32F, config.shadow_size,
-                       config.shadow_size);
-    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-    // Reversed depth: lit where the fragment is at least as near the sun as the stored depth.
-    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
-    glTextureParameteri(r->shadow_map_.get(), GL_TEXTURE_COMPARE_FUNC, GL_GEQUAL);
-    GLuint fbo = 0;
-    glCreateFramebuffers(1, &fbo);
-    r->shadow_fbo_ = gpu::GlFramebuffer(fbo);
-    glNamedFramebufferTexture(fbo, GL_DEPTH_ATTACHMENT, r->shadow_map_.get(), 0);
-    glNamedFramebufferDrawBuffer(fbo, GL_NONE);
-    if (glCheckNamedFramebufferStatus(fbo, GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
-      return make_error(ErrorCode::kUnsupported, "clipmap.shadows", "the shadow framebuffer is incomplete");
-    }
-    const std::string_view shadow_fragment[] = {"clipmap_blocks.glsl", "shadow_depth.frag.glsl"};
+  if (config.look.shadows) {
+    const std::string_view shadow_fragment[] = {"clipmap_blocks.glsl", "terrain_shading_block.glsl",
+                                                "shadow_depth.frag.glsl"};
     auto shadow = gpu::build_graphics_program_from(vertex, shadow_fragment);
     if (!shadow) return shadow.error();
     r->shadow_program_ = std::move(*shadow);
@@ -221,11 +138,6 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::
   r->frame_block_.emplace(2);  // the view, and the sun's view for the shadow pass
   r->level_block_.emplace(r->levels_);
   return r;
-}
-
-void ClipmapRenderer::set_sun(float azimuth_degrees, float elevation_degrees) {
-  config_.sun_azimuth_degrees = azimuth_degrees;
-  config_.sun_elevation_degrees = std::clamp(elevation_degrees, -10.0f, 90.0f);
 }
 
 std::array<double, 2> ClipmapRenderer::lod_center_samples(const scene::Camera& camera) const {
@@ -289,56 +201,7 @@ int64_t ClipmapRenderer::update_levels(const scene::Camera& camera) {
     for (const RectI& s : strips) texels += upload(level, l, s);
     for (const RectI& s : strips) update_normals(l, s);
   }
-  return texels + update_detail(camera);
-}
-
-int64_t ClipmapRenderer::upload_detail(const RectI& rect) {
-  const int64_t n = config_.detail_size;
-  const int64_t texels = for_each_torus_piece(rect, n, [&](const RectI& piece, int64_t tx, int64_t ty) {
-    detail_scratch_.resize(size_t(piece.area()));
-    source_->read_detail(piece, detail_scratch_);
-    glTextureSubImage2D(detail_.offsets.get(), 0, GLint(tx), GLint(ty), GLsizei(piece.width()),
-                        GLsizei(piece.height()), GL_RED_INTEGER, GL_BYTE, detail_scratch_.data());
-  });
-  // Gradients by central differences: recompute one sample around what changed.
-  const RectI region{detail_.region_x + 1, detail_.region_y + 1, detail_.region_x + n - 1,
-                     detail_.region_y + n - 1};
-  const RectI g = RectI{rect.x0 - 1, rect.y0 - 1, rect.x1 + 1, rect.y1 + 1}.intersect(region);
-  if (!g.empty()) {
-    const WorldParams& p = source_->params();
-    DetailGradientBlock b{};
-    b.tex_size = GLint(n);
-    b.region_lo[0] = GLint(detail_.region_x), b.region_lo[1] = GLint(detail_.region_y);
-    b.region_base[0] = GLint(floor_mod(detail_.region_x, n)),
-    b.region_base[1] = GLint(floor_mod(detail_.region_y, n));
-    b.rect[0] = GLint(g.x0), b.rect[1] = GLint(g.y0), b.rect[2] = GLint(g.x1), b.rect[3] = GLint(g.y1);
-    // Central differences span two samples: meters per unit over twice the spacing.
-    b.scale = float(p.detail_meters_per_unit / (2.0 * p.detail_meters_per_sample()));
-    gradient_block_->write(0, b);
-    gradient_block_->bind(kDetailGradientBinding);
-    glUseProgram(gradient_program_.get());
-    glBindTextureUnit(0, detail_.offsets.get());
-    glBindImageTexture(1, detail_.gradient.get(), 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG16F);
-    glDispatchCompute(GLuint((g.width() + 7) / 8), GLuint((g.height() + 7) / 8), 1);
-  }
-  return texels;
-}
-
-int64_t ClipmapRenderer::update_detail(const scene::Camera& camera) {
-  if (config_.detail_size == 0) return 0;
-  const WorldParams& p = source_->params();
-  const auto c = lod_center_samples(camera);
-  const int64_t n = config_.detail_size;
-  const int64_t rx = int64_t(std::floor(c[0] * p.detail_factor)) - n / 2;
-  const int64_t ry = int64_t(std::floor(c[1] * p.detail_factor)) - n / 2;
-  std::optional<std::array<int64_t, 2>> old;
-  if (detail_.valid) old = std::array<int64_t, 2>{detail_.region_x, detail_.region_y};
-  const std::vector<RectI> strips = lod::toroidal_strips(old, {rx, ry}, n);
-  detail_.valid = true;
-  detail_.region_x = rx;
-  detail_.region_y = ry;
-  int64_t texels = 0;
-  for (const RectI& s : strips) texels += upload_detail(s);
+  if (detail_) texels += detail_->update(*source_, c[0], c[1]);
   return texels;
 }
 
@@ -378,25 +241,16 @@ void ClipmapRenderer::invalidate(const RectI& mip0_rect) {
 }
 
 void ClipmapRenderer::invalidate_detail(const RectI& detail_rect) {
-  if (!detail_.valid) return;
-  const int64_t n = config_.detail_size;
-  const RectI r =
-      detail_rect.intersect({detail_.region_x, detail_.region_y, detail_.region_x + n, detail_.region_y + n});
-  if (!r.empty()) upload_detail(r);
+  if (detail_) detail_->invalidate(*source_, detail_rect);
 }
 
 size_t ClipmapRenderer::gpu_bytes() const {
   const size_t level_texels = size_t(tex_size_) * size_t(tex_size_);
   size_t bytes = size_t(levels_) * level_texels * (2 + 4);  // R16UI heights, RG16_SNORM normals
-  const size_t detail_texels = size_t(config_.detail_size) * size_t(config_.detail_size);
-  bytes += detail_texels * (1 + 4);  // R8I offsets, RG16F gradients
+  if (detail_) bytes += detail_->gpu_bytes();
   if (mesh_) bytes += mesh_->indices().size() * sizeof(uint32_t);
-  if (config_.materials) {
-    bytes += size_t(levels_) * level_texels * 2;  // R16F change
-    // RGBA8 layers with their mip chains (a third more).
-    bytes += size_t(scene::kMaterialCount) * kMaterialTextureSize * kMaterialTextureSize * 4 * 4 / 3;
-  }
-  if (config_.shadows) bytes += size_t(config_.shadow_size) * size_t(config_.shadow_size) * 4;
+  if (config_.look.materials) bytes += size_t(levels_) * level_texels * 2;  // R16F change
+  bytes += look_->gpu_bytes();
   return bytes;
 }
 
@@ -419,41 +273,25 @@ FrameStats ClipmapRenderer::render(const scene::Camera& camera, int32_t width, i
   const int32_t n = config_.n, m = (n + 1) / 4;
   const RectI world = p.sample_rect();
   const double skirt_m = config_.min_height_m - kSkirtDepthM;
-  const bool detail = config_.detail_size > 0;
   ClipmapFrameBlock f{};
   std::copy_n(&vp[0][0], 16, f.view_proj);
   f.world_rel[0] = GLint(world.x0 - ax), f.world_rel[1] = GLint(world.y0 - ay);
   f.world_rel[2] = GLint(world.x1 - ax), f.world_rel[3] = GLint(world.y1 - ay);
-  const float az = glm::radians(config_.sun_azimuth_degrees),
-              el = glm::radians(config_.sun_elevation_degrees);
-  // Azimuth clockwise from north, in the render frame (x east, y north).
-  put(f.sun_dir, glm::vec3(std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)));
-  f.sea_level = float(-p.height_offset);
-  put(f.fog_color, glm::vec3(0.50f, 0.60f, 0.75f));
-  f.fog_density = float(1.0 / (config_.view_distance * 1.5));
   put(f.cam_offset, cam_offset);
-  put(f.height_range, glm::vec2(float(config_.min_height_m), float(config_.max_height_m)));
   f.n = n;
   f.tex_size = tex_size_;
   f.half_m = 2 * m - 2;
-  f.detail_on = detail ? 1 : 0;
-  f.debug_morph = 0;
   f.meters_per_sample = float(mps);
   f.meters_per_unit = float(p.meters_per_unit);
   f.height_base = float(p.height_offset - camera.z);
   f.band = config_.morph ? float(lod::morph_band(n)) : 0.0f;
   f.skirt_z = float(p.height_offset + skirt_m - camera.z);
-  if (detail) {
-    const int64_t k = p.detail_factor;
-    f.detail_size = config_.detail_size;
-    f.detail_factor = GLint(k);
-    f.detail_rel_origin[0] = GLint(detail_.region_x - ax * k);
-    f.detail_rel_origin[1] = GLint(detail_.region_y - ay * k);
-    f.detail_base[0] = GLint(floor_mod(detail_.region_x, config_.detail_size));
-    f.detail_base[1] = GLint(floor_mod(detail_.region_y, config_.detail_size));
-    f.detail_meters_per_unit = float(p.detail_meters_per_unit);
-    glBindTextureUnit(3, detail_.offsets.get());
-    glBindTextureUnit(4, detail_.gradient.get());
+  TerrainShadingBlock shading =
+      look_->frame(p, ax, ay, config_.min_height_m, config_.max_height_m, config_.view_distance);
+  shading.change_on = config_.look.materials && change_known_ ? 1 : 0;
+  if (detail_) {
+    detail_->fill(shading, p, ax, ay);
+    detail_->bind();
   }
   const int64_t tn = tex_size_;
   for (int32_t l = 0; l < levels_; ++l) {
@@ -473,60 +311,30 @@ FrameStats ClipmapRenderer::render(const scene::Camera& camera, int32_t width, i
       b.tex_base_coarse[0] = GLint(floor_mod(cp.origin_x >> (l + 1), tn));
       b.tex_base_coarse[1] = GLint(floor_mod(cp.origin_y >> (l + 1), tn));
     }
-    b.detail_displace = l == 0 && detail && config_.detail_displacement ? 1 : 0;
+    b.detail_displace = l == 0 && detail_ && config_.detail_displacement ? 1 : 0;
     level_block_->write(l, b);
   }
 
-  // Materials: texture phases of the anchor, so texture coordinates stay exact far out.
-  if (config_.materials) {
-    const double axm = double(ax) * mps, aym = double(ay) * mps;
-    const auto pa = tile_phase(axm, aym, kMaterialScaleA, 0.0),
-               pb = tile_phase(axm, aym, kMaterialScaleB, kMaterialTurnB);
-    const auto pm = tile_phase(axm, aym, kMaterialScaleMacro, 0.0);
-    f.tex_phase[0] = pa[0], f.tex_phase[1] = pa[1], f.tex_phase[2] = pb[0], f.tex_phase[3] = pb[1];
-    f.macro_phase[0] = pm[0], f.macro_phase[1] = pm[1];
-    f.materials_on = 1;
-    f.change_on = change_known_ ? 1 : 0;
-    glBindTextureUnit(kMaterialsUnit, materials_.get());
-  }
   // The sun's shadow map: the terrain drawn from the sun over a square around the camera.
-  GLint target_fbo = 0;
-  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target_fbo);
-  if (config_.shadows && config_.sun_elevation_degrees > 0.5f) {
-    const double radius =
-        config_.shadow_distance_m > 0 ? config_.shadow_distance_m : std::min(config_.view_distance, 3000.0);
-    const glm::vec3 sun(f.sun_dir[0], f.sun_dir[1], f.sun_dir[2]);
-    const scene::SunShadowFrame sf =
-        scene::sun_shadow_frame(camera, glm::dvec3(sun), radius, p.height_offset + config_.min_height_m,
-                                p.height_offset + config_.max_height_m, config_.shadow_size);
+  if (const auto sun =
+          look_->shadow_frame(camera, p, config_.min_height_m, config_.max_height_m, config_.view_distance)) {
     ClipmapFrameBlock light = f;
-    std::copy_n(&sf.light_view_proj[0][0], 16, light.view_proj);
+    std::copy_n(&sun->light_view_proj[0][0], 16, light.view_proj);
     frame_block_->write(1, light);
-    frame_block_->bind(kFrameBinding, 1);
-    glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo_.get());
-    glViewport(0, 0, config_.shadow_size, config_.shadow_size);
-    clear_depth_reversed();
-    glClear(GL_DEPTH_BUFFER_BIT);
-    glUseProgram(shadow_program_.get());
-    glBindVertexArray(vao_.get());
-    {
-      const ReversedDepthTest depth_test;
-      // Slope-scaled offset away from the sun (reversed depth: toward 0) against acne.
-      glEnable(GL_POLYGON_OFFSET_FILL);
-      glPolygonOffset(-1.5f, -2.0f);
+    look_->render_shadow(*sun, shading, [&] {
+      // The vertex stage reads the detail fields (displacement) from the shading block.
+      look_->bind(shading);
+      frame_block_->bind(kFrameBinding, 1);
+      glUseProgram(shadow_program_.get());
+      glBindVertexArray(vao_.get());
       FrameStats shadow_stats;
-      draw_levels(camera, scene::frustum_of(sf.light_view_proj), cam_offset, shadow_stats);
-      glDisable(GL_POLYGON_OFFSET_FILL);
+      draw_levels(camera, scene::frustum_of(sun->light_view_proj), cam_offset, shadow_stats);
       stats.shadow_triangles = shadow_stats.triangles;
       stats.draw_calls += shadow_stats.draw_calls;
-    }
-    glBindFramebuffer(GL_FRAMEBUFFER, GLuint(target_fbo));
-    std::copy_n(&sf.light_view_proj[0][0], 16, f.light_view_proj);
-    f.shadows_on = 1;
-    f.shadow_texel = float(1.0 / config_.shadow_size);
-    glBindTextureUnit(kShadowUnit, shadow_map_.get());
+    });
   }
 
+  look_->bind(shading);
   frame_block_->write(0, f);
   frame_block_->bind(kFrameBinding, 0);
   glUseProgram(program_.get());

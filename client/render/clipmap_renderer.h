@@ -33,6 +33,8 @@
 
 #include "client/lod/clipmap_mesh.h"
 #include "client/render/clipmap_blocks.h"
+#include "client/render/detail_region.h"
+#include "client/render/terrain_look.h"
 #include "client/scene/camera.h"
 #include "client/scene/frustum.h"
 #include "client/terrain/height_source.h"
@@ -49,22 +51,9 @@ struct RendererConfig {
   bool morph = true;                          // transition-band geomorphing
   bool cull = true;                           // per-piece frustum culling
   double min_height_m = 0, max_height_m = 0;  // material range; equal: from the source's mip
-  float sun_azimuth_degrees = 135.0f, sun_elevation_degrees = 35.0f;
-  int32_t detail_size = 512;         // detail samples per side around the camera; 0: no detail
-  bool detail_displacement = false;  // also displace the finest level's vertices by the detail
-  // Materials: tiling detail textures splatted by height, slope and curvature, and exposed
-  // earth where the terrain was dug or heaped (where the source knows the initial terrain).
-  // Off: the flat colour bands only.
-  bool materials = true;
-  // Anisotropic filtering of the material textures (where the driver has it), 1..16; 1 is
-  // plain trilinear. 0: 8 on a GPU (grazing views stay sharp, nearly free) and 1 on a software
-  // rasterizer, which pays for every tap (llvmpipe: 7x the frame at 8, bench/results/clipmap.md).
-  float anisotropy = 0.0f;
-  // The sun's shadow map over a square of 2 x shadow_distance_m around the camera (0: the view
-  // distance, at most 3 km), shadow_size texels per side. Off: no shadow pass.
-  bool shadows = true;
-  int32_t shadow_size = 2048;
-  double shadow_distance_m = 0;
+  int32_t detail_size = 512;                  // detail samples per side around the camera; 0: no detail
+  bool detail_displacement = false;           // also displace the finest level's vertices by the detail
+  TerrainLookConfig look;                     // materials, sun, shadows (terrain_look.h)
 };
 
 struct FrameStats {
@@ -90,7 +79,10 @@ class ClipmapRenderer {
   int64_t update_levels(const scene::Camera& camera);
   // Moves the sun (degrees: azimuth clockwise from north, elevation above the horizon); the
   // next frame's light and shadows follow.
-  void set_sun(float azimuth_degrees, float elevation_degrees);
+  void set_sun(float azimuth_degrees, float elevation_degrees) {
+    look_->set_sun(azimuth_degrees, elevation_degrees);
+  }
+  const TerrainLookConfig& look() const { return look_->config(); }
   // Samples of `mip0_rect` changed in the source: re-read them into every level holding them.
   void invalidate(const RectI& mip0_rect);
   // Detail samples of `detail_rect` (detail grid) changed in the source.
@@ -103,7 +95,7 @@ class ClipmapRenderer {
 
   int32_t levels() const { return levels_; }
   // The material textures' anisotropy in effect (config's, or auto's choice; 1 without materials).
-  float anisotropy() const { return anisotropy_; }
+  float anisotropy() const { return look_->anisotropy(); }
   // Bytes of GPU memory the renderer holds: level heights and normals, the detail region and
   // its gradients, the index buffer. Set by n and detail_size, never by the world's size.
   size_t gpu_bytes() const;
@@ -121,17 +113,9 @@ class ClipmapRenderer {
     int64_t region_x = 0, region_y = 0;  // level-grid sample at the region's low corner
     RectI world;                         // the world's samples in this level's grid
   };
-  struct Detail {
-    gpu::GlTexture offsets;   // R8I
-    gpu::GlTexture gradient;  // RG16F, meters per meter
-    bool valid = false;
-    int64_t region_x = 0, region_y = 0;
-  };
   ClipmapRenderer() = default;
   int64_t upload(Level& level, int32_t mip, const RectI& rect);  // rect in the level grid
   void update_normals(int32_t l, const RectI& uploaded);
-  int64_t update_detail(const scene::Camera& camera);
-  int64_t upload_detail(const RectI& rect);  // detail grid
   std::array<double, 2> lod_center_samples(const scene::Camera& camera) const;
   // Draws every level's pieces inside `frustum` with the bound program and frame block.
   void draw_levels(const scene::Camera& camera, const scene::Frustum& frustum, const glm::vec2& cam_offset,
@@ -147,21 +131,16 @@ class ClipmapRenderer {
   std::vector<lod::LevelPlacement> placed_;
   gpu::GlBuffer indices_;
   gpu::GlVertexArray vao_;
-  gpu::GlProgram program_, gradient_program_, shadow_program_;
-  gpu::GlTexture materials_;  // RGBA8 2D array, one layer per Material, mipmapped
-  float anisotropy_ = 1.0f;
-  gpu::GlTexture shadow_map_;  // DEPTH32F, compared (sampler2DShadow)
-  gpu::GlFramebuffer shadow_fbo_;
+  gpu::GlProgram program_, shadow_program_;
+  std::optional<TerrainLook> look_;
   bool change_known_ = false;  // the source answered read_change at least once
   // The programs' uniform blocks (client/render/clipmap_blocks.h): one frame, one per level.
   std::optional<gpu::UniformBuffer<ClipmapFrameBlock>> frame_block_;
   std::optional<gpu::UniformBuffer<ClipmapLevelBlock>> level_block_;
-  std::optional<gpu::UniformBuffer<DetailGradientBlock>> gradient_block_;
   std::optional<gpu::LevelNormalPass> normal_pass_;
-  Detail detail_;
+  std::optional<DetailRegion> detail_;
   std::vector<uint16_t> scratch_;
   std::vector<float> change_scratch_;
-  std::vector<int8_t> detail_scratch_;
 };
 
 }  // namespace loam::render

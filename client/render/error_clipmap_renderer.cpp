@@ -14,6 +14,8 @@ namespace loam::render {
 
 namespace {
 
+constexpr GLuint kErrorClipmapFrameBinding = 4;  // shaders/error_clipmap_frame.glsl
+
 // A 2D texture viewing one layer of a 2D array texture (its storage shared).
 gpu::GlTexture layer_view(GLuint array, GLenum format, int32_t layer) {
   GLuint v = 0;
@@ -89,15 +91,59 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
   if (glGetError() != GL_NO_ERROR)
     return make_error(ErrorCode::kUnsupported, "error_clipmap.normals",
                       "texture views of the level layers failed");
+  if (config.look.materials) {
+    // The change layer the materials show dug earth by, toroidal like the heights, filtered.
+    r->change_texture_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
+    const GLuint change = r->change_texture_.get();
+    glTextureStorage3D(change, 1, GL_R16F, r->region_, r->region_, levels);
+    glTextureParameteri(change, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTextureParameteri(change, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTextureParameteri(change, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTextureParameteri(change, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    const float zero = 0.0f;
+    glClearTexImage(change, 0, GL_RED, GL_FLOAT, &zero);
+  }
+  if (config.detail_size < 0) {
+    return make_error(ErrorCode::kInvalidArgument, "clipmap.detail_size",
+                      "must be 0 or a power of two up to 4096");
+  }
+  if (config.detail_size > 0) {
+    auto detail = DetailRegion::create(config.detail_size);
+    if (!detail) return detail.error();
+    r->detail_.emplace(std::move(*detail));
+  }
+  if (!(config.view_distance > 0)) {
+    return make_error(ErrorCode::kInvalidArgument, "error_clipmap.view_distance", "must be positive");
+  }
+  auto look = TerrainLook::create(config.look);
+  if (!look) return look.error();
+  r->look_.emplace(std::move(*look));
   auto normal_pass = gpu::LevelNormalPass::create();
   if (!normal_pass) return normal_pass.error();
   r->normal_pass_.emplace(std::move(*normal_pass));
 
-  const std::string_view vertex[] = {"geomipmap_blocks.glsl", "patch_morph.glsl", "error_clipmap.vert.glsl"};
-  auto program = build_patch_program(vertex, "error_clipmap.frag.glsl");
+  const std::string_view vertex[] = {"geomipmap_blocks.glsl", "error_clipmap_frame.glsl", "patch_morph.glsl",
+                                     "error_clipmap.vert.glsl"};
+  const std::string_view fragment[] = {"terrain_shading_block.glsl", "terrain_shading.glsl",
+                                       "error_clipmap.frag.glsl"};
+  auto own_block = [](GLuint program) {
+    return gpu::verify_uniform_block(program, "ErrorClipmapFrame", sizeof(ErrorClipmapFrameBlock),
+                                     kErrorClipmapFrameMembers);
+  };
+  auto program = build_patch_program(vertex, fragment, [&](GLuint linked) -> Status {
+    LOAM_TRY(own_block(linked));
+    return TerrainLook::verify(linked);
+  });
   if (!program) return program.error();
   r->program_ = std::move(*program);
-  r->frame_block_.emplace(1);
+  if (config.look.shadows) {
+    const std::string_view depth[] = {"shadow_depth.frag.glsl"};
+    auto shadow = build_patch_program(vertex, depth, own_block);
+    if (!shadow) return shadow.error();
+    r->shadow_program_ = std::move(*shadow);
+  }
+  r->frame_block_.emplace(2);
+  r->error_block_.emplace(1);
   r->vao_ = make_patch_vertex_array();
   r->indices_.emplace(r->vao_.get());
   r->instances_.emplace(r->vao_.get());
@@ -203,7 +249,7 @@ std::array<int64_t, 2> ErrorClipmapRenderer::level_extent(int32_t l) const {
 }
 
 int64_t ErrorClipmapRenderer::upload(int32_t l, const RectI& rect) {
-  const int64_t n = region_;
+  const int64_t n = region_, s = int64_t(1) << l;
   scratch_.resize(size_t(rect.area()));
   read_level(l, rect, scratch_);
   glPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(rect.width()));
@@ -212,6 +258,29 @@ int64_t ErrorClipmapRenderer::upload(int32_t l, const RectI& rect) {
     glTextureSubImage3D(levels_texture_.get(), 0, GLint(tx), GLint(ty), l, GLsizei(piece.width()),
                         GLsizei(piece.height()), 1, GL_RED_INTEGER, GL_UNSIGNED_SHORT, data);
   });
+  if (change_texture_) {
+    // Where the level reads its mip (the world's origin on the mip's grid), the mip's change;
+    // elsewhere (past the far edges, or off the grid) none.
+    change_scratch_.assign(size_t(rect.area()), 0.0f);
+    const int64_t W = world_.width(), H = world_.height();
+    const RectI inside = rect.intersect({0, 0, (W - 1) / s + 1, (H - 1) / s + 1});
+    if (!inside.empty() && floor_mod(world_.x0, s) == 0 && floor_mod(world_.y0, s) == 0) {
+      std::vector<float> part(size_t(inside.area()));
+      const RectI global{inside.x0 + world_.x0 / s, inside.y0 + world_.y0 / s, inside.x1 + world_.x0 / s,
+                         inside.y1 + world_.y0 / s};
+      if (source_->read_change(l, global, part)) {
+        change_known_ = true;
+        for (int64_t y = inside.y0; y < inside.y1; ++y)
+          std::copy_n(part.begin() + (y - inside.y0) * inside.width(), inside.width(),
+                      change_scratch_.begin() + (y - rect.y0) * rect.width() + (inside.x0 - rect.x0));
+      }
+    }
+    for_each_torus_piece(rect, n, [&](const RectI& piece, int64_t tx, int64_t ty) {
+      const float* data = change_scratch_.data() + (piece.y0 - rect.y0) * rect.width() + (piece.x0 - rect.x0);
+      glTextureSubImage3D(change_texture_.get(), 0, GLint(tx), GLint(ty), l, GLsizei(piece.width()),
+                          GLsizei(piece.height()), 1, GL_RED, GL_FLOAT, data);
+    });
+  }
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   return texels;
 }
@@ -299,6 +368,10 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
     drawable_[size_t(l)] = drawable(l);
     for (const RectI& strip : strips) update_normals(l, strip);
   }
+  if (detail_) {
+    const auto c = lod_camera.lod_center.value_or(std::array<double, 2>{lod_camera.x, lod_camera.y});
+    stats.texels_uploaded += detail_->update(*source_, c[0] / mps, c[1] / mps);
+  }
   // The error pyramid follows the regions: blocks that entered one (or whose finer window
   // changed under them) are computed, the rest kept.
   std::vector<RectI> windows;
@@ -329,34 +402,43 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
   return stats;
 }
 
-ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const scene::Camera& camera, int32_t width,
-                                                  int32_t height) {
-  ErrorClipmapFrameStats stats;
-  const auto t0 = std::chrono::steady_clock::now();
+namespace {
+constexpr int64_t kAnchorStep = 1024;  // mip-0 samples: the anchor moves by whole steps
+}  // namespace
+
+ErrorClipmapRenderer::Batch ErrorClipmapRenderer::collect(const scene::Camera& camera,
+                                                          const scene::Frustum& frustum,
+                                                          std::vector<PatchInstance>& instances) {
+  Batch batch;
   const double mps = scale_.meters_per_sample;
-  const glm::mat4 vp = scene::view_projection(camera, width, height);
-  const scene::Frustum frustum = scene::frustum_of(vp);
-  const int64_t c = grid_.cells();
+  const int64_t c = grid_.cells(), W = world_.width(), H = world_.height();
+  const double skirt_m = min_height_m_ - kSkirtDepthM;
   // Instances grouped by side pattern (a bit per side toward a coarser neighbour): one
-  // instanced draw per pattern.
+  // instanced draw per pattern; the walls in one more.
   std::array<std::vector<PatchInstance>, 16> by_pattern;
-  for (auto& list : by_pattern) list.clear();
+  std::vector<PatchInstance> walls;
   for (const lod::ClipmapBlock& b : selection_.blocks) {
     const int32_t l = b.id.level;
     const int64_t s = int64_t(1) << l;
     const int64_t x0 = int64_t(b.id.bx) * c * s, y0 = int64_t(b.id.by) * c * s;  // mip-0, world-relative
-    if (x0 >= world_.width() - 1 || y0 >= world_.height() - 1) continue;         // wholly past the far edge
+    if (x0 >= W - 1 || y0 >= H - 1) continue;                                    // wholly past the far edge
+    const int64_t x1 = x0 + c * s, y1 = y0 + c * s;
+    // The world's edges this block lies on (top, right, bottom, left): a wall hangs from each
+    // (past the far edges the block's vertices are drawn at the edge).
+    const std::array<bool, 4> edge{y0 == 0, x1 >= W - 1, y1 >= H - 1, x0 == 0};
+    const bool on_edge = edge[0] || edge[1] || edge[2] || edge[3];
     const double rel_x = double(world_.x0 + x0) * mps - camera.x;
     const double rel_y = -(double(world_.y0 + y0) * mps - camera.y);
     const double spacing = double(s) * mps;
     if (config_.cull) {
       const double e = double(c) * spacing;
-      const glm::vec3 lo(float(rel_x), float(rel_y - e),
-                         float(scale_.meters(errors_.min_height(l, b.id.bx, b.id.by)) - camera.z));
+      const double lo_m = std::min(scale_.meters(errors_.min_height(l, b.id.bx, b.id.by)),
+                                   on_edge ? scale_.height_offset + skirt_m : 1e300);
+      const glm::vec3 lo(float(rel_x), float(rel_y - e), float(lo_m - camera.z));
       const glm::vec3 hi(float(rel_x + e), float(rel_y),
                          float(scale_.meters(errors_.max_height(l, b.id.bx, b.id.by)) - camera.z));
       if (scene::box_outside(frustum, lo, hi)) {
-        ++stats.blocks_culled;
+        ++batch.culled;
         continue;
       }
     }
@@ -369,49 +451,116 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const scene::Camera& camera, i
     const size_t pattern = size_t(b.lod.edge_level[0] | b.lod.edge_level[1] << 1 | b.lod.edge_level[2] << 2 |
                                   b.lod.edge_level[3] << 3);
     by_pattern[pattern].push_back(in);
+    ++batch.blocks;
+    for (int32_t side = 0; side < 4; ++side) {
+      if (!edge[size_t(side)]) continue;
+      PatchInstance w = in;
+      w.patch[3] = side + 1;
+      walls.push_back(w);
+    }
   }
-  std::vector<PatchInstance> instances;
-  instances.reserve(selection_.blocks.size());
-  struct Draw {
-    PatchIndexBuffer::Range range;
-    uint32_t first_instance = 0, count = 0;
-  };
-  std::vector<Draw> draws;
-  for (size_t p = 0; p < by_pattern.size(); ++p) {
-    const auto& list = by_pattern[p];
+  const int32_t n = grid_.block_size;
+  for (size_t p = 0; p <= by_pattern.size(); ++p) {
+    const bool is_walls = p == by_pattern.size();
+    const auto& list = is_walls ? walls : by_pattern[p];
     if (list.empty()) continue;
-    const std::array<int8_t, 4> pattern{int8_t(p & 1), int8_t(p >> 1 & 1), int8_t(p >> 2 & 1),
-                                        int8_t(p >> 3 & 1)};
-    const std::array<int8_t, 5> key{0, pattern[0], pattern[1], pattern[2], pattern[3]};
-    const auto range = indices_->get(key, [&] { return lod::patch_triangles(patch_, 0, pattern); });
-    draws.push_back({range, uint32_t(instances.size()), uint32_t(list.size())});
+    PatchIndexBuffer::Range range;
+    if (is_walls) {
+      // A strip between the side's n vertices (0..n-1) and their feet (n..2n-1).
+      range = indices_->get({-1, 0, 0, 0, 0}, [&] {
+        PatchIndexBuffer::Triangles t;
+        for (int32_t i = 0; i + 1 < n; ++i) {
+          t.push_back({uint16_t(i), uint16_t(i + 1), uint16_t(n + i)});
+          t.push_back({uint16_t(i + 1), uint16_t(n + i + 1), uint16_t(n + i)});
+        }
+        return t;
+      });
+    } else {
+      const std::array<int8_t, 4> pattern{int8_t(p & 1), int8_t(p >> 1 & 1), int8_t(p >> 2 & 1),
+                                          int8_t(p >> 3 & 1)};
+      const std::array<int8_t, 5> key{0, pattern[0], pattern[1], pattern[2], pattern[3]};
+      range = indices_->get(key, [&] { return lod::patch_triangles(patch_, 0, pattern); });
+    }
+    batch.draws.push_back({range, uint32_t(instances.size()), uint32_t(list.size())});
     instances.insert(instances.end(), list.begin(), list.end());
   }
+  return batch;
+}
+
+int64_t ErrorClipmapRenderer::submit(const std::vector<Draw>& draws) {
+  int64_t triangles = 0;
+  for (const Draw& d : draws) {
+    glDrawElementsInstancedBaseInstance(
+        GL_TRIANGLES, GLsizei(d.range.count), GL_UNSIGNED_SHORT,
+        reinterpret_cast<const void*>(uintptr_t(d.range.first) * sizeof(uint16_t)), GLsizei(d.count),
+        d.first_instance);
+    triangles += int64_t(d.range.count / 3) * d.count;
+  }
+  return triangles;
+}
+
+ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const scene::Camera& camera, int32_t width,
+                                                  int32_t height) {
+  ErrorClipmapFrameStats stats;
+  const auto t0 = std::chrono::steady_clock::now();
+  const WorldParams& p = source_->params();
+  const double mps = scale_.meters_per_sample;
+  const glm::mat4 vp = scene::view_projection(camera, width, height);
+  std::vector<PatchInstance> instances;
+  instances.reserve(selection_.blocks.size());
+  const Batch view = collect(camera, scene::frustum_of(vp), instances);
+  stats.blocks = view.blocks, stats.blocks_culled = view.culled;
+  const auto sun = look_->shadow_frame(camera, p, min_height_m_, max_height_m_, config_.view_distance);
+  Batch shadow;
+  if (sun) shadow = collect(camera, scene::frustum_of(sun->light_view_proj), instances);
   instances_->upload(instances);
+
+  // Positions the fragment stage shades by count from an anchor near the camera (world-relative
+  // mip-0 samples, whole steps): small enough for float, exact in the material phases.
+  const int64_t ax = floor_div(int64_t(std::floor(camera.x / mps)) - world_.x0, kAnchorStep) * kAnchorStep;
+  const int64_t ay = floor_div(int64_t(std::floor(camera.y / mps)) - world_.y0, kAnchorStep) * kAnchorStep;
+  ErrorClipmapFrameBlock e{};
+  e.anchor[0] = int32_t(ax), e.anchor[1] = int32_t(ay);
+  e.skirt_z = float(scale_.height_offset + min_height_m_ - kSkirtDepthM - camera.z);
+  error_block_->write(0, e);
+  TerrainShadingBlock shading =
+      look_->frame(p, world_.x0 + ax, world_.y0 + ay, min_height_m_, max_height_m_, config_.view_distance);
+  shading.change_on = change_texture_ && change_known_ ? 1 : 0;
+  if (detail_) {
+    detail_->fill(shading, p, world_.x0 + ax, world_.y0 + ay);
+    detail_->bind();
+  }
   const GeomipmapFrameBlock f =
       patch_frame(vp, {grid_.block_size, patch_.levels, int32_t(world_.width()), int32_t(world_.height())},
                   mps, scale_.meters_per_unit, scale_.height_offset, camera, min_height_m_, max_height_m_);
   frame_block_->write(0, f);
   stats.cpu_ms = ms_since(t0);
 
-  frame_block_->bind(0);
-  glUseProgram(program_.get());
+  error_block_->bind(kErrorClipmapFrameBinding);
   glBindVertexArray(vao_.get());
   glBindTextureUnit(0, levels_texture_.get());
   glBindTextureUnit(1, normals_texture_.get());
-  // Normals written by compute must be visible to the draw.
+  if (change_texture_) glBindTextureUnit(kChangeUnit, change_texture_.get());
+  // Normals and detail gradients written by compute must be visible to the draw.
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT);
+  if (sun) {
+    GeomipmapFrameBlock light = f;
+    std::copy_n(&sun->light_view_proj[0][0], 16, light.view_proj);
+    frame_block_->write(1, light);
+    look_->render_shadow(*sun, shading, [&] {
+      frame_block_->bind(0, 1);
+      glUseProgram(shadow_program_.get());
+      stats.shadow_triangles = submit(shadow.draws);
+      stats.draw_calls += int32_t(shadow.draws.size());
+    });
+  }
+  look_->bind(shading);
+  frame_block_->bind(0, 0);
+  glUseProgram(program_.get());
   const ReversedDepthTest depth_test;
   glViewport(0, 0, width, height);
-  for (const Draw& d : draws) {
-    glDrawElementsInstancedBaseInstance(
-        GL_TRIANGLES, GLsizei(d.range.count), GL_UNSIGNED_SHORT,
-        reinterpret_cast<const void*>(uintptr_t(d.range.first) * sizeof(uint16_t)), GLsizei(d.count),
-        d.first_instance);
-    stats.triangles += int64_t(d.range.count / 3) * d.count;
-    stats.blocks += int32_t(d.count);
-  }
-  stats.draw_calls = int32_t(draws.size());
+  stats.triangles = submit(view.draws);
+  stats.draw_calls += int32_t(view.draws.size());
   glBindVertexArray(0);
   glUseProgram(0);
   return stats;
@@ -448,10 +597,16 @@ ErrorClipmapUpdate ErrorClipmapRenderer::invalidate(const RectI& mip0_rect) {
   return u;
 }
 
+void ErrorClipmapRenderer::invalidate_detail(const RectI& detail_rect) {
+  if (detail_) detail_->invalidate(*source_, detail_rect);
+}
+
 size_t ErrorClipmapRenderer::gpu_bytes() const {
-  // R16UI heights and RG16_SNORM normals per level.
-  return size_t(region_) * size_t(region_) * size_t(grid_.levels) * (2 + 4) + indices_->bytes() +
-         instances_->bytes();
+  // R16UI heights, RG16_SNORM normals and R16F change per level.
+  const size_t per_texel = 2 + 4 + (change_texture_ ? 2 : 0);
+  return size_t(region_) * size_t(region_) * size_t(grid_.levels) * per_texel + indices_->bytes() +
+         instances_->bytes() + (detail_ ? detail_->gpu_bytes() : 0) + look_->gpu_bytes() +
+         frame_block_->bytes() + error_block_->bytes();
 }
 
 }  // namespace loam::render

@@ -8,8 +8,12 @@
 // regions move) and no heights: a 131 km world costs what a 4 km one does.
 //
 // Each level also holds its FD4 normal map (an RG16_SNORM layer, computed by the clipmap's level
-// normal pass where heights entered or changed); the fragment stage lights with it, blended toward
-// the next level's as far as the block morphs, and blocks stay where normals are defined.
+// normal pass where heights entered or changed) and, with materials, its change layer (R16F,
+// meters against the initial terrain); the fragment stage lights with them, blended toward the
+// next level's as far as the block morphs, and blocks stay where normals are defined. The look
+// is the clipmap renderer's (terrain_look.h: materials, dug earth, the sun's shadow map drawn
+// from the same blocks, fog), with the detail layer's normals near the camera (detail_region.h)
+// and an earth wall where the world ends.
 //
 // Each frame: the regions move with the camera (uploads), the blocks are chosen on the CPU,
 // culled against the frustum (render/frustum.h), sorted by side pattern and drawn instanced,
@@ -31,7 +35,9 @@
 
 #include "client/lod/error_clipmap.h"
 #include "client/render/clipmap_renderer.h"
+#include "client/render/detail_region.h"
 #include "client/render/patch_draw.h"
+#include "client/render/terrain_look.h"
 #include "client/scene/camera.h"
 #include "gpu/gl_handle.h"
 #include "gpu/normal_pass.h"
@@ -47,10 +53,28 @@ struct ErrorClipmapConfig {
   int32_t exact_levels = 3;   // error bounds exact up to this level (error_clipmap.h)
   bool morph = true;
   bool cull = true;
+  double view_distance = 4000.0;  // where fog closes in, and the shadow map's reach (at most 3 km)
+  int32_t detail_size = 512;      // detail samples per side around the camera; 0: no detail
+  TerrainLookConfig look;
+};
+
+// shaders/error_clipmap_frame.glsl's ErrorClipmapFrame (std140).
+struct ErrorClipmapFrameBlock {
+  int32_t anchor[2];  // the mip-0 sample (world-relative) positions count from
+  float skirt_z;      // camera-relative height of the skirt's foot
+  int32_t pad0;
+};
+static_assert(sizeof(ErrorClipmapFrameBlock) == 16);
+
+inline constexpr std::array kErrorClipmapFrameMembers = {
+    LOAM_UNIFORM_MEMBER(ErrorClipmapFrameBlock, anchor, "e_anchor"),
+    LOAM_UNIFORM_MEMBER(ErrorClipmapFrameBlock, skirt_z, "e_skirt_z"),
+    LOAM_UNIFORM_MEMBER(ErrorClipmapFrameBlock, pad0, "e_frame_pad0"),
 };
 
 struct ErrorClipmapFrameStats {
-  int64_t triangles = 0;
+  int64_t triangles = 0;         // blocks' and walls'
+  int64_t shadow_triangles = 0;  // drawn into the sun's shadow map (draw_calls include that pass)
   int32_t draw_calls = 0;
   int32_t blocks = 0, blocks_culled = 0;
   int64_t texels_uploaded = 0;  // by this frame's region moves
@@ -84,6 +108,14 @@ class ErrorClipmapRenderer {
   ErrorClipmapFrameStats draw(const scene::Camera& camera, int32_t width, int32_t height);
   // Samples of `mip0_rect` (the world's global grid) changed in the source.
   ErrorClipmapUpdate invalidate(const RectI& mip0_rect);
+  // Detail samples of `detail_rect` (detail grid) changed in the source.
+  void invalidate_detail(const RectI& detail_rect);
+  // Moves the sun (degrees: azimuth clockwise from north, elevation above the horizon).
+  void set_sun(float azimuth_degrees, float elevation_degrees) {
+    look_->set_sun(azimuth_degrees, elevation_degrees);
+  }
+  const TerrainLookConfig& look() const { return look_->config(); }
+  const ErrorClipmapConfig& config() const { return config_; }
 
   const lod::ClipmapBlockGrid& grid() const { return grid_; }
   const lod::ClipmapErrorPyramid& errors() const { return errors_; }
@@ -105,7 +137,8 @@ class ErrorClipmapRenderer {
   // Level l's FD4 normals over `rect` (level samples inside its drawn part), packed like
   // protocol/normal_map.h (tests).
   std::vector<uint32_t> read_level_normals(int32_t l, const RectI& rect) const;
-  // Level textures, index and instance buffers.
+  // Level textures (heights, normals, change), the detail region, the look's textures, index and
+  // instance buffers.
   size_t gpu_bytes() const;
   // The error pyramid.
   size_t cpu_bytes() const { return errors_.bytes(); }
@@ -118,6 +151,20 @@ class ErrorClipmapRenderer {
   };
   ErrorClipmapRenderer() = default;
   int64_t upload(int32_t l, const RectI& rect);
+  // Instances of the selected blocks (and the walls on the world's edges) outside `frustum`'s
+  // culling, grouped into one draw per pattern, appended to `instances`.
+  struct Draw {
+    PatchIndexBuffer::Range range;
+    uint32_t first_instance = 0, count = 0;
+  };
+  struct Batch {
+    std::vector<Draw> draws;
+    int32_t blocks = 0, culled = 0;
+  };
+  Batch collect(const scene::Camera& camera, const scene::Frustum& frustum,
+                std::vector<PatchInstance>& instances);
+  // Draws `draws` with the bound program and vertex array; returns the triangles.
+  static int64_t submit(const std::vector<Draw>& draws);
   // Level l's samples that blocks may use: its region less the 4-sample rim, on the sides where
   // the world goes on, whose normals the region cannot compute.
   RectI drawable(int32_t l) const;
@@ -145,12 +192,18 @@ class ErrorClipmapRenderer {
 
   gpu::GlTexture levels_texture_;   // R16UI, region x region x levels
   gpu::GlTexture normals_texture_;  // RG16_SNORM, the same: FD4 normals as the clipmap renderer's
+  gpu::GlTexture change_texture_;   // R16F, the same: meters against the initial terrain (materials)
+  bool change_known_ = false;       // the source answered read_change at least once
+  std::vector<float> change_scratch_;
   std::optional<gpu::LevelNormalPass> normal_pass_;
-  gpu::GlProgram program_;
+  std::optional<TerrainLook> look_;
+  std::optional<DetailRegion> detail_;
+  gpu::GlProgram program_, shadow_program_;
+  std::optional<gpu::UniformBuffer<ErrorClipmapFrameBlock>> error_block_;
   gpu::GlVertexArray vao_;
   std::optional<PatchIndexBuffer> indices_;
   std::optional<PatchInstanceBuffer> instances_;
-  std::optional<gpu::UniformBuffer<GeomipmapFrameBlock>> frame_block_;
+  std::optional<gpu::UniformBuffer<GeomipmapFrameBlock>> frame_block_;  // the view, and the sun's
 };
 
 }  // namespace loam::render

@@ -11,12 +11,13 @@
 namespace loam::render {
 
 Result<gpu::GlProgram> build_patch_program(std::span<const std::string_view> vertex_files,
-                                           std::string_view fragment_file) {
-  const std::string_view fragment[] = {"geomipmap_blocks.glsl", "patch_shading.glsl", fragment_file};
-  auto program = gpu::build_graphics_program_from(vertex_files, fragment);
+                                           std::span<const std::string_view> fragment_files,
+                                           const std::function<Status(GLuint)>& extra_blocks) {
+  auto program = gpu::build_graphics_program_from(vertex_files, fragment_files);
   if (!program) return program.error();
   LOAM_TRY(gpu::verify_uniform_block(program->get(), "GeomipmapFrame", sizeof(GeomipmapFrameBlock),
                                      kGeomipmapFrameMembers));
+  if (extra_blocks) LOAM_TRY(extra_blocks(program->get()));
   LOAM_TRY(gpu::verify_no_loose_uniforms(program->get()));
   return std::move(*program);
 }

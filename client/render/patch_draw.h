@@ -52,11 +52,17 @@ inline double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// The program of a patch vertex stage (after geomipmap_blocks.glsl) with a fragment stage that
-// shades by patch_shading.glsl (geomipmap.frag.glsl: the triangles' own normals), its
-// GeomipmapFrame block checked member by member and nothing loose.
+// The fragment stage of the `lod` suite's patch renderers: patch_shading.glsl's colour bands
+// with the triangles' own normals.
+inline constexpr std::array<std::string_view, 3> kPatchFragment = {
+    "geomipmap_blocks.glsl", "patch_shading.glsl", "geomipmap.frag.glsl"};
+
+// The program of a patch vertex stage (after geomipmap_blocks.glsl) and `fragment_files`, its
+// GeomipmapFrame block checked member by member and nothing loose (a renderer with blocks of
+// its own verifies them first: `extra_blocks`).
 Result<gpu::GlProgram> build_patch_program(std::span<const std::string_view> vertex_files,
-                                           std::string_view fragment_file = "geomipmap.frag.glsl");
+                                           std::span<const std::string_view> fragment_files = kPatchFragment,
+                                           const std::function<Status(GLuint)>& extra_blocks = {});
 
 // The whole mip-0 world as the full-resolution schemes keep it on the CPU, and its height range.
 struct WorldHeights {

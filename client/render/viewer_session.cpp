@@ -62,7 +62,12 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   v->view_distance_m_ = rc.view_distance;
   lod::InterestConfig ic = options.interest;
   if (options.lod == LodScheme::kError) {
-    auto renderer = ErrorClipmapRenderer::create(*v->display_, options.error_clipmap);
+    // The look, the detail region and the view distance are the viewer's, whichever scheme draws.
+    ErrorClipmapConfig ec = options.error_clipmap;
+    ec.look = rc.look;
+    ec.detail_size = rc.detail_size;
+    ec.view_distance = rc.view_distance;
+    auto renderer = ErrorClipmapRenderer::create(*v->display_, ec);
     if (!renderer) return renderer.error();
     v->error_renderer_ = std::move(*renderer);
   } else {
@@ -117,10 +122,10 @@ Status ViewerSession::update(const scene::Camera& camera, std::chrono::milliseco
   LOAM_TRY(follow(camera));
   const std::vector<terrain::DisplayDirty> dirty = display_->sync(client_);
   for (const terrain::DisplayDirty& d : dirty) {
-    // The levels read the layer with mips (level l its mip l); the classic renderer's detail
-    // region the other (the error-driven clipmap draws no detail layer yet).
+    // The levels read the layer with mips (level l its mip l); the detail region the other.
     if (!layer_info(d.layer).has_mips) {
       if (renderer_) renderer_->invalidate_detail(d.rect);
+      if (error_renderer_) error_renderer_->invalidate_detail(d.rect);
     } else if (error_renderer_) {
       error_renderer_->invalidate(d.rect);
     } else {
@@ -159,6 +164,7 @@ FrameStats ViewerSession::render(const scene::Camera& camera, int32_t width, int
   f.draw_calls = e.draw_calls;
   f.pieces_culled = e.blocks_culled;
   f.texels_uploaded = e.texels_uploaded;
+  f.shadow_triangles = e.shadow_triangles;
   return f;
 }
 
@@ -171,13 +177,13 @@ RectI ViewerSession::level_region(int32_t l) const {
 }
 
 std::array<float, 2> ViewerSession::sun() const {
-  // The error-driven clipmap's shading has the classic renderer's default sun.
-  const RendererConfig c = renderer_ ? renderer_->config() : RendererConfig{};
+  const TerrainLookConfig& c = renderer_ ? renderer_->look() : error_renderer_->look();
   return {c.sun_azimuth_degrees, c.sun_elevation_degrees};
 }
 
 void ViewerSession::set_sun(float azimuth_degrees, float elevation_degrees) {
   if (renderer_) renderer_->set_sun(azimuth_degrees, elevation_degrees);
+  if (error_renderer_) error_renderer_->set_sun(azimuth_degrees, elevation_degrees);
 }
 
 Result<uint32_t> ViewerSession::deform(const QuantizedStamp& stamp) {

@@ -319,7 +319,7 @@ TEST(ViewerEndToEnd, TwoViewersAndABotConvergeOnTheServersHashesAndRenderTheSame
   // follows what it held when the ground changed (docs/rendering.md): the images compare the
   // terrain, its light and shadows, without materials.
   render::ViewerOptions oa = small_viewer("viewer-a"), ob = small_viewer("viewer-b");
-  oa.renderer.materials = ob.renderer.materials = false;
+  oa.renderer.look.materials = ob.renderer.look.materials = false;
   auto a = render::ViewerSession::connect("127.0.0.1", server.port(), oa, cam);
   ASSERT_TRUE(a.ok()) << a.error().describe();
   auto b = render::ViewerSession::connect("127.0.0.1", server.port(), ob, cam);

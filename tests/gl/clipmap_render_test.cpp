@@ -212,8 +212,8 @@ TEST(ClipmapRender, FarFromTheOriginTheSameTerrainRendersTheSameImage) {
   // Positions and heights are what this pins bit for bit. The shadow square and the material
   // textures' phases are computed in double from world positions, so far out they differ from
   // home in the last float bits (they stay within a texel: covered by the goldens).
-  cfg.materials = false;
-  cfg.shadows = false;
+  cfg.look.materials = false;
+  cfg.look.shadows = false;
   const int32_t levels =
       lod::levels_for_view_distance(cfg.n, home.params().meters_per_sample, cfg.view_distance);
   const int32_t kx = 153 << levels, ky = -(153 << levels);  // tiles

@@ -77,7 +77,7 @@ std::vector<double> drawn_heights(Renderer& r, const OffscreenTarget& t, const s
 }
 
 // Largest |drawn - replica| (m) over the samples, and the samples with nothing drawn (the
-// world's first row and column aside). `border_cells` > 0: samples on the borders of patches
+// world's outer rows and columns aside). `border_cells` > 0: samples on the borders of patches
 // that many cells wide are left out (with skirts two patches draw a border at two heights).
 template <typename Renderer>
 std::pair<double, int64_t> compare_with_replica(Renderer& r, const OffscreenTarget& t, const World& w,
@@ -105,8 +105,10 @@ std::pair<double, int64_t> compare_with_replica(Renderer& r, const OffscreenTarg
     for (int64_t x = 0; x < rect.width(); ++x) {
       const double d = drawn[size_t(y * rect.width() + x)];
       if (std::isnan(d)) {
-        // Row and column 0 lie exactly on the mesh's outer edge, which the fill rule may leave.
-        holes += x > 0 && y > 0;
+        // The world's first and last rows and columns lie exactly on the mesh's outer edge (the
+        // error-driven clipmap draws vertices past the world at its last sample), which the
+        // fill rule may leave.
+        holes += x > 0 && y > 0 && x + 1 < rect.width() && y + 1 < rect.height();
         continue;
       }
       if (border_cells > 0 && (x % border_cells == 0 || y % border_cells == 0)) continue;

@@ -1,13 +1,16 @@
 // Materials and light that follow deformation: a crater dug in the embedded terrain shows exposed
 // earth (the change layer against the undug terrain) and, under a low sun, the shadow of its
-// rim on its floor; moving the sun moves the shadow. Measured on the rendered pixels, plus
-// goldens of the crater with and without materials and shadows.
+// rim on its floor; moving the sun moves the shadow. Measured on the rendered pixels of both
+// renderers (the classic clipmap and the error-driven one share the look: terrain_look.h),
+// plus goldens of the crater with and without materials and shadows.
 #include <epoxy/gl.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "client/render/clipmap_renderer.h"
+#include "client/render/error_clipmap_renderer.h"
+#include "client/render/lod_scheme.h"
 #include "client/render/offscreen_target.h"
 #include "dem/default_terrain.h"
 #include "gl_test_context.h"
@@ -55,16 +58,30 @@ scene::Camera crater_view(const World& w) {
   return cam;
 }
 
+// `cfg`'s look, detail and view distance drawn by the scheme's renderer.
 std::vector<uint8_t> render(const terrain::HeightSource& source, const scene::Camera& cam,
-                            const RendererConfig& cfg) {
+                            const RendererConfig& cfg, LodScheme scheme = LodScheme::kClassic) {
   auto target = OffscreenTarget::create(kWidth, kHeight);
   EXPECT_TRUE(target.ok());
-  auto renderer = ClipmapRenderer::create(source, cfg);
-  EXPECT_TRUE(renderer.ok());
   target->begin(0.50f, 0.60f, 0.75f, 0.0f);
-  (*renderer)->render(cam, kWidth, kHeight);
+  if (scheme == LodScheme::kClassic) {
+    auto renderer = ClipmapRenderer::create(source, cfg);
+    EXPECT_TRUE(renderer.ok());
+    (*renderer)->render(cam, kWidth, kHeight);
+  } else {
+    ErrorClipmapConfig ec;
+    ec.look = cfg.look;
+    ec.detail_size = cfg.detail_size;
+    ec.view_distance = cfg.view_distance;
+    ec.region = 256;  // the crater's surroundings at every level, and a quarter of the error bounds to compute
+    auto renderer = ErrorClipmapRenderer::create(source, ec);
+    EXPECT_TRUE(renderer.ok()) << renderer.error().describe();
+    (*renderer)->render(cam, kWidth, kHeight);
+  }
   return target->read_rgba();
 }
+
+class MaterialsOf : public ::testing::TestWithParam<LodScheme> {};
 
 // Mean of a channel expression over the image's centre (the crater's floor and walls; `half`
 // pixels either way).
@@ -83,14 +100,16 @@ double centre_mean(const std::vector<uint8_t>& rgba, F f, int half = kHeight / 6
 
 double luminance(double r, double g, double b) { return 0.2126 * r + 0.7152 * g + 0.0722 * b; }
 
-TEST(Materials, DugGroundReadsAsEarthWhereTheTerrainChangedAgainstItsInitialState) {
+TEST_P(MaterialsOf, DugGroundReadsAsEarthWhereTheTerrainChangedAgainstItsInitialState) {
   LOAM_REQUIRE_GL();
+  const LodScheme scheme = GetParam();
   const Scene& s = scene();
   RendererConfig cfg;
-  cfg.shadows = false;
+  cfg.look.shadows = false;
   const scene::Camera cam = crater_view(s.dug);
   const terrain::WorldHeightSource knows_initial(s.dug, &s.plain), no_initial(s.dug);
-  const auto with_layer = render(knows_initial, cam, cfg), without = render(no_initial, cam, cfg);
+  const auto with_layer = render(knows_initial, cam, cfg, scheme),
+             without = render(no_initial, cam, cfg, scheme);
   // Earth is redder than the basin's sand and dry grass: red minus blue rises inside the crater.
   auto warmth = [](double r, double, double b) { return r - b; };
   const double dug = centre_mean(with_layer, warmth), plain = centre_mean(without, warmth);
@@ -98,38 +117,44 @@ TEST(Materials, DugGroundReadsAsEarthWhereTheTerrainChangedAgainstItsInitialStat
   // The same source on the undug terrain: nothing changed, nothing reads as dug.
   const terrain::WorldHeightSource undug(s.plain, &s.plain), undug_plain(s.plain);
   const scene::Camera plain_cam = crater_view(s.plain);
-  EXPECT_NEAR(centre_mean(render(undug, plain_cam, cfg), warmth),
-              centre_mean(render(undug_plain, plain_cam, cfg), warmth), 0.01);
+  EXPECT_NEAR(centre_mean(render(undug, plain_cam, cfg, scheme), warmth),
+              centre_mean(render(undug_plain, plain_cam, cfg, scheme), warmth), 0.01);
 }
 
-TEST(Materials, UnderALowSunTheCraterRimShadowsItsFloorAndTheShadowMovesWithTheSun) {
+TEST_P(MaterialsOf, UnderALowSunTheCraterRimShadowsItsFloorAndTheShadowMovesWithTheSun) {
   LOAM_REQUIRE_GL();
+  const LodScheme scheme = GetParam();
   const Scene& s = scene();
   RendererConfig shadowed;
-  shadowed.sun_elevation_degrees = 12;
-  shadowed.sun_azimuth_degrees = 90;  // from the east: the east rim shadows the floor
+  shadowed.look.sun_elevation_degrees = 12;
+  shadowed.look.sun_azimuth_degrees = 90;  // from the east: the east rim shadows the floor
   RendererConfig lit = shadowed;
-  lit.shadows = false;
+  lit.look.shadows = false;
   // How much the shadows darken the view's centre, on the dug and on the undug terrain.
   auto darkening = [&](const World& w, const World* initial, const RendererConfig& on,
                        const RendererConfig& off) {
     const terrain::WorldHeightSource source(w, initial);
     const scene::Camera cam = crater_view(w);
     // The crater's floor: the picture's centre, 16 pixels either way.
-    return centre_mean(render(source, cam, off), luminance, 16) -
-           centre_mean(render(source, cam, on), luminance, 16);
+    return centre_mean(render(source, cam, off, scheme), luminance, 16) -
+           centre_mean(render(source, cam, on, scheme), luminance, 16);
   };
   const double crater = darkening(s.dug, &s.plain, shadowed, lit);
   const double flat = darkening(s.plain, &s.plain, shadowed, lit);
-  std::printf("low sun: shadows darken the crater by %.2f, the undug ground by %.2f\n", crater, flat);
+  std::printf("%s: low sun: shadows darken the crater by %.2f, the undug ground by %.2f\n",
+              std::string(to_string(scheme)).c_str(), crater, flat);
   EXPECT_GT(crater, flat + 5.0) << "the rim's shadow on the floor";
   // A high sun leaves the floor lit: the shadow follows the sun.
   RendererConfig noon = shadowed, noon_lit = lit;
-  noon.sun_elevation_degrees = noon_lit.sun_elevation_degrees = 75;
+  noon.look.sun_elevation_degrees = noon_lit.look.sun_elevation_degrees = 75;
   const double at_noon = darkening(s.dug, &s.plain, noon, noon_lit);
   std::printf("high sun: shadows darken the crater by %.2f\n", at_noon);
   EXPECT_LT(at_noon, 0.25 * crater);
 }
+
+INSTANTIATE_TEST_SUITE_P(BothRenderers, MaterialsOf,
+                         ::testing::Values(LodScheme::kClassic, LodScheme::kError),
+                         [](const auto& p) { return std::string(to_string(p.param)); });
 
 TEST(MaterialsGolden, ADugCraterUnderALowSunWithAndWithoutMaterialsAndShadows) {
   LOAM_REQUIRE_GL();
@@ -138,12 +163,12 @@ TEST(MaterialsGolden, ADugCraterUnderALowSunWithAndWithoutMaterialsAndShadows) {
   const scene::Camera cam = crater_view(s.dug);
   const terrain::WorldHeightSource dug(s.dug, &s.plain);
   RendererConfig cfg;
-  cfg.sun_elevation_degrees = 14;
-  cfg.sun_azimuth_degrees = 90;
+  cfg.look.sun_elevation_degrees = 14;
+  cfg.look.sun_azimuth_degrees = 90;
   test::compare_with_golden("materials_dug_crater_low_sun", kWidth, kHeight, render(dug, cam, cfg));
   RendererConfig bare = cfg;
-  bare.materials = false;
-  bare.shadows = false;
+  bare.look.materials = false;
+  bare.look.shadows = false;
   test::compare_with_golden("materials_off_dug_crater_low_sun", kWidth, kHeight, render(dug, cam, bare));
 }
 
@@ -152,14 +177,14 @@ TEST(Materials, AnisotropyOutsideItsRangeIsRefused) {
   const terrain::WorldHeightSource source(scene().plain);
   for (float bad : {-1.0f, 0.5f, 16.5f, std::nanf(""), INFINITY}) {
     RendererConfig cfg;
-    cfg.anisotropy = bad;
+    cfg.look.anisotropy = bad;
     auto r = ClipmapRenderer::create(source, cfg);
     ASSERT_FALSE(r.ok()) << bad;
     EXPECT_EQ(r.error().code, ErrorCode::kInvalidArgument);
   }
   for (float good : {0.0f, 1.0f, 16.0f}) {
     RendererConfig cfg;
-    cfg.anisotropy = good;
+    cfg.look.anisotropy = good;
     EXPECT_TRUE(ClipmapRenderer::create(source, cfg).ok()) << good;
   }
 }
@@ -176,7 +201,7 @@ TEST(Materials, AutoAnisotropyIsTrilinearOnASoftwareRasterizerAndEightOnAGpu) {
   auto automatic = ClipmapRenderer::create(source, cfg);
   ASSERT_TRUE(automatic.ok());
   EXPECT_EQ((*automatic)->anisotropy(), software || !has_aniso ? 1.0f : 8.0f);
-  cfg.anisotropy = 4;
+  cfg.look.anisotropy = 4;
   auto explicit_four = ClipmapRenderer::create(source, cfg);
   ASSERT_TRUE(explicit_four.ok());
   EXPECT_EQ((*explicit_four)->anisotropy(), has_aniso ? 4.0f : 1.0f);

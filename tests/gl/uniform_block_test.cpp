@@ -9,6 +9,8 @@
 #include <vector>
 
 #include "client/render/clipmap_blocks.h"
+#include "client/render/error_clipmap_renderer.h"
+#include "client/render/terrain_look.h"
 #include "gl_test_context.h"
 #include "gpu/normal_pass.h"
 #include "gpu/shader_library.h"
@@ -17,8 +19,10 @@ namespace loam::gpu {
 namespace {
 
 GlProgram clipmap_program() {
-  const std::string_view vertex[] = {"clipmap_blocks.glsl", "clipmap.vert.glsl"};
-  const std::string_view fragment[] = {"clipmap_blocks.glsl", "clipmap.frag.glsl"};
+  const std::string_view vertex[] = {"clipmap_blocks.glsl", "terrain_shading_block.glsl",
+                                     "clipmap.vert.glsl"};
+  const std::string_view fragment[] = {"clipmap_blocks.glsl", "terrain_shading_block.glsl",
+                                       "terrain_shading.glsl", "clipmap.frag.glsl"};
   auto p = build_graphics_program_from(vertex, fragment);
   EXPECT_TRUE(p.ok()) << p.error().describe();
   return p.ok() ? std::move(*p) : GlProgram();
@@ -33,7 +37,27 @@ TEST(UniformBlock, TheClipmapBlocksMirrorTheirShaders) {
   EXPECT_TRUE(verify_uniform_block(p.get(), "ClipmapLevel", sizeof(render::ClipmapLevelBlock),
                                    render::kClipmapLevelMembers)
                   .ok());
+  EXPECT_TRUE(verify_uniform_block(p.get(), "TerrainShading", sizeof(render::TerrainShadingBlock),
+                                   render::kTerrainShadingMembers)
+                  .ok());
   EXPECT_TRUE(verify_no_loose_uniforms(p.get()).ok());
+}
+
+TEST(UniformBlock, TheErrorClipmapsBlocksMirrorTheirShaders) {
+  LOAM_REQUIRE_GL();
+  const std::string_view vertex[] = {"geomipmap_blocks.glsl", "error_clipmap_frame.glsl", "patch_morph.glsl",
+                                     "error_clipmap.vert.glsl"};
+  const std::string_view fragment[] = {"terrain_shading_block.glsl", "terrain_shading.glsl",
+                                       "error_clipmap.frag.glsl"};
+  auto p = build_graphics_program_from(vertex, fragment);
+  ASSERT_TRUE(p.ok()) << p.error().describe();
+  EXPECT_TRUE(verify_uniform_block(p->get(), "ErrorClipmapFrame", sizeof(render::ErrorClipmapFrameBlock),
+                                   render::kErrorClipmapFrameMembers)
+                  .ok());
+  EXPECT_TRUE(verify_uniform_block(p->get(), "TerrainShading", sizeof(render::TerrainShadingBlock),
+                                   render::kTerrainShadingMembers)
+                  .ok());
+  EXPECT_TRUE(verify_no_loose_uniforms(p->get()).ok());
 }
 
 TEST(UniformBlock, AMisspeltMemberAWrongOffsetOrAMissingMemberIsNamed) {

@@ -1,0 +1,7 @@
+// The error-driven clipmap's own per-frame block (after geomipmap_blocks.glsl's GeomipmapFrame),
+// mirrored by ErrorClipmapFrameBlock (client/render/error_clipmap_renderer.h).
+layout(std140, binding = 4) uniform ErrorClipmapFrame {
+  ivec2 e_anchor;   // the mip-0 sample (world-relative) v_sample counts from
+  float e_skirt_z;  // camera-relative height of the skirt's foot
+  int e_frame_pad0;
+};
