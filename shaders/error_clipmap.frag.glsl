@@ -1,5 +1,5 @@
-// Error-driven clipmap shading: the FD4 normal of the block's level (one layer of an RG16_SNORM
-// array texture per level, toroidal like the heights, filtered), blended toward the next
+// Error-driven clipmap shading: the FD4 normal of the block's level (its layer of an RG16_SNORM
+// array texture, laid out like the heights, filtered), blended toward the next
 // level's as far as the block morphs, and the level's change layer, shaded by
 // terrain_shading.glsl as the clipmap's levels are: the same materials, dug earth, sun, shadows,
 // detail normals and fog whatever the block's size.
@@ -8,7 +8,8 @@ in vec2 v_sample;
 in float v_height;
 in vec2 v_tex;         // level texel coordinates (unwrapped within the block)
 in vec2 v_tex_coarse;  // the same in the next level
-flat in int v_level;
+flat in int v_layer;
+flat in int v_layer_coarse;  // -1: no coarser level
 in float v_alpha;      // the block's morph toward the next level
 in float v_skirt;
 in float v_curv;
@@ -20,9 +21,9 @@ out vec4 o_color;
 
 void main() {
   vec3 size = vec3(textureSize(g_normals, 0));
-  vec2 nxy = texture(g_normals, vec3((v_tex + 0.5) / size.x, float(v_level))).rg;
-  if (v_alpha > 0.0 && float(v_level + 1) < size.z) {
-    vec2 coarse = texture(g_normals, vec3((v_tex_coarse + 0.5) / size.x, float(v_level + 1))).rg;
+  vec2 nxy = texture(g_normals, vec3((v_tex + 0.5) / size.x, float(v_layer))).rg;
+  if (v_alpha > 0.0 && v_layer_coarse >= 0) {
+    vec2 coarse = texture(g_normals, vec3((v_tex_coarse + 0.5) / size.x, float(v_layer_coarse))).rg;
     nxy = mix(nxy, coarse, v_alpha);
   }
   TerrainPoint p;
@@ -31,7 +32,7 @@ void main() {
   p.height_m = v_height;
   p.nxy = nxy;
   p.curv = v_curv;
-  p.change = t_change_on != 0 ? texture(g_change, vec3((v_tex + 0.5) / size.x, float(v_level))).r : 0.0;
+  p.change = t_change_on != 0 ? texture(g_change, vec3((v_tex + 0.5) / size.x, float(v_layer))).r : 0.0;
   p.skirt = v_skirt;
   p.morph = v_alpha;
   o_color = shade_terrain(p);

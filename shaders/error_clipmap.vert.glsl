@@ -3,7 +3,8 @@
 // height is fetched from the block's level, a layer of the R16UI array texture holding each
 // level's region toroidally (sample (x, y) at texel (x mod P, y mod P)), and geomorphed toward
 // the next level as a geomipmap patch is (patch_morph.glsl): a block is a patch at local level
-// 0 whose local level 1 is the next clipmap level.
+// 0 whose local level 1 is the next clipmap level. Levels that hold the whole world share
+// layers (e_levels: layer and offset per level).
 //
 // The world ends in an earth wall: vertices past its far edges are drawn at the edge (with the
 // edge's height, which the level repeats there), and a wall instance (a_block.w = side + 1)
@@ -21,25 +22,29 @@ out vec2 v_sample;      // mip-0 samples from the anchor
 out float v_height;     // meters above the height offset's zero
 out vec2 v_tex;         // the vertex's texel in its level's layer, unwrapped within the block
 out vec2 v_tex_coarse;  // its position in the next level's layer
-flat out int v_level;
+flat out int v_layer;         // the level's layer
+flat out int v_layer_coarse;  // the next level's (-1: none)
 out float v_alpha;
 out float v_skirt;      // 1 on vertices at the skirt's foot
 out float v_curv;       // the height's Laplacian at the level's spacing, 1/m (> 0: concave)
 
 // The level's sample q (world-relative level samples), clamped to the world's samples: past the
 // far edges the level repeats the edge, and nothing lies before the origin.
-float level_height(ivec2 q) {
-  int s = 1 << a_block.z;
-  q = clamp(q, ivec2(0), (g_grid.zw - 1) / s);
+// The block's level's sample q (world-relative level samples, never negative).
+float level_sample(ivec2 q) {
+  ivec4 at = e_levels[a_block.z];
   int torus = textureSize(g_levels, 0).x;
-  return float(texelFetch(g_levels, ivec3(q % torus, a_block.z), 0).r);
+  return float(texelFetch(g_levels, ivec3((q + at.yz) % torus, at.x), 0).r);
 }
 
-float patch_height(ivec2 local) {
-  int torus = textureSize(g_levels, 0).x;
-  ivec2 p = (a_block.xy + local) % torus;  // never negative: blocks start at the world's origin
-  return float(texelFetch(g_levels, ivec3(p, a_block.z), 0).r);
+// The same clamped to the world's samples: past the far edges the level repeats the edge, and
+// nothing lies before the origin.
+float level_height(ivec2 q) {
+  int s = 1 << a_block.z;
+  return level_sample(clamp(q, ivec2(0), (g_grid.zw - 1) / s));
 }
+
+float patch_height(ivec2 local) { return level_sample(a_block.xy + local); }
 
 void main() {
   int n = g_grid.x;
@@ -64,10 +69,17 @@ void main() {
   v_sample = vec2(inside - e_anchor);
   v_height = height * g_scale.y;
   int torus = textureSize(g_levels, 0).x;
+  ivec4 at = e_levels[a_block.z];
   // Block origins are multiples of the block's cells (even): exact halves in the next level.
-  v_tex = vec2(a_block.xy % torus) + off;
-  v_tex_coarse = vec2((a_block.xy / 2) % torus) + 0.5 * off;
-  v_level = a_block.z;
+  v_tex = vec2((a_block.xy + at.yz) % torus) + off;
+  v_layer = at.x;
+  v_layer_coarse = -1;
+  v_tex_coarse = v_tex;
+  if (a_block.z + 1 < e_level_count) {
+    ivec4 coarse = e_levels[a_block.z + 1];
+    v_tex_coarse = vec2((a_block.xy / 2 + coarse.yz) % torus) + 0.5 * off;
+    v_layer_coarse = coarse.x;
+  }
   v_alpha = a_misc.x;
   v_skirt = foot ? 1.0 : 0.0;
   float lap = level_height(q + ivec2(1, 0)) + level_height(q - ivec2(1, 0)) + level_height(q + ivec2(0, 1)) +

@@ -3,5 +3,9 @@
 layout(std140, binding = 4) uniform ErrorClipmapFrame {
   ivec2 e_anchor;   // the mip-0 sample (world-relative) v_sample counts from
   float e_skirt_z;  // camera-relative height of the skirt's foot
-  int e_frame_pad0;
+  int e_level_count;
+  // Per level: its layer of the level textures and the texel of its sample (0, 0) there (a
+  // level held whole shares a layer with others; a torus has its own, offset 0). Level sample q
+  // lives at texel (q + offset) mod P.
+  ivec4 e_levels[24];
 };

@@ -67,26 +67,47 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
   r->level_.resize(size_t(levels));
   r->regions_.resize(size_t(levels));
   r->drawable_.resize(size_t(levels));
+  // A level whose blocks need no more than a layer holds them whole, beside the other such
+  // levels in a shared layer (shelves left to right); the rest get a torus each. On the refined
+  // 131 km world at regions of 1024, levels 8..14 share one layer: 9 layers for 15 levels.
+  {
+    int64_t shelf_x = 0;
+    int32_t shelf = -1;
+    for (int32_t l = 0; l < levels; ++l) {
+      Level& level = r->level_[size_t(l)];
+      const std::array<int64_t, 2> e = r->level_extent(l);
+      if (e[0] > r->region_ || e[1] > r->region_) {
+        level.layer = r->layers_++;
+        continue;
+      }
+      if (shelf < 0 || shelf_x + e[0] > r->region_) shelf = r->layers_++, shelf_x = 0;
+      level.layer = shelf;
+      level.offset_x = shelf_x;
+      shelf_x += e[0];
+    }
+  }
+  const int32_t layers = r->layers_;
 
   r->levels_texture_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
-  glTextureStorage3D(r->levels_texture_.get(), 1, GL_R16UI, r->region_, r->region_, levels);
+  glTextureStorage3D(r->levels_texture_.get(), 1, GL_R16UI, r->region_, r->region_, layers);
   glTextureParameteri(r->levels_texture_.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTextureParameteri(r->levels_texture_.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   // FD4 normals per level, toroidal like the heights, filtered (GL_REPEAT joins the seams).
   r->normals_texture_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
   const GLuint normals = r->normals_texture_.get();
-  glTextureStorage3D(normals, 1, GL_RG16_SNORM, r->region_, r->region_, levels);
+  glTextureStorage3D(normals, 1, GL_RG16_SNORM, r->region_, r->region_, layers);
   glTextureParameteri(normals, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
   glTextureParameteri(normals, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   glTextureParameteri(normals, GL_TEXTURE_WRAP_S, GL_REPEAT);
   glTextureParameteri(normals, GL_TEXTURE_WRAP_T, GL_REPEAT);
-  // The shared normal pass reads and writes 2D textures: one view of each level's layers.
-  for (int32_t l = 0; l < levels; ++l) {
-    Level& level = r->level_[size_t(l)];
-    level.heights_view = layer_view(r->levels_texture_.get(), GL_R16UI, l);
-    glTextureParameteri(level.heights_view.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTextureParameteri(level.heights_view.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    level.normals_view = layer_view(normals, GL_RG16_SNORM, l);
+  // The shared normal pass reads and writes 2D textures: one view of each layer.
+  for (int32_t k = 0; k < layers; ++k) {
+    LayerViews v;
+    v.heights = layer_view(r->levels_texture_.get(), GL_R16UI, k);
+    glTextureParameteri(v.heights.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTextureParameteri(v.heights.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    v.normals = layer_view(normals, GL_RG16_SNORM, k);
+    r->layer_views_.push_back(std::move(v));
   }
   if (glGetError() != GL_NO_ERROR)
     return make_error(ErrorCode::kUnsupported, "error_clipmap.normals",
@@ -95,7 +116,7 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
     // The change layer the materials show dug earth by, toroidal like the heights, filtered.
     r->change_texture_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
     const GLuint change = r->change_texture_.get();
-    glTextureStorage3D(change, 1, GL_R16F, r->region_, r->region_, levels);
+    glTextureStorage3D(change, 1, GL_R16F, r->region_, r->region_, layers);
     glTextureParameteri(change, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
     glTextureParameteri(change, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
     glTextureParameteri(change, GL_TEXTURE_WRAP_S, GL_REPEAT);
@@ -238,6 +259,10 @@ std::vector<RectI> ErrorClipmapRenderer::regions_for(const scene::Camera& lod_ca
     auto place = [&](double eye, int64_t extent) {
       return std::clamp<int64_t>(int64_t(std::floor(eye / s)) - n / 2, 0, std::max<int64_t>(0, extent - n));
     };
+    if (e[0] <= n && e[1] <= n) {
+      out.push_back({0, 0, e[0], e[1]});  // whole (and maybe sharing a layer): exactly its blocks
+      continue;
+    }
     const int64_t rx = place(ex, e[0]), ry = place(ey, e[1]);
     out.push_back({rx, ry, rx + n, ry + n});
   }
@@ -253,9 +278,11 @@ int64_t ErrorClipmapRenderer::upload(int32_t l, const RectI& rect) {
   scratch_.resize(size_t(rect.area()));
   read_level(l, rect, scratch_);
   glPixelStorei(GL_UNPACK_ROW_LENGTH, GLint(rect.width()));
-  const int64_t texels = for_each_torus_piece(rect, n, [&](const RectI& piece, int64_t tx, int64_t ty) {
-    const uint16_t* data = scratch_.data() + (piece.y0 - rect.y0) * rect.width() + (piece.x0 - rect.x0);
-    glTextureSubImage3D(levels_texture_.get(), 0, GLint(tx), GLint(ty), l, GLsizei(piece.width()),
+  const RectI t = shifted(l, rect);
+  const GLint layer = level_[size_t(l)].layer;
+  const int64_t texels = for_each_torus_piece(t, n, [&](const RectI& piece, int64_t tx, int64_t ty) {
+    const uint16_t* data = scratch_.data() + (piece.y0 - t.y0) * rect.width() + (piece.x0 - t.x0);
+    glTextureSubImage3D(levels_texture_.get(), 0, GLint(tx), GLint(ty), layer, GLsizei(piece.width()),
                         GLsizei(piece.height()), 1, GL_RED_INTEGER, GL_UNSIGNED_SHORT, data);
   });
   if (change_texture_) {
@@ -275,14 +302,19 @@ int64_t ErrorClipmapRenderer::upload(int32_t l, const RectI& rect) {
                       change_scratch_.begin() + (y - rect.y0) * rect.width() + (inside.x0 - rect.x0));
       }
     }
-    for_each_torus_piece(rect, n, [&](const RectI& piece, int64_t tx, int64_t ty) {
-      const float* data = change_scratch_.data() + (piece.y0 - rect.y0) * rect.width() + (piece.x0 - rect.x0);
-      glTextureSubImage3D(change_texture_.get(), 0, GLint(tx), GLint(ty), l, GLsizei(piece.width()),
+    for_each_torus_piece(t, n, [&](const RectI& piece, int64_t tx, int64_t ty) {
+      const float* data = change_scratch_.data() + (piece.y0 - t.y0) * rect.width() + (piece.x0 - t.x0);
+      glTextureSubImage3D(change_texture_.get(), 0, GLint(tx), GLint(ty), layer, GLsizei(piece.width()),
                           GLsizei(piece.height()), 1, GL_RED, GL_FLOAT, data);
     });
   }
   glPixelStorei(GL_UNPACK_ROW_LENGTH, 0);
   return texels;
+}
+
+RectI ErrorClipmapRenderer::shifted(int32_t l, const RectI& r) const {
+  const Level& level = level_[size_t(l)];
+  return {r.x0 + level.offset_x, r.y0 + level.offset_y, r.x1 + level.offset_x, r.y1 + level.offset_y};
 }
 
 RectI ErrorClipmapRenderer::drawable(int32_t l) const {
@@ -302,9 +334,11 @@ void ErrorClipmapRenderer::update_normals(int32_t l, const RectI& changed) {
   if (r.empty()) return;
   const int64_t s = int64_t(1) << l;
   const RectI world{0, 0, (world_.width() - 1) / s + 1, (world_.height() - 1) / s + 1};
-  const Level& level = level_[size_t(l)];
-  normal_pass_->update(level.heights_view.get(), level.normals_view.get(), region_, regions_[size_t(l)], r,
-                       world, source_->params(), scale_.meters_per_sample * double(s));
+  // In texel coordinates: a level sharing a layer computes where it lies in it.
+  const LayerViews& v = layer_views_[size_t(level_[size_t(l)].layer)];
+  normal_pass_->update(v.heights.get(), v.normals.get(), region_, shifted(l, regions_[size_t(l)]),
+                       shifted(l, r), shifted(l, world), source_->params(),
+                       scale_.meters_per_sample * double(s));
 }
 
 std::vector<uint32_t> ErrorClipmapRenderer::read_level_normals(int32_t l, const RectI& rect) const {
@@ -313,13 +347,14 @@ std::vector<uint32_t> ErrorClipmapRenderer::read_level_normals(int32_t l, const 
   const int64_t n = region_;
   std::vector<int16_t> layer(size_t(n * n * 2));
   glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  glGetTextureSubImage(normals_texture_.get(), 0, 0, 0, l, GLsizei(n), GLsizei(n), 1, GL_RG, GL_SHORT,
-                       GLsizei(layer.size() * sizeof(int16_t)), layer.data());
+  const Level& level = level_[size_t(l)];
+  glGetTextureSubImage(normals_texture_.get(), 0, 0, 0, level.layer, GLsizei(n), GLsizei(n), 1, GL_RG,
+                       GL_SHORT, GLsizei(layer.size() * sizeof(int16_t)), layer.data());
   std::vector<uint32_t> out;
   out.reserve(size_t(rect.area()));
   for (int64_t y = rect.y0; y < rect.y1; ++y) {
     for (int64_t x = rect.x0; x < rect.x1; ++x) {
-      const size_t i = size_t(floor_mod(y, n) * n + floor_mod(x, n)) * 2;
+      const size_t i = size_t(floor_mod(y + level.offset_y, n) * n + floor_mod(x + level.offset_x, n)) * 2;
       out.push_back(uint32_t(uint16_t(layer[i])) | (uint32_t(uint16_t(layer[i + 1])) << 16));
     }
   }
@@ -360,7 +395,10 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
     Level& level = level_[size_t(l)];
     std::optional<std::array<int64_t, 2>> old;
     if (level.valid) old = std::array<int64_t, 2>{level.region_x, level.region_y};
-    const std::vector<RectI> strips = lod::toroidal_strips(old, {rx, ry}, n);
+    // The first placement fills the region (a whole level: exactly its blocks' samples); then
+    // a torus takes the strips that came in.
+    const std::vector<RectI> strips =
+        old ? lod::toroidal_strips(old, {rx, ry}, n) : std::vector<RectI>{placed[size_t(l)]};
     for (const RectI& strip : strips) stats.texels_uploaded += upload(l, strip);
     level.valid = true;
     level.region_x = rx, level.region_y = ry;
@@ -522,6 +560,12 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const scene::Camera& camera, i
   ErrorClipmapFrameBlock e{};
   e.anchor[0] = int32_t(ax), e.anchor[1] = int32_t(ay);
   e.skirt_z = float(scale_.height_offset + min_height_m_ - kSkirtDepthM - camera.z);
+  e.level_count = grid_.levels;
+  for (int32_t l = 0; l < grid_.levels; ++l) {
+    const Level& level = level_[size_t(l)];
+    e.levels[l][0] = level.layer, e.levels[l][1] = int32_t(level.offset_x),
+    e.levels[l][2] = int32_t(level.offset_y);
+  }
   error_block_->write(0, e);
   TerrainShadingBlock shading =
       look_->frame(p, world_.x0 + ax, world_.y0 + ay, min_height_m_, max_height_m_, config_.view_distance);
@@ -602,9 +646,9 @@ void ErrorClipmapRenderer::invalidate_detail(const RectI& detail_rect) {
 }
 
 size_t ErrorClipmapRenderer::gpu_bytes() const {
-  // R16UI heights, RG16_SNORM normals and R16F change per level.
+  // R16UI heights, RG16_SNORM normals and R16F change per layer.
   const size_t per_texel = 2 + 4 + (change_texture_ ? 2 : 0);
-  return size_t(region_) * size_t(region_) * size_t(grid_.levels) * per_texel + indices_->bytes() +
+  return size_t(region_) * size_t(region_) * size_t(layers_) * per_texel + indices_->bytes() +
          instances_->bytes() + (detail_ ? detail_->gpu_bytes() : 0) + look_->gpu_bytes() +
          frame_block_->bytes() + error_block_->bytes();
 }

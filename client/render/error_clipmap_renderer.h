@@ -1,8 +1,9 @@
 // The error-driven clipmap renderer: the clipmap's level regions (mip l around the camera in a
 // torus of P x P samples, one layer of an R16UI array texture per level, brought to the camera
 // by toroidal strips as the clipmap renderer does; P is the configured region or less when the
-// world's blocks need less, and a region stays inside the world) drawn as the blocks client/lod/
-// error_clipmap.h selects for a screen-space error budget, instead of rings at fixed
+// world's blocks need less, and a region stays inside the world; levels whose blocks fit in
+// less than a layer are held whole, side by side in a shared layer) drawn as the blocks
+// client/lod/error_clipmap.h selects for a screen-space error budget, instead of rings at fixed
 // distances. GPU memory is set by P and the level count, never by the world's size; the CPU
 // keeps the error bounds of the blocks inside the regions (8 bytes a block, computed as the
 // regions move) and no heights: a 131 km world costs what a 4 km one does.
@@ -62,14 +63,17 @@ struct ErrorClipmapConfig {
 struct ErrorClipmapFrameBlock {
   int32_t anchor[2];  // the mip-0 sample (world-relative) positions count from
   float skirt_z;      // camera-relative height of the skirt's foot
-  int32_t pad0;
+  int32_t level_count;
+  int32_t levels[lod::kMaxClipmapLevels][4];  // per level: its layer, texel offset x, y, -
 };
-static_assert(sizeof(ErrorClipmapFrameBlock) == 16);
+static_assert(offsetof(ErrorClipmapFrameBlock, levels) == 16);
+static_assert(sizeof(ErrorClipmapFrameBlock) == 16 + 16 * lod::kMaxClipmapLevels);
 
 inline constexpr std::array kErrorClipmapFrameMembers = {
     LOAM_UNIFORM_MEMBER(ErrorClipmapFrameBlock, anchor, "e_anchor"),
     LOAM_UNIFORM_MEMBER(ErrorClipmapFrameBlock, skirt_z, "e_skirt_z"),
-    LOAM_UNIFORM_MEMBER(ErrorClipmapFrameBlock, pad0, "e_frame_pad0"),
+    LOAM_UNIFORM_MEMBER(ErrorClipmapFrameBlock, level_count, "e_level_count"),
+    LOAM_UNIFORM_MEMBER(ErrorClipmapFrameBlock, levels, "e_levels[0]"),
 };
 
 struct ErrorClipmapFrameStats {
@@ -134,6 +138,9 @@ class ErrorClipmapRenderer {
   int32_t levels() const { return grid_.levels; }
   // Level samples held per side (the torus).
   int32_t region_size() const { return region_; }
+  // Layers of the level textures: a level per layer, but levels that hold the whole world in
+  // less than a layer share one (packed side by side).
+  int32_t layers() const { return layers_; }
   // Level l's FD4 normals over `rect` (level samples inside its drawn part), packed like
   // protocol/normal_map.h (tests).
   std::vector<uint32_t> read_level_normals(int32_t l, const RectI& rect) const;
@@ -146,8 +153,15 @@ class ErrorClipmapRenderer {
  private:
   struct Level {
     bool valid = false;
-    int64_t region_x = 0, region_y = 0;         // low corner of the region (level samples)
-    gpu::GlTexture heights_view, normals_view;  // 2D views of the level's layers
+    int64_t region_x = 0, region_y = 0;  // low corner of the region (level samples)
+    // Where the level lives: its layer, and the texel of its sample (0, 0) there (a level held
+    // whole beside others in a shared layer; 0 for a torus of its own). Level sample q is at
+    // texel (q + offset) mod P.
+    int32_t layer = 0;
+    int64_t offset_x = 0, offset_y = 0;
+  };
+  struct LayerViews {
+    gpu::GlTexture heights, normals;  // 2D views of one layer (the normal pass reads and writes 2D)
   };
   ErrorClipmapRenderer() = default;
   int64_t upload(int32_t l, const RectI& rect);
@@ -168,6 +182,8 @@ class ErrorClipmapRenderer {
   // Level l's samples that blocks may use: its region less the 4-sample rim, on the sides where
   // the world goes on, whose normals the region cannot compute.
   RectI drawable(int32_t l) const;
+  // `r` (level l's samples) moved to its texel coordinates (before the torus's wrap).
+  RectI shifted(int32_t l, const RectI& r) const;
   void update_normals(int32_t l, const RectI& changed);
   lod::LodView lod_view(const scene::Camera& camera, int32_t viewport_height) const;
   // Level l's world-relative `local` in the global grid, clipped to the world.
@@ -184,13 +200,15 @@ class ErrorClipmapRenderer {
   lod::ClipmapErrorPyramid errors_;
   lod::ErrorClipmapSelection selection_;
   std::vector<Level> level_;
+  std::vector<LayerViews> layer_views_;
+  int32_t layers_ = 0;
   std::vector<RectI> regions_;
   std::vector<RectI> drawable_;  // per level, drawable()
   int32_t region_ = 0;           // the torus: level samples held per side
   double min_height_m_ = 0, max_height_m_ = 0;
   std::vector<uint16_t> scratch_;
 
-  gpu::GlTexture levels_texture_;   // R16UI, region x region x levels
+  gpu::GlTexture levels_texture_;   // R16UI, region x region x layers
   gpu::GlTexture normals_texture_;  // RG16_SNORM, the same: FD4 normals as the clipmap renderer's
   gpu::GlTexture change_texture_;   // R16F, the same: meters against the initial terrain (materials)
   bool change_known_ = false;       // the source answered read_change at least once

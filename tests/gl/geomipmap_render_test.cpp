@@ -288,7 +288,8 @@ TEST(ErrorClipmapRender, TheDrawnSurfaceIsTheReplicasAtEverySampleBeforeAndAfter
 
 // Every level's normals, where blocks may be drawn, are the world's FD4 normal map at that
 // level's spacing bit for bit: after the first placement, after the regions slide (strips and
-// the rims that became drawable), and after a stamp.
+// the rims that became drawable), and after a stamp; for the tori and for the levels held
+// whole side by side in a shared layer alike.
 TEST(ErrorClipmapRender, LevelNormalsAreTheWorldsNormalMapAfterSlidesAndAStamp) {
   LOAM_REQUIRE_GL();
   World w = ridges();
@@ -299,6 +300,8 @@ TEST(ErrorClipmapRender, LevelNormalsAreTheWorldsNormalMapAfterSlidesAndAStamp) 
   cfg.levels = 4;
   auto r = ErrorClipmapRenderer::create(source, cfg);
   ASSERT_TRUE(r.ok()) << r.error().describe();
+  // Levels 0 and 1 (257 and 129 samples a side) are tori of 128; 2 and 3 (65 and 33) share one.
+  EXPECT_EQ((*r)->layers(), 3);
   const RectI world = w.params().sample_rect();
   auto check = [&](const char* when) {
     for (int32_t l = 0; l < (*r)->levels(); ++l) {
