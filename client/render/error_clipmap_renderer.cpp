@@ -75,7 +75,7 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
     int32_t shelf = -1;
     for (int32_t l = 0; l < levels; ++l) {
       Level& level = r->level_[size_t(l)];
-      const std::array<int64_t, 2> e = r->level_extent(l);
+      const std::array<int64_t, 2> e = r->hierarchy_extent(l);
       if (e[0] > r->region_ || e[1] > r->region_) {
         level.layer = r->layers_++;
         continue;
@@ -255,18 +255,24 @@ std::vector<RectI> ErrorClipmapRenderer::regions_for(const scene::Camera& lod_ca
     const double s = double(int64_t(1) << l) * mps;
     // Centred on the camera, but inside what the level's blocks need: nothing is held outside
     // the world, and a level whose blocks fit is held whole.
-    const std::array<int64_t, 2> e = level_extent(l);
+    const std::array<int64_t, 2> e = level_extent(l), h = hierarchy_extent(l);
     auto place = [&](double eye, int64_t extent) {
       return std::clamp<int64_t>(int64_t(std::floor(eye / s)) - n / 2, 0, std::max<int64_t>(0, extent - n));
     };
-    if (e[0] <= n && e[1] <= n) {
-      out.push_back({0, 0, e[0], e[1]});  // whole (and maybe sharing a layer): exactly its blocks
+    if (h[0] <= n && h[1] <= n) {
+      out.push_back({0, 0, h[0], h[1]});  // whole (and maybe sharing a layer): what the hierarchy reads
       continue;
     }
     const int64_t rx = place(ex, e[0]), ry = place(ey, e[1]);
     out.push_back({rx, ry, rx + n, ry + n});
   }
   return out;
+}
+
+std::array<int64_t, 2> ErrorClipmapRenderer::hierarchy_extent(int32_t l) const {
+  const int32_t top = grid_.levels - 1;
+  return {(int64_t(grid_.blocks_x(top)) << (top - l)) * grid_.cells() + 1,
+          (int64_t(grid_.blocks_y(top)) << (top - l)) * grid_.cells() + 1};
 }
 
 std::array<int64_t, 2> ErrorClipmapRenderer::level_extent(int32_t l) const {

@@ -190,6 +190,10 @@ class ErrorClipmapRenderer {
   RectI to_global(int32_t l, const RectI& local) const;
   // Level samples level l's blocks reach, per axis: [0, extent).
   std::array<int64_t, 2> level_extent(int32_t l) const;
+  // Level samples the selection's hierarchy may ask of level l: its share of the roots' blocks
+  // (a root's children reach past the level's last block where the level count halves an odd
+  // count). A level held whole holds these.
+  std::array<int64_t, 2> hierarchy_extent(int32_t l) const;
 
   const terrain::HeightSource* source_ = nullptr;
   ErrorClipmapConfig config_;

@@ -329,5 +329,59 @@ TEST(ErrorClipmapRender, LevelNormalsAreTheWorldsNormalMapAfterSlidesAndAStamp) 
   (*r)->invalidate(crater);
   check("stamped");
 }
+// Where every level's region holds all the world, no split the budget asks for is held back and
+// the renderer's windowed error bounds choose exactly what the whole-world pyramid does: in a
+// world whose block counts halve to an odd number (768 samples across: 3 blocks at level 5, 2
+// roots at 6), the roots' children reach past the last blocks, and a level held whole holds
+// them too.
+TEST(ErrorClipmapRender, WithRegionsHoldingTheWorldTheSelectionIsTheWholeWorldPyramids) {
+  LOAM_REQUIRE_GL();
+  WorldParams p;
+  p.tiles_x = 3;
+  p.tiles_y = 1;
+  p.meters_per_sample = 2.0;
+  p.meters_per_unit = 0.05;
+  const RectI wr = p.sample_rect();
+  std::vector<uint16_t> samples(size_t(wr.area()));
+  for (int64_t y = 0; y < wr.height(); ++y)
+    for (int64_t x = 0; x < wr.width(); ++x)
+      samples[size_t(y * wr.width() + x)] =
+          uint16_t(20000 + 3000 * std::sin(double(x) * 0.031) * std::cos(double(y) * 0.047) +
+                   double((x * 7 + y * 13) % 23));
+  World w = std::move(World::from_samples(p, samples).value());
+  w.commit(0);
+  terrain::WorldHeightSource source(w);
+  ErrorClipmapConfig cfg;
+  cfg.levels = 7;
+  cfg.cull = false;
+  cfg.look.materials = cfg.look.shadows = false;
+  auto r = ErrorClipmapRenderer::create(source, cfg);
+  ASSERT_TRUE(r.ok()) << r.error().describe();
+  const lod::ClipmapBlockGrid& g = (*r)->grid();
+  ASSERT_EQ(g.blocks_x(5), 3);
+  ASSERT_EQ(g.blocks_x(6), 2);
+  const auto full = lod::ClipmapErrorPyramid::compute(
+      g, [&](int32_t l, const RectI& rect, std::span<uint16_t> out) { (*r)->read_level(l, rect, out); },
+      cfg.exact_levels);
+  for (const scene::Camera& cam :
+       {perspective_at(-100, -100, 900, 700, 300), perspective_at(1300, 200, 1000, 100, 400)}) {
+    (*r)->select(cam, 256, 256);
+    std::vector<RectI> regions;
+    for (int32_t l = 0; l < g.levels; ++l) regions.push_back((*r)->region(l));
+    lod::LodView view;
+    view.x = cam.x, view.y = cam.y, view.z = cam.z;
+    view.pixels_per_radian = lod::pixels_per_radian(256, cam.fov_y_degrees);
+    view.tolerance_px = cfg.tolerance_px;
+    const lod::ErrorClipmapSelection want = lod::select_error_clipmap(
+        g, full, {p.meters_per_sample, p.meters_per_unit, p.height_offset}, view, regions, cfg.morph);
+    const lod::ErrorClipmapSelection& got = (*r)->selection();
+    // The regions hold the world: no split the budget asks for is held back for want of one.
+    EXPECT_EQ(got.stats.held_back, 0);
+    ASSERT_EQ(got.blocks.size(), want.blocks.size());
+    for (size_t i = 0; i < got.blocks.size(); ++i) ASSERT_EQ(got.blocks[i].id, want.blocks[i].id) << i;
+    std::printf("%zu blocks (%lld splits held back), %d layers for %d levels\n", got.blocks.size(),
+                static_cast<long long>(got.stats.held_back), (*r)->layers(), (*r)->levels());
+  }
+}
 }  // namespace
 }  // namespace loam::render
