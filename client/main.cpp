@@ -148,6 +148,16 @@ int main(int argc, char** argv) {
                                                    {"classic", render::LodScheme::kClassic}},
           CLI::ignore_case));
   view_cmd
+      ->add_option("--stamping", vo.stamping,
+                   "Where the display stamps events and own stamps: gpu (the GPU tile cache), cpu, or auto "
+                   "(the CPU on a software rasterizer, where it is measured faster; else the GPU)")
+      ->capture_default_str()
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, render::DisplayStamping>{{"gpu", render::DisplayStamping::kGpu},
+                                                         {"cpu", render::DisplayStamping::kCpu},
+                                                         {"auto", render::DisplayStamping::kAuto}},
+          CLI::ignore_case));
+  view_cmd
       ->add_option("--lod-tolerance", vo.error_clipmap.tolerance_px,
                    "Error-driven clipmap: the screen-space error budget (pixels)")
       ->capture_default_str()

@@ -11,6 +11,22 @@
 
 namespace loam::render {
 
+RendererConfig viewer_renderer_config(const ViewerOptions& options, const WorldParams& world) {
+  RendererConfig rc = options.renderer;
+  if (!(rc.view_distance > 0))
+    rc.view_distance = scene::view_scale(world).view_distance_m;  // auto: the world's
+  return rc;
+}
+
+ErrorClipmapConfig viewer_error_clipmap_config(const ViewerOptions& options, const WorldParams& world) {
+  const RendererConfig rc = viewer_renderer_config(options, world);
+  ErrorClipmapConfig ec = options.error_clipmap;
+  ec.look = rc.look;
+  ec.detail_size = rc.detail_size;
+  ec.view_distance = rc.view_distance;
+  return ec;
+}
+
 Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string& host, uint16_t port,
                                                               const ViewerOptions& options,
                                                               std::optional<scene::Camera> initial) {
@@ -46,9 +62,10 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
         ErrorCode::kIo, "viewer.connect",
         "the coarsest mip did not arrive within " + std::to_string(options.connect_timeout.count()) + " ms");
   }
+  v->stamping_ = resolve_stamping(options.stamping, reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
   auto display = terrain::DisplayTerrain::create(
       v->client_.store(),
-      options.stamping == DisplayStamping::kGpu ? gpu_display_stamper() : terrain::DisplayStamperFactory{},
+      v->stamping_ == DisplayStamping::kGpu ? gpu_display_stamper() : terrain::DisplayStamperFactory{},
       &v->client_.textures());
   if (!display) return display.error();
   v->display_ = std::move(*display);
@@ -56,18 +73,11 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   (void)v->display_->sync(v->client_);                      // takes in the coarsest tiles
   v->snapshots_ = std::make_unique<query::SnapshotBuilder>(world);
   v->refresh_terrain({});
-  RendererConfig rc = options.renderer;
-  if (!(rc.view_distance > 0))
-    rc.view_distance = scene::view_scale(world).view_distance_m;  // auto: the world's
+  const RendererConfig rc = viewer_renderer_config(options, world);
   v->view_distance_m_ = rc.view_distance;
   lod::InterestConfig ic = options.interest;
   if (options.lod == LodScheme::kError) {
-    // The look, the detail region and the view distance are the viewer's, whichever scheme draws.
-    ErrorClipmapConfig ec = options.error_clipmap;
-    ec.look = rc.look;
-    ec.detail_size = rc.detail_size;
-    ec.view_distance = rc.view_distance;
-    auto renderer = ErrorClipmapRenderer::create(*v->display_, ec);
+    auto renderer = ErrorClipmapRenderer::create(*v->display_, viewer_error_clipmap_config(options, world));
     if (!renderer) return renderer.error();
     v->error_renderer_ = std::move(*renderer);
   } else {

@@ -15,15 +15,13 @@
 #include "client/net/terrain_client.h"
 #include "client/query/snapshot_builder.h"
 #include "client/render/clipmap_renderer.h"
+#include "client/render/display_stamping.h"
 #include "client/render/error_clipmap_renderer.h"
 #include "client/render/lod_scheme.h"
 #include "client/terrain/display_terrain.h"
 #include "protocol/result.h"
 
 namespace loam::render {
-
-// Where the display stamps: on the GPU tile cache (display_gpu_stamper.h), or on the CPU alone.
-enum class DisplayStamping { kGpu, kCpu };
 
 struct ViewerOptions {
   LodScheme lod = LodScheme::kClassic;
@@ -37,6 +35,13 @@ struct ViewerOptions {
   transport::TlsClientOptions tls;
   std::chrono::milliseconds connect_timeout{10000};
 };
+
+// What a viewer with `options` draws `world` with: the classic clipmap's configuration (its
+// view distance resolved: 0 takes the world's, start_view.h) and the error-driven clipmap's
+// (the look, the detail region and the view distance are the viewer's whichever scheme draws).
+// The `lod` suite's viewer rows are made from the same.
+RendererConfig viewer_renderer_config(const ViewerOptions& options, const WorldParams& world);
+ErrorClipmapConfig viewer_error_clipmap_config(const ViewerOptions& options, const WorldParams& world);
 
 struct ViewerStats {
   uint64_t tiles_subscribed = 0, tiles_held = 0;
@@ -91,6 +96,8 @@ class ViewerSession {
   client::TerrainClient& client() { return client_; }
   terrain::DisplayTerrain& display() { return *display_; }
   LodScheme lod() const { return error_renderer_ ? LodScheme::kError : LodScheme::kClassic; }
+  // Where the display stamps (kAuto resolved).
+  DisplayStamping stamping() const { return stamping_; }
   // The classic clipmap renderer; null when the error-driven clipmap draws.
   ClipmapRenderer* classic() { return renderer_.get(); }
   // The error-driven clipmap renderer; null when the classic clipmap draws.
@@ -120,6 +127,7 @@ class ViewerSession {
   std::unique_ptr<ClipmapRenderer> renderer_;
   std::unique_ptr<ErrorClipmapRenderer> error_renderer_;
   double view_distance_m_ = 0;
+  DisplayStamping stamping_ = DisplayStamping::kGpu;
   std::unique_ptr<lod::ClipmapInterest> interest_;
   std::unique_ptr<query::SnapshotBuilder> snapshots_;
   std::shared_ptr<const query::TerrainSnapshot> terrain_;

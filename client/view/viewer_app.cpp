@@ -120,6 +120,7 @@ render::ViewerOptions session_options(const ViewerAppOptions& o) {
   vo.lod = o.lod;
   vo.renderer = o.renderer;
   vo.error_clipmap = o.error_clipmap;
+  vo.stamping = o.stamping;
   vo.name = o.name;
   vo.token = o.token;
   vo.tls = o.tls;
@@ -145,9 +146,11 @@ int run_headless(const ViewerAppOptions& o) {
     std::fprintf(stderr, "loam-client view: %s\n", target.error().describe().c_str());
     return 1;
   }
-  std::printf("viewer (headless): %s, %dx%d, %s clipmap, %d levels, joined as client %u\n",
-              ctx->renderer().c_str(), o.width, o.height, render::to_string(s.lod()), s.levels(),
-              s.client().welcome().client_id);
+  std::printf(
+      "viewer (headless): %s, %dx%d, %s clipmap, %d levels, %s stamping (--stamping %s), joined as "
+      "client %u\n",
+      ctx->renderer().c_str(), o.width, o.height, render::to_string(s.lod()), s.levels(),
+      render::to_string(s.stamping()), render::to_string(o.stamping), s.client().welcome().client_id);
   // The start view: an orbit around the world's centre sized for the world (on a world of tens
   // of kilometres, a low orbit of 1.5 km: what a player sees, not the whole world from afar).
   const scene::ViewScale scale = scene::view_scale(s.client().welcome().world);
@@ -301,11 +304,11 @@ int run_window(const ViewerAppOptions& o) {
   tool.select(controls::Tool::kCrater);
   scale_tool(tool, scale);
   std::printf(
-      "viewer (window): %s, %dx%d, %s clipmap, %d levels, joined as client %u; camera at %.0f, %.0f, %.0f m, "
-      "speed %.0f m/s, stamp radius %.1f m (%.1f .. %.0f)\n",
+      "viewer (window): %s, %dx%d, %s clipmap, %d levels, %s stamping (--stamping %s), joined as client %u; "
+      "camera at %.0f, %.0f, %.0f m, speed %.0f m/s, stamp radius %.1f m (%.1f .. %.0f)\n",
       window->renderer().c_str(), o.width, o.height, render::to_string(s.lod()), s.levels(),
-      s.client().welcome().client_id, fly.x(), fly.y(), fly.z(), fly.speed(), tool.radius_m,
-      tool.min_radius_m, tool.max_radius_m);
+      render::to_string(s.stamping()), render::to_string(o.stamping), s.client().welcome().client_id, fly.x(),
+      fly.y(), fly.z(), fly.speed(), tool.radius_m, tool.min_radius_m, tool.max_radius_m);
   terrain::TileStates tiles;
   StampPreviews previews;
   double next_tiles = 0;

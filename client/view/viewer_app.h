@@ -11,6 +11,7 @@
 #include <string>
 
 #include "client/render/clipmap_renderer.h"
+#include "client/render/display_stamping.h"
 #include "client/render/error_clipmap_renderer.h"
 #include "client/render/lod_scheme.h"
 #include "protocol/wire/messages.h"
@@ -27,6 +28,7 @@ struct ViewerAppOptions {
   render::LodScheme lod = render::LodScheme::kClassic;
   render::RendererConfig renderer;           // the classic clipmap's, and the view distance
   render::ErrorClipmapConfig error_clipmap;  // the error-driven clipmap's
+  render::DisplayStamping stamping = render::DisplayStamping::kAuto;
   int32_t width = 1280, height = 720;
   bool headless = false;                  // EGL + offscreen instead of a window
   double seconds = 0;                     // stop after this long (0: until the window closes; headless: 30)
