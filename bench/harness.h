@@ -84,6 +84,9 @@ struct Plot {
 class Report {
  public:
   explicit Report(std::string suite) : suite_(std::move(suite)) {}
+  // Writes under another name (a partial run must not replace the suite's full report).
+  void rename(std::string name) { suite_ = std::move(name); }
+  const std::string& name() const { return suite_; }
   void paragraph(std::string text) { blocks_.push_back({Block::kText, text, 0}); }
   void table(Table t);
   void plot(Plot p);

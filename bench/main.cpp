@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
       const bool written = report.write(ctx);
       const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::printf("== %s: %s in %.1f s -> %s/%s.md\n", s.name, rc == 0 && written ? "ok" : "FAILED", secs,
-                  ctx.out_dir.c_str(), s.name);
+                  ctx.out_dir.c_str(), report.name().c_str());
       failures += (rc != 0 || !written);
     }
   }

@@ -21,6 +21,7 @@
 // frame; and the update after a stamp.
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -29,6 +30,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "bench/harness.h"
@@ -38,6 +40,7 @@
 #include "client/render/clipmap_renderer.h"
 #include "client/render/error_clipmap_renderer.h"
 #include "client/render/offscreen_target.h"
+#include "client/render/viewer_session.h"
 #include "dem/default_terrain.h"
 #include "dem/dem_import.h"
 #include "gpu/egl_context.h"
@@ -285,6 +288,9 @@ std::vector<Setting> settings(bool quick) {
                    quadtree(b, 8.0, false)});
   auto error_clipmap = [](int32_t block, int32_t region, double tol, int32_t exact) {
     render::ErrorClipmapConfig cfg;
+    // The schemes compared in their geometry: the colour bands alone, as the others draw.
+    cfg.look.materials = cfg.look.shadows = false;
+    cfg.detail_size = 0;
     cfg.block_size = block;
     cfg.region = region;
     cfg.tolerance_px = tol;
@@ -414,6 +420,19 @@ double pop_px(Scheme& s, const World& world, const render::OffscreenTarget& top,
 }
 
 int run_lod(const Context& ctx, Report& report) {
+  // A run of some settings (LOAM_LOD_ONLY) writes lod-<its words>.md beside the full report.
+  if (const char* only = std::getenv("LOAM_LOD_ONLY")) {
+    std::string name = "lod-";
+    for (const char c : std::string_view(only)) {
+      const bool keep = std::isalnum(static_cast<unsigned char>(c)) != 0;
+      if (keep || (name.back() != '-'))
+        name += keep ? char(std::tolower(static_cast<unsigned char>(c))) : '-';
+    }
+    while (name.back() == '-') name.pop_back();
+    report.rename(name);
+    report.paragraph("Only the settings whose name holds one of `" + std::string(only) +
+                     "` (`LOAM_LOD_ONLY`); every scheme's is [lod.md](lod.md).");
+  }
   auto egl = gpu::EglContext::create(gpu::EglPreference::kAny);
   if (!egl || !egl->make_current().ok()) {
     report.paragraph("Skipped: no EGL display gives an OpenGL 4.5 core context.");
@@ -469,6 +488,28 @@ int run_lod(const Context& ctx, Report& report) {
     const RectI wr = p.sample_rect();
     const double diag = std::hypot(double(wr.width()), double(wr.height())) * p.meters_per_sample;
     std::vector<Setting> here = all;
+    // What `loam-client view` draws on this world, exactly (render/viewer_session.h): its default
+    // scheme, and the other --lod; the look included.
+    const render::ViewerOptions viewer;
+    auto named = [&](render::LodScheme lod) {
+      return std::string("--lod ") + render::to_string(lod) + (lod == viewer.lod ? " (the default)" : "");
+    };
+    here.push_back({"viewer", named(render::LodScheme::kClassic),
+                    [&p, viewer](const terrain::HeightSource& src) -> Result<std::unique_ptr<Scheme>> {
+                      auto r =
+                          render::ClipmapRenderer::create(src, render::viewer_renderer_config(viewer, p));
+                      if (!r) return r.error();
+                      return std::unique_ptr<Scheme>(new ClipmapScheme(std::move(*r)));
+                    }});
+    here.push_back({"viewer", named(render::LodScheme::kError),
+                    selecting<render::ErrorClipmapRenderer>(
+                        render::viewer_error_clipmap_config(viewer, p),
+                        [](render::ErrorClipmapRenderer& r, const RectI& rect) {
+                          const render::ErrorClipmapUpdate u = r.invalidate(rect);
+                          return std::to_string(u.blocks) + " blocks' error bounds, " +
+                                 std::to_string(u.texels) + " level samples";
+                        },
+                        Truth::kUnionJack)});
     // The clipmaps at the clipmap suite's larger sizes, their view distance the world's diagonal.
     for (int32_t n : ctx.quick ? std::vector<int32_t>{127} : std::vector<int32_t>{127, 255}) {
       here.push_back({"clipmap", "n " + std::to_string(n),
@@ -643,7 +684,7 @@ int run_lod(const Context& ctx, Report& report) {
       "error-driven clipmap re-reads it into every level region holding it and recomputes the blocks "
       "holding it at every level.");
   report.table(std::move(summary));
-  Plot plot{"lod_error.png",
+  Plot plot{report.name() + "_error.png",
             "Screen-space error p99 against triangles, every scheme (" + egl->renderer() + ")",
             "triangles drawn per frame",
             "p99 screen error (px)",

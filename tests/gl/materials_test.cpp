@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <ostream>
 
 #include "client/render/clipmap_renderer.h"
 #include "client/render/error_clipmap_renderer.h"
@@ -73,7 +74,8 @@ std::vector<uint8_t> render(const terrain::HeightSource& source, const scene::Ca
     ec.look = cfg.look;
     ec.detail_size = cfg.detail_size;
     ec.view_distance = cfg.view_distance;
-    ec.region = 256;  // the crater's surroundings at every level, and a quarter of the error bounds to compute
+    ec.region =
+        256;  // the crater's surroundings at every level, and a quarter of the error bounds to compute
     auto renderer = ErrorClipmapRenderer::create(source, ec);
     EXPECT_TRUE(renderer.ok()) << renderer.error().describe();
     (*renderer)->render(cam, kWidth, kHeight);
@@ -82,6 +84,13 @@ std::vector<uint8_t> render(const terrain::HeightSource& source, const scene::Ca
 }
 
 class MaterialsOf : public ::testing::TestWithParam<LodScheme> {};
+
+}  // namespace
+
+// gtest prints the parameter by name (test listings, ctest).
+void PrintTo(LodScheme s, std::ostream* os) { *os << to_string(s); }
+
+namespace {
 
 // Mean of a channel expression over the image's centre (the crater's floor and walls; `half`
 // pixels either way).
