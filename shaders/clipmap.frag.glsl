@@ -24,14 +24,6 @@ void main() {
     vec2 c = (v_sample - vec2(u_rel_origin_coarse)) / float(2 * u_spacing);
     nxy = mix(nxy, level_texel(u_normals_coarse, u_tex_base_coarse, c).rg, v_alpha);
   }
-  TerrainPoint p;
-  p.rel = v_rel;
-  p.sample_pos = v_sample;
-  p.height_m = v_height;
-  p.nxy = nxy;
-  p.curv = v_curv;
-  p.change = t_change_on != 0 ? level_texel(u_change, u_tex_base, local).r : 0.0;
-  p.skirt = v_skirt;
-  p.morph = v_alpha;
-  o_color = shade_terrain(p);
+  float change = t_change_on != 0 ? level_texel(u_change, u_tex_base, local).r : 0.0;
+  o_color = shade_terrain(TerrainPoint(v_rel, v_sample, v_height, nxy, v_curv, change, v_skirt, v_alpha));
 }

@@ -26,14 +26,6 @@ void main() {
     vec2 coarse = texture(g_normals, vec3((v_tex_coarse + 0.5) / size.x, float(v_layer_coarse))).rg;
     nxy = mix(nxy, coarse, v_alpha);
   }
-  TerrainPoint p;
-  p.rel = v_rel;
-  p.sample_pos = v_sample;
-  p.height_m = v_height;
-  p.nxy = nxy;
-  p.curv = v_curv;
-  p.change = t_change_on != 0 ? texture(g_change, vec3((v_tex + 0.5) / size.x, float(v_layer))).r : 0.0;
-  p.skirt = v_skirt;
-  p.morph = v_alpha;
-  o_color = shade_terrain(p);
+  float change = t_change_on != 0 ? texture(g_change, vec3((v_tex + 0.5) / size.x, float(v_layer))).r : 0.0;
+  o_color = shade_terrain(TerrainPoint(v_rel, v_sample, v_height, nxy, v_curv, change, v_skirt, v_alpha));
 }

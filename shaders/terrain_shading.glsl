@@ -12,7 +12,7 @@ layout(binding = 4) uniform sampler2D u_detail_gradient;  // RG16F, meters per m
 layout(binding = 6) uniform sampler2DArray u_materials;   // RGBA8, layers: rock, grass, sand, snow, earth
 layout(binding = 7) uniform sampler2DShadow u_shadow;     // the sun's, reversed depth
 
-// What the renderer knows of a fragment.
+// What the renderer knows of a fragment (built positionally: TerrainPoint(rel, sample_pos, ...)).
 struct TerrainPoint {
   vec3 rel;         // camera-relative position (render frame: x east, y north, z up)
   vec2 sample_pos;  // mip-0 samples from the anchor (world grid: y along +gy)

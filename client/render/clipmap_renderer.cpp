@@ -37,10 +37,6 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::
                                                                  const RendererConfig& config) {
   auto mesh = lod::ClipmapMesh::build(config.n);
   if (!mesh) return mesh.error();
-  if (config.detail_size < 0) {
-    return make_error(ErrorCode::kInvalidArgument, "clipmap.detail_size",
-                      "must be 0 or a power of two up to 4096");
-  }
   std::unique_ptr<ClipmapRenderer> r(new ClipmapRenderer());
   r->source_ = &source;
   r->config_ = config;
@@ -95,12 +91,10 @@ Result<std::unique_ptr<ClipmapRenderer>> ClipmapRenderer::create(const terrain::
     level.world = in_level_grid(p.sample_rect(), int64_t(1) << l);
     r->level_.push_back(std::move(level));
   }
-  if (config.detail_size > 0) {
-    // A power of two, like the level tori (see region_size_): far-origin shifts are multiples.
-    auto detail = DetailRegion::create(config.detail_size);
-    if (!detail) return detail.error();
-    r->detail_.emplace(std::move(*detail));
-  }
+  // A power of two, like the level tori (see region_size_): far-origin shifts are multiples.
+  auto detail = DetailRegion::create_unless_zero(config.detail_size);
+  if (!detail) return detail.error();
+  r->detail_ = std::move(*detail);
   auto look = TerrainLook::create(config.look);
   if (!look) return look.error();
   r->look_.emplace(std::move(*look));

@@ -42,6 +42,13 @@ Result<DetailRegion> DetailRegion::create(int32_t size) {
   return d;
 }
 
+Result<std::optional<DetailRegion>> DetailRegion::create_unless_zero(int32_t size) {
+  if (size == 0) return std::optional<DetailRegion>();
+  auto d = create(size);
+  if (!d) return d.error();
+  return std::optional<DetailRegion>(std::move(*d));
+}
+
 int64_t DetailRegion::upload(const terrain::HeightSource& source, const RectI& rect) {
   const int64_t n = size_;
   const int64_t texels = for_each_torus_piece(rect, n, [&](const RectI& piece, int64_t tx, int64_t ty) {

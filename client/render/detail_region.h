@@ -24,6 +24,8 @@ class DetailRegion {
   // `size`: samples per side, a power of two up to 4096 (the far-origin shifts are multiples
   // of it, as of the level tori).
   static Result<DetailRegion> create(int32_t size);
+  // The renderers' form: none for a size of 0, else create(size); a negative size is refused.
+  static Result<std::optional<DetailRegion>> create_unless_zero(int32_t size);
 
   // Centres the region on `center` (mip-0 samples, global grid) and uploads what came into it;
   // returns the texels uploaded.

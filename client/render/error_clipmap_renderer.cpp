@@ -16,6 +16,17 @@ namespace {
 
 constexpr GLuint kErrorClipmapFrameBinding = 4;  // shaders/error_clipmap_frame.glsl
 
+// A filtered 2D array of `layers` tori of size^2 texels: GL_REPEAT joins each torus's seams.
+gpu::GlTexture filtered_torus_array(GLenum format, int32_t size, int32_t layers) {
+  gpu::GlTexture t = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
+  glTextureStorage3D(t.get(), 1, format, size, size, layers);
+  glTextureParameteri(t.get(), GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+  glTextureParameteri(t.get(), GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTextureParameteri(t.get(), GL_TEXTURE_WRAP_S, GL_REPEAT);
+  glTextureParameteri(t.get(), GL_TEXTURE_WRAP_T, GL_REPEAT);
+  return t;
+}
+
 // A 2D texture viewing one layer of a 2D array texture (its storage shared).
 gpu::GlTexture layer_view(GLuint array, GLenum format, int32_t layer) {
   GLuint v = 0;
@@ -92,14 +103,9 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
   glTextureStorage3D(r->levels_texture_.get(), 1, GL_R16UI, r->region_, r->region_, layers);
   glTextureParameteri(r->levels_texture_.get(), GL_TEXTURE_MIN_FILTER, GL_NEAREST);
   glTextureParameteri(r->levels_texture_.get(), GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-  // FD4 normals per level, toroidal like the heights, filtered (GL_REPEAT joins the seams).
-  r->normals_texture_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
+  // FD4 normals per level, toroidal like the heights, filtered.
+  r->normals_texture_ = filtered_torus_array(GL_RG16_SNORM, r->region_, layers);
   const GLuint normals = r->normals_texture_.get();
-  glTextureStorage3D(normals, 1, GL_RG16_SNORM, r->region_, r->region_, layers);
-  glTextureParameteri(normals, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-  glTextureParameteri(normals, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  glTextureParameteri(normals, GL_TEXTURE_WRAP_S, GL_REPEAT);
-  glTextureParameteri(normals, GL_TEXTURE_WRAP_T, GL_REPEAT);
   // The shared normal pass reads and writes 2D textures: one view of each layer.
   for (int32_t k = 0; k < layers; ++k) {
     LayerViews v;
@@ -114,25 +120,13 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
                       "texture views of the level layers failed");
   if (config.look.materials) {
     // The change layer the materials show dug earth by, toroidal like the heights, filtered.
-    r->change_texture_ = gpu::make_texture(GL_TEXTURE_2D_ARRAY);
-    const GLuint change = r->change_texture_.get();
-    glTextureStorage3D(change, 1, GL_R16F, r->region_, r->region_, layers);
-    glTextureParameteri(change, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
-    glTextureParameteri(change, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTextureParameteri(change, GL_TEXTURE_WRAP_S, GL_REPEAT);
-    glTextureParameteri(change, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    r->change_texture_ = filtered_torus_array(GL_R16F, r->region_, layers);
     const float zero = 0.0f;
-    glClearTexImage(change, 0, GL_RED, GL_FLOAT, &zero);
+    glClearTexImage(r->change_texture_.get(), 0, GL_RED, GL_FLOAT, &zero);
   }
-  if (config.detail_size < 0) {
-    return make_error(ErrorCode::kInvalidArgument, "clipmap.detail_size",
-                      "must be 0 or a power of two up to 4096");
-  }
-  if (config.detail_size > 0) {
-    auto detail = DetailRegion::create(config.detail_size);
-    if (!detail) return detail.error();
-    r->detail_.emplace(std::move(*detail));
-  }
+  auto detail = DetailRegion::create_unless_zero(config.detail_size);
+  if (!detail) return detail.error();
+  r->detail_ = std::move(*detail);
   if (!(config.view_distance > 0)) {
     return make_error(ErrorCode::kInvalidArgument, "error_clipmap.view_distance", "must be positive");
   }
@@ -298,7 +292,8 @@ int64_t ErrorClipmapRenderer::upload(int32_t l, const RectI& rect) {
     const int64_t W = world_.width(), H = world_.height();
     const RectI inside = rect.intersect({0, 0, (W - 1) / s + 1, (H - 1) / s + 1});
     if (!inside.empty() && floor_mod(world_.x0, s) == 0 && floor_mod(world_.y0, s) == 0) {
-      std::vector<float> part(size_t(inside.area()));
+      std::vector<float>& part = change_part_;
+      part.resize(size_t(inside.area()));
       const RectI global{inside.x0 + world_.x0 / s, inside.y0 + world_.y0 / s, inside.x1 + world_.x0 / s,
                          inside.y1 + world_.y0 / s};
       if (source_->read_change(l, global, part)) {

@@ -216,7 +216,7 @@ class ErrorClipmapRenderer {
   gpu::GlTexture normals_texture_;  // RG16_SNORM, the same: FD4 normals as the clipmap renderer's
   gpu::GlTexture change_texture_;   // R16F, the same: meters against the initial terrain (materials)
   bool change_known_ = false;       // the source answered read_change at least once
-  std::vector<float> change_scratch_;
+  std::vector<float> change_scratch_, change_part_;
   std::optional<gpu::LevelNormalPass> normal_pass_;
   std::optional<TerrainLook> look_;
   std::optional<DetailRegion> detail_;

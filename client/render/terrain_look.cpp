@@ -99,6 +99,13 @@ Status TerrainLook::verify(GLuint program) {
                                    kTerrainShadingMembers);
 }
 
+glm::vec3 TerrainLook::sun_dir() const {
+  const float az = glm::radians(config_.sun_azimuth_degrees),
+              el = glm::radians(config_.sun_elevation_degrees);
+  // Azimuth clockwise from north, in the render frame (x east, y north).
+  return {std::sin(az) * std::cos(el), std::cos(az) * std::cos(el), std::sin(el)};
+}
+
 void TerrainLook::set_sun(float azimuth_degrees, float elevation_degrees) {
   config_.sun_azimuth_degrees = azimuth_degrees;
   config_.sun_elevation_degrees = std::clamp(elevation_degrees, -10.0f, 90.0f);
@@ -108,11 +115,8 @@ TerrainShadingBlock TerrainLook::frame(const WorldParams& p, int64_t anchor_x, i
                                        double min_height_m, double max_height_m,
                                        double view_distance_m) const {
   TerrainShadingBlock b{};
-  const float az = glm::radians(config_.sun_azimuth_degrees),
-              el = glm::radians(config_.sun_elevation_degrees);
-  // Azimuth clockwise from north, in the render frame (x east, y north).
-  b.sun_dir[0] = std::sin(az) * std::cos(el), b.sun_dir[1] = std::cos(az) * std::cos(el),
-  b.sun_dir[2] = std::sin(el);
+  const glm::vec3 sun = sun_dir();
+  b.sun_dir[0] = sun.x, b.sun_dir[1] = sun.y, b.sun_dir[2] = sun.z;
   b.sea_level = float(-p.height_offset);
   b.fog_color[0] = 0.50f, b.fog_color[1] = 0.60f, b.fog_color[2] = 0.75f;
   b.fog_density = float(1.0 / (view_distance_m * 1.5));
@@ -138,9 +142,7 @@ std::optional<scene::SunShadowFrame> TerrainLook::shadow_frame(const scene::Came
   if (!config_.shadows || config_.sun_elevation_degrees <= 0.5f) return std::nullopt;
   const double radius =
       config_.shadow_distance_m > 0 ? config_.shadow_distance_m : std::min(view_distance_m, 3000.0);
-  const TerrainShadingBlock b = frame(p, 0, 0, min_height_m, max_height_m, view_distance_m);
-  const glm::dvec3 sun(b.sun_dir[0], b.sun_dir[1], b.sun_dir[2]);
-  return scene::sun_shadow_frame(camera, sun, radius, p.height_offset + min_height_m,
+  return scene::sun_shadow_frame(camera, glm::dvec3(sun_dir()), radius, p.height_offset + min_height_m,
                                  p.height_offset + max_height_m, config_.shadow_size);
 }
 

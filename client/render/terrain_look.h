@@ -131,6 +131,8 @@ class TerrainLook {
   size_t gpu_bytes() const;
 
  private:
+  glm::vec3 sun_dir() const;  // toward the sun, render frame, unit
+
   TerrainLookConfig config_;
   gpu::GlTexture materials_;  // RGBA8 2D array, one layer per Material, mipmapped
   float anisotropy_ = 1.0f;

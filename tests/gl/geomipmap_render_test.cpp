@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <type_traits>
 
 #include "bench/lod/geomipmap_renderer.h"
@@ -21,24 +22,27 @@
 namespace loam::render {
 namespace {
 
-World ridges() {
+// A world of tiles_x x tiles_y tiles at 2 m, its heights height(x, y) (units), committed.
+World sampled_world(int32_t tiles_x, int32_t tiles_y, const std::function<double(int64_t, int64_t)>& height) {
   WorldParams p;
-  p.tiles_x = 1;
-  p.tiles_y = 1;
+  p.tiles_x = tiles_x;
+  p.tiles_y = tiles_y;
   p.meters_per_sample = 2.0;
   p.meters_per_unit = 0.05;
   const RectI r = p.sample_rect();
   std::vector<uint16_t> s(size_t(r.area()));
-  for (int64_t y = 0; y < r.height(); ++y) {
-    for (int64_t x = 0; x < r.width(); ++x) {
-      const double v = 20000 + 3000 * std::sin(double(x) * 0.07) * std::cos(double(y) * 0.05) +
-                       (x > 150 && x < 156 ? 4000 : 0) + double((x * 7 + y * 13) % 5);
-      s[size_t(y * r.width() + x)] = uint16_t(v);
-    }
-  }
+  for (int64_t y = 0; y < r.height(); ++y)
+    for (int64_t x = 0; x < r.width(); ++x) s[size_t(y * r.width() + x)] = uint16_t(height(x, y));
   World w = std::move(World::from_samples(p, s).value());
   w.commit(0);
   return w;
+}
+
+World ridges() {
+  return sampled_world(1, 1, [](int64_t x, int64_t y) {
+    return 20000 + 3000 * std::sin(double(x) * 0.07) * std::cos(double(y) * 0.05) +
+           (x > 150 && x < 156 ? 4000 : 0) + double((x * 7 + y * 13) % 5);
+  });
 }
 
 // Writes a cone-shaped crater over [100, 131) x [60, 91) and commits it; returns the rect.
@@ -336,20 +340,11 @@ TEST(ErrorClipmapRender, LevelNormalsAreTheWorldsNormalMapAfterSlidesAndAStamp) 
 // them too.
 TEST(ErrorClipmapRender, WithRegionsHoldingTheWorldTheSelectionIsTheWholeWorldPyramids) {
   LOAM_REQUIRE_GL();
-  WorldParams p;
-  p.tiles_x = 3;
-  p.tiles_y = 1;
-  p.meters_per_sample = 2.0;
-  p.meters_per_unit = 0.05;
-  const RectI wr = p.sample_rect();
-  std::vector<uint16_t> samples(size_t(wr.area()));
-  for (int64_t y = 0; y < wr.height(); ++y)
-    for (int64_t x = 0; x < wr.width(); ++x)
-      samples[size_t(y * wr.width() + x)] =
-          uint16_t(20000 + 3000 * std::sin(double(x) * 0.031) * std::cos(double(y) * 0.047) +
-                   double((x * 7 + y * 13) % 23));
-  World w = std::move(World::from_samples(p, samples).value());
-  w.commit(0);
+  const World w = sampled_world(3, 1, [](int64_t x, int64_t y) {
+    return 20000 + 3000 * std::sin(double(x) * 0.031) * std::cos(double(y) * 0.047) +
+           double((x * 7 + y * 13) % 23);
+  });
+  const WorldParams& p = w.params();
   terrain::WorldHeightSource source(w);
   ErrorClipmapConfig cfg;
   cfg.levels = 7;
