@@ -162,6 +162,12 @@ int main(int argc, char** argv) {
                    "Error-driven clipmap: the screen-space error budget (pixels)")
       ->capture_default_str()
       ->check(cli::FiniteRange(0.1, 64));
+  view_cmd
+      ->add_option("--lod-triangles", vo.error_clipmap.max_triangles,
+                   "Error-driven clipmap: the most triangles its budget may take (0: no cap); past it the "
+                   "budget rises")
+      ->capture_default_str()
+      ->check(cli::IntRange(0, 100'000'000));
   view_cmd->add_option("--n", vo.renderer.n, "Classic clipmap: vertices per level side (2^k - 1)")
       ->capture_default_str()
       ->check(cli::IntRange(7, 1023));

@@ -43,6 +43,7 @@
 #include "client/render/viewer_session.h"
 #include "dem/default_terrain.h"
 #include "dem/dem_import.h"
+#include "dem/refined_default.h"
 #include "gpu/egl_context.h"
 #include "protocol/surface.h"
 
@@ -61,7 +62,32 @@ double median(std::vector<double> v) {
 struct Terrain {
   std::string name;
   World world;
+  bool viewer_only = false;  // only the viewer rows draw it
 };
+
+// The main job's world (dem/refined_default.h): a window `side` samples square at its full 1 m
+// around its centre, where the viewer starts, copied into a World the evaluator, the paths and
+// the pop measure can read whole.
+Result<World> refined_window(int64_t side) {
+  auto base = refined_default_base();
+  if (!base) return base.error();
+  const WorldParams& big = refined_default_params();
+  World full(big, *base);
+  full.set_base_cache_budget(size_t(64) << 20);
+  const RectI all = big.sample_rect();
+  const int64_t x0 = (all.x0 + all.x1 - side) / 2 / kTileSize * kTileSize,
+                y0 = (all.y0 + all.y1 - side) / 2 / kTileSize * kTileSize;
+  std::vector<uint16_t> samples(size_t(side * side));
+  for (int64_t y = 0; y < side; y += kTileSize) {  // a row of tiles at a time, the cache trimmed
+    full.read_coarse({x0, y0 + y, x0 + side, y0 + y + kTileSize},
+                     std::span<uint16_t>(samples).subspan(size_t(y * side), size_t(kTileSize * side)));
+    full.trim_base_cache();
+  }
+  WorldParams p = big;
+  p.origin_tile_x = p.origin_tile_y = 0;
+  p.tiles_x = p.tiles_y = int32_t(side / kTileSize);
+  return World::from_samples(p, samples);
+}
 
 // A recorded path: the cameras of the scored frames, each with the camera one frame (1/30 s)
 // before it, whose levels the pop is measured against.
@@ -470,6 +496,13 @@ int run_lod(const Context& ctx, Report& report) {
           {std::string(name) + " (" + fmt(imported->world.params().meters_per_sample, 0) + " m)",
            std::move(imported->world)});
     }
+    // Where users meet the viewer: the main job's world, 16 km of it.
+    auto refined = refined_window(16384);
+    if (!refined) {
+      std::fprintf(stderr, "lod: %s\n", refined.error().describe().c_str());
+      return 1;
+    }
+    terrains.push_back({"refined world, 16 km of it (1 m)", std::move(*refined), true});
   }
   const int32_t w = ctx.quick ? 320 : 1920, h = ctx.quick ? 180 : 1080;
   const int frames = ctx.quick ? 2 : 8;
@@ -522,6 +555,7 @@ int run_lod(const Context& ctx, Report& report) {
                         return std::unique_ptr<Scheme>(new ClipmapScheme(std::move(*r)));
                       }});
     }
+    if (terrain.viewer_only) std::erase_if(here, [](const Setting& st) { return st.scheme != "viewer"; });
     if (const char* only = std::getenv("LOAM_LOD_ONLY")) {
       // Explore a few settings: those whose "scheme setting" contains one of the ';'-separated words.
       std::vector<Setting> kept;
@@ -652,7 +686,9 @@ int run_lod(const Context& ctx, Report& report) {
       "Renderer: " + egl->renderer() + ", " + std::to_string(w) + "x" + std::to_string(h) + " pixels, " +
       std::to_string(frames) +
       " scored frames per path (evenly over its 60 s). Terrains: the embedded crop and, at their own "
-      "resolution, two DEMs of `../shared/data`." +
+      "resolution, two DEMs of `../shared/data`; for the viewer rows alone (the full mesh there would be "
+      "537 M triangles), the main job's world: the 16 x 16 km of the refined default around its centre, "
+      "at its 1 m." +
       shared_note +
       " Paths: `walk`, 1.4 m/s with the eye 1.8 m above the ground, looking 5 degrees down; `flight`, across "
       "half the world in 60 s high above its highest point, 30 degrees down; `ridge`, 4 m/s along the "

@@ -3,8 +3,12 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <limits>
 #include <map>
+#include <queue>
 #include <string>
+
+#include "client/lod/projected_error.h"
 
 namespace loam::lod {
 
@@ -266,7 +270,7 @@ constexpr std::array<std::array<int64_t, 2>, 4> kStep = {{{0, -1}, {1, 0}, {0, 1
 ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const ClipmapErrorPyramid& errors,
                                            const HeightScale& scale, const LodView& view,
                                            std::span<const RectI> regions, bool morph,
-                                           const BlockFilter& split_only) {
+                                           const BlockFilter& split_only, int64_t max_blocks) {
   ErrorClipmapSelection sel;
   const int32_t L = std::min<int32_t>(grid.levels, int32_t(regions.size()));
   if (L < 1) return sel;
@@ -282,16 +286,22 @@ ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const C
     b.morph.assign(size_t(b.nx * b.ny), 0.0f);
   }
   const double mps = scale.meters_per_sample, mpu = scale.meters_per_unit;
-  // The vertical error (m) the budget allows at the block's box.
-  auto allowed = [&](int32_t l, int64_t bx, int64_t by) {
+  // The vertical error (m) that shows as one pixel at worst at the block's box.
+  auto meters_per_px = [&](int32_t l, int64_t bx, int64_t by) {
     const RectI r = grid.block_rect(l, bx, by);
     const std::array<double, 3> lo{double(r.x0) * mps, double(r.y0) * mps,
                                    scale.meters(errors.min_height(l, bx, by))};
     const std::array<double, 3> hi{double(r.x1 - 1) * mps, double(r.y1 - 1) * mps,
                                    scale.meters(errors.max_height(l, bx, by))};
-    return view.tolerance_px * box_distance(view.x, view.y, view.z, lo, hi) / view.pixels_per_radian;
+    const double k = pixels_per_vertical_meter(view, lo, hi);
+    return k > 0 ? 1.0 / k : std::numeric_limits<double>::infinity();
   };
   auto delta = [&](int32_t l, int64_t bx, int64_t by) { return double(errors.error(l, bx, by)) * mpu; };
+  // The block's screen error (px) at worst.
+  auto screen_px = [&](int32_t l, int64_t bx, int64_t by) {
+    const double e = delta(l, bx, by);
+    return e > 0 ? e / meters_per_px(l, bx, by) : 0.0;
+  };
   auto children_fit = [&](int32_t l, int64_t bx, int64_t by) {
     const LevelBlocks& f = lv[size_t(l - 1)];
     return f.has(2 * bx, 2 * by) && f.has(2 * bx + 1, 2 * by + 1);
@@ -303,34 +313,63 @@ ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const C
       for (int64_t i = 0; i < 2; ++i) f.state[f.at(2 * bx + i, 2 * by + j)] = kLeaf;
   };
 
-  // Top-down: split while the budget asks and the finer level holds the children.
+  // Top-down, the block showing the largest error first: split while it shows more than the
+  // budget, the finer level holds its children and the block count allows.
+  struct Candidate {
+    double px;
+    ClipmapBlockId id;
+    bool operator<(const Candidate& o) const { return px < o.px; }
+  };
+  std::priority_queue<Candidate> queue;
+  auto drawn = [&](int32_t l, int64_t bx, int64_t by) { return !split_only || split_only(l, bx, by); };
+  int64_t blocks = 0;  // leaves split_only lets through: the blocks a view draws
+  auto consider = [&](int32_t l, int64_t bx, int64_t by) {
+    if (!drawn(l, bx, by)) return;
+    ++blocks;
+    if (l > 0) queue.push({screen_px(l, bx, by), {l, int32_t(bx), int32_t(by)}});
+  };
   const LevelBlocks& top = lv[size_t(L - 1)];
-  std::vector<ClipmapBlockId> stack;
   for (int64_t by = top.y0; by < top.y0 + top.ny; ++by) {
     for (int64_t bx = top.x0; bx < top.x0 + top.nx; ++bx) {
       lv[size_t(L - 1)].state[top.at(bx, by)] = kLeaf;
-      stack.push_back({L - 1, int32_t(bx), int32_t(by)});
+      consider(L - 1, bx, by);
     }
   }
   if (top.nx > 0 && top.ny > 0) {
     const int64_t s = grid.span(L - 1);
     sel.covered = {top.x0 * s, top.y0 * s, (top.x0 + top.nx) * s + 1, (top.y0 + top.ny) * s + 1};
   }
-  while (!stack.empty()) {
-    const ClipmapBlockId b = stack.back();
-    stack.pop_back();
+  double tolerance = view.tolerance_px;
+  while (!queue.empty()) {
+    const Candidate c = queue.top();
+    const ClipmapBlockId& b = c.id;
     ++sel.stats.blocks_tested;
-    if (b.level == 0 || delta(b.level, b.bx, b.by) <= allowed(b.level, b.bx, b.by)) continue;
-    if (split_only && !split_only(b.level, b.bx, b.by)) continue;
+    if (c.px <= view.tolerance_px) break;  // every block left is within the budget
     if (!children_fit(b.level, b.bx, b.by)) {
       ++sel.stats.held_back;
+      queue.pop();
       continue;
     }
+    int64_t visible = 0;
+    for (int64_t j = 0; j < 2; ++j)
+      for (int64_t i = 0; i < 2; ++i) visible += drawn(b.level - 1, 2 * b.bx + i, 2 * b.by + j) ? 1 : 0;
+    if (max_blocks > 0 && blocks - 1 + visible > max_blocks) {
+      // The block count is spent: the budget becomes what this block shows, the most any
+      // block left shows (the morphs below blend for it).
+      tolerance = c.px;
+      sel.stats.budget_bound = true;
+      break;
+    }
+    queue.pop();
     split(b.level, b.bx, b.by);
     ++sel.stats.split;
+    --blocks;
     for (int32_t j = 0; j < 2; ++j)
-      for (int32_t i = 0; i < 2; ++i) stack.push_back({b.level - 1, 2 * b.bx + i, 2 * b.by + j});
+      for (int32_t i = 0; i < 2; ++i) consider(b.level - 1, 2 * b.bx + i, 2 * b.by + j);
   }
+  sel.stats.tolerance_px = tolerance;
+  // The vertical error (m) the budget allows at the block's box.
+  auto allowed = [&](int32_t l, int64_t bx, int64_t by) { return tolerance * meters_per_px(l, bx, by); };
 
   // Restricted: finest first, a leaf's neighbour more than one level coarser is split down to
   // one level coarser. Splits only make leaves finer than the coarse leaf, at levels above l,

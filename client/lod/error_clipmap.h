@@ -20,12 +20,14 @@
 // (2C + 1)^2 samples of mip l - 1 per block, so a stamp's update stays small at every level.
 //
 // Selection: every block of the coarsest level inside its region is a root; a block is split
-// while its delta exceeds what the budget allows at its distance (tau d / K, d the distance
-// from the eye to the block's box) and its children lie in the finer level's region. The tree
+// while its delta exceeds what the budget allows where it is on screen (tau / k, k the pixels
+// a vertical meter moves at worst over the block's box: lod/projected_error.h) and its
+// children lie in the finer level's region, the largest error first, so that a cap on the
+// blocks drawn leaves the smallest largest error. The tree
 // is then made restricted (a leaf's neighbours are at most one level coarser), so a side is
 // either plain or a fan toward the coarser neighbour: no crack, no T-junction. A leaf morphs
 // toward its parent's surface exactly as far as the budget allows, (1 - m) delta_l + m
-// delta_(l+1) = tau d / K, so it appears at m = 1 (the parent's surface) and nothing pops.
+// delta_(l+1) = tau / k, so it appears at m = 1 (the parent's surface) and nothing pops.
 // Regions must nest (a level's region inside the next one's, with two blocks to spare), as
 // clipmap levels centred on the camera do; a split the restriction needs outside a region is
 // counted in `unrestricted` and would leave a crack.
@@ -134,9 +136,11 @@ struct ClipmapBlock {
 struct ErrorClipmapSelectStats {
   int64_t blocks_tested = 0;
   int64_t split = 0;
-  int64_t forced = 0;        // split only to keep the tree restricted
-  int64_t held_back = 0;     // wanted a split its finer level's region could not give
-  int64_t unrestricted = 0;  // a restriction split outside a region: a crack (regions too small)
+  int64_t forced = 0;         // split only to keep the tree restricted
+  int64_t held_back = 0;      // wanted a split its finer level's region could not give
+  int64_t unrestricted = 0;   // a restriction split outside a region: a crack (regions too small)
+  double tolerance_px = 0;    // the budget the blocks meet: the view's, or more where max_blocks bound
+  bool budget_bound = false;  // max_blocks stopped a split the view's budget asked for
 };
 
 struct ErrorClipmapSelection {
@@ -150,12 +154,16 @@ using BlockFilter = std::function<bool(int32_t level, int64_t bx, int64_t by)>;
 
 // Chooses the blocks for the view. `regions[l]`: the level-l samples level l holds (half-open,
 // its grid); a block is used only inside its level's region. `morph` false: leaves are drawn
-// at their own level (no geomorphing). `split_only` (if set): blocks it rejects are not split
-// for the budget (the restriction may still split them).
+// at their own level (no geomorphing). `split_only` (if set): the blocks the view draws;
+// blocks it rejects are not split for the budget (the restriction may still split them).
+// `max_blocks` (0: no limit): the most drawn leaves the budget's splits may make, blocks
+// split in the order of the error they show; where it binds, the budget rises to the error of
+// the first block left whole (stats.tolerance_px), and the morphs blend for that. The
+// restriction's splits come on top.
 ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const ClipmapErrorPyramid& errors,
                                            const HeightScale& scale, const LodView& view,
                                            std::span<const RectI> regions, bool morph = true,
-                                           const BlockFilter& split_only = {});
+                                           const BlockFilter& split_only = {}, int64_t max_blocks = 0);
 
 // The height a block's local vertex (lx, ly) is drawn at, heights from mip 0.
 float block_vertex_height(const ClipmapBlockGrid& grid, const HeightGrid& heights, const ClipmapBlock& block,

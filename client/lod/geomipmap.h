@@ -104,6 +104,11 @@ struct LodView {
   double x = 0, y = 0, z = 0;
   double pixels_per_radian = 1000.0;  // viewport height / (2 tan(fov_y / 2))
   double tolerance_px = 1.0;
+  // Where the view looks (lod/projected_error.h: set_view_axes): unit axes in the world frame
+  // and the screen's half extents as tangents. half_tan_x 0: unknown, a block's screen error is
+  // bounded by its distance alone (the schemes of the `lod` suite's comparison).
+  std::array<double, 3> forward{0, 0, 0}, right{0, 0, 0}, up{0, 0, 0};
+  double half_tan_x = 0, half_tan_y = 0;
 };
 // The pixels_per_radian of a perspective view.
 double pixels_per_radian(int32_t viewport_height, double fov_y_degrees);

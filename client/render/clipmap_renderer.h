@@ -62,6 +62,9 @@ struct FrameStats {
   int32_t pieces_culled = 0;
   int64_t texels_uploaded = 0;   // by this frame's level update
   int64_t shadow_triangles = 0;  // drawn into the sun's shadow map (draw_calls include that pass)
+  // The error-driven clipmap's screen-error budget met (px): its tolerance, or more where its
+  // triangle cap bound. 0: the classic clipmap (no budget).
+  double lod_budget_px = 0;
 };
 
 class ClipmapRenderer {

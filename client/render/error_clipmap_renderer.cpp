@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "client/lod/clipmap_mesh.h"
+#include "client/lod/projected_error.h"
 #include "client/render/reversed_depth.h"
 #include "client/render/toroidal_upload.h"
 #include "client/scene/frustum.h"
@@ -362,7 +363,8 @@ std::vector<uint32_t> ErrorClipmapRenderer::read_level_normals(int32_t l, const 
   return out;
 }
 
-lod::LodView ErrorClipmapRenderer::lod_view(const scene::Camera& camera, int32_t viewport_height) const {
+lod::LodView ErrorClipmapRenderer::lod_view(const scene::Camera& camera, int32_t viewport_width,
+                                            int32_t viewport_height) const {
   const double mps = scale_.meters_per_sample;
   lod::LodView view;
   view.x = camera.x - double(world_.x0) * mps;
@@ -370,6 +372,10 @@ lod::LodView ErrorClipmapRenderer::lod_view(const scene::Camera& camera, int32_t
   view.z = camera.z;
   view.pixels_per_radian = lod::pixels_per_radian(viewport_height, camera.fov_y_degrees);
   view.tolerance_px = config_.tolerance_px;
+  if (camera.ortho_half_height <= 0) {
+    lod::set_view_axes(view, {camera.fx, camera.fy, camera.fz}, {camera.ux, camera.uy, camera.uz},
+                       camera.fov_y_degrees, double(viewport_width) / double(std::max(viewport_height, 1)));
+  }
   return view;
 }
 
@@ -387,7 +393,8 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
                                                     int32_t viewport_width) {
   ErrorClipmapFrameStats stats;
   const auto t0 = std::chrono::steady_clock::now();
-  const lod::LodView view = lod_view(lod_camera, viewport_height);
+  const int32_t width = viewport_width > 0 ? viewport_width : 2 * viewport_height;
+  const lod::LodView view = lod_view(lod_camera, width, viewport_height);
   const double mps = scale_.meters_per_sample;
   const int64_t n = region_;
   const std::vector<RectI> placed = regions_for(lod_camera);
@@ -420,7 +427,6 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
       grid_, [&](int32_t l, const RectI& rect, std::span<uint16_t> out) { read_level(l, rect, out); },
       windows);
   // Blocks outside the view are drawn by nobody: they are not split (the draw culls them).
-  const int32_t width = viewport_width > 0 ? viewport_width : 2 * viewport_height;
   const scene::Frustum frustum =
       scene::frustum_of(scene::view_projection(lod_camera, width, viewport_height));
   const int64_t c = grid_.cells();
@@ -434,8 +440,11 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::select(const scene::Camera& lod_cam
                        float(scale_.meters(errors_.max_height(l, bx, by)) - lod_camera.z));
     return !scene::box_outside(frustum, lo, hi);
   };
-  selection_ = lod::select_error_clipmap(grid_, errors_, scale_, view, drawable_, config_.morph,
-                                         config_.cull ? lod::BlockFilter(visible) : lod::BlockFilter());
+  const int64_t max_blocks =
+      config_.max_triangles > 0 ? std::max<int64_t>(1, config_.max_triangles / (2 * c * c)) : 0;
+  selection_ =
+      lod::select_error_clipmap(grid_, errors_, scale_, view, drawable_, config_.morph,
+                                config_.cull ? lod::BlockFilter(visible) : lod::BlockFilter(), max_blocks);
   stats.select = selection_.stats;
   stats.cpu_ms = ms_since(t0);
   return stats;

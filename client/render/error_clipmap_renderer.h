@@ -51,7 +51,11 @@ struct ErrorClipmapConfig {
   int32_t region = 1024;      // at most this many level samples a level holds per side (>= 16 cells)
   int32_t levels = 0;         // 0: until a coarsest block spans the world and its region covers it
   double tolerance_px = 1.0;  // screen-space error budget
-  int32_t exact_levels = 3;   // error bounds exact up to this level (error_clipmap.h)
+  // The most triangles the budget's blocks may take (0: no cap): past it the budget rises
+  // (ErrorClipmapFrameStats::select.tolerance_px says to what). The restriction's blocks and
+  // the world's walls come on top.
+  int64_t max_triangles = 0;
+  int32_t exact_levels = 3;  // error bounds exact up to this level (error_clipmap.h)
   bool morph = true;
   bool cull = true;
   double view_distance = 4000.0;  // where fog closes in, and the shadow map's reach (at most 3 km)
@@ -185,7 +189,7 @@ class ErrorClipmapRenderer {
   // `r` (level l's samples) moved to its texel coordinates (before the torus's wrap).
   RectI shifted(int32_t l, const RectI& r) const;
   void update_normals(int32_t l, const RectI& changed);
-  lod::LodView lod_view(const scene::Camera& camera, int32_t viewport_height) const;
+  lod::LodView lod_view(const scene::Camera& camera, int32_t viewport_width, int32_t viewport_height) const;
   // Level l's world-relative `local` in the global grid, clipped to the world.
   RectI to_global(int32_t l, const RectI& local) const;
   // Level samples level l's blocks reach, per axis: [0, extent).

@@ -175,7 +175,16 @@ FrameStats ViewerSession::render(const scene::Camera& camera, int32_t width, int
   f.pieces_culled = e.blocks_culled;
   f.texels_uploaded = e.texels_uploaded;
   f.shadow_triangles = e.shadow_triangles;
+  f.lod_budget_px = e.select.tolerance_px;
   return f;
+}
+
+void ViewerSession::invalidate(const RectI& rect) {
+  if (error_renderer_) {
+    error_renderer_->invalidate(rect);
+  } else {
+    renderer_->invalidate(rect);
+  }
 }
 
 int32_t ViewerSession::levels() const {

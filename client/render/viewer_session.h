@@ -23,11 +23,20 @@
 
 namespace loam::render {
 
+// The viewer's cap on the error-driven clipmap's triangles (--lod-triangles): what a frame
+// at 1920 x 1080 is held to where the terrain is too rough for the budget.
+inline constexpr int64_t kViewerMaxTriangles = 500'000;
+inline ErrorClipmapConfig viewer_error_clipmap_defaults() {
+  ErrorClipmapConfig c;
+  c.max_triangles = kViewerMaxTriangles;
+  return c;
+}
+
 struct ViewerOptions {
-  LodScheme lod = LodScheme::kClassic;
-  RendererConfig renderer;           // the classic clipmap's (and the view distance of both)
-  ErrorClipmapConfig error_clipmap;  // the error-driven clipmap's
-  lod::InterestConfig interest;      // n and levels are taken from the renderer
+  LodScheme lod = LodScheme::kError;
+  RendererConfig renderer;  // the classic clipmap's (and the view distance of both)
+  ErrorClipmapConfig error_clipmap = viewer_error_clipmap_defaults();  // the error-driven clipmap's
+  lod::InterestConfig interest;  // n and levels are taken from the renderer
   DisplayStamping stamping = DisplayStamping::kGpu;
   wire::Role role = wire::Role::kPlayer;
   std::string name = "viewer";
@@ -102,6 +111,9 @@ class ViewerSession {
   ClipmapRenderer* classic() { return renderer_.get(); }
   // The error-driven clipmap renderer; null when the classic clipmap draws.
   ErrorClipmapRenderer* error_clipmap() { return error_renderer_.get(); }
+  // Re-reads `rect` (mip-0 samples) of the display into whichever renderer draws: what update()
+  // does for the display's changes, for a change made beside it.
+  void invalidate(const RectI& rect);
   int32_t levels() const;
   // Level l's region (the world's grid at spacing 2^l) as of the last render.
   RectI level_region(int32_t l) const;

@@ -36,6 +36,7 @@ void draw_status_panel(const HudStatus& s) {
   ImGui::Text("%s", s.renderer.c_str());
   ImGui::Text("frame %.1f ms (%.0f fps), %lld triangles, %d draw calls", s.frame_ms,
               1000.0 / std::max(s.frame_ms, 0.01), (long long)s.triangles, s.draw_calls);
+  if (s.lod_budget_px > 0) ImGui::Text("screen error within %.2f px", s.lod_budget_px);
   ImGui::Text("%s %.1f, %.1f, %.1f m, speed %.0f m/s", s.walking ? "walking at" : "camera", s.camera_x,
               s.camera_y, s.camera_z, s.speed_mps);
   ImGui::Separator();

@@ -23,6 +23,7 @@ struct HudStatus {
   double frame_ms = 0;
   int64_t triangles = 0;
   int32_t draw_calls = 0;
+  double lod_budget_px = 0;  // the error-driven clipmap's budget met (0: classic)
   double camera_x = 0, camera_y = 0, camera_z = 0, speed_mps = 0;
   bool walking = false;
   render::ViewerStats session;

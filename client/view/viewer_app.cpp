@@ -60,14 +60,18 @@ std::string numbered(const std::string& file, int index) {
 
 void print_stats(double t, const render::ViewerSession& s, const render::FrameStats& f, double frame_ms) {
   const render::ViewerStats v = s.stats();
+  // The error-driven clipmap's budget met (the classic clipmap has none).
+  char budget[48] = "";
+  if (f.lod_budget_px > 0) std::snprintf(budget, sizeof budget, ", error within %.2f px", f.lod_budget_px);
   std::printf(
-      "viewer %6.1f s: frame %.1f ms, %lld triangles, %d draws | tiles %llu/%llu | events %llu applied, %llu "
+      "viewer %6.1f s: frame %.1f ms, %lld triangles, %d draws%s | tiles %llu/%llu | events "
+      "%llu applied, %llu "
       "on "
       "the GPU | overlay %zu, predicted %llu, corrections %llu | divergent %llu | hashes %llu checked, %llu "
       "mismatched | terrain memory GPU %.1f MiB (%d pages), CPU %.1f MiB | RTT %.1f ms, in %.1f KiB/s, "
       "server "
       "tick p99 %.2f ms\n",
-      t, frame_ms, (long long)f.triangles, f.draw_calls, (unsigned long long)v.tiles_held,
+      t, frame_ms, (long long)f.triangles, f.draw_calls, budget, (unsigned long long)v.tiles_held,
       (unsigned long long)v.tiles_subscribed, (unsigned long long)v.events_applied,
       (unsigned long long)v.display.events_stamped, v.overlay, (unsigned long long)v.display.predicted,
       (unsigned long long)v.display.corrections, (unsigned long long)v.display.divergent_texels,
@@ -435,6 +439,7 @@ int run_window(const ViewerAppOptions& o) {
       status.frame_ms = frame_ms;
       status.triangles = f.triangles;
       status.draw_calls = f.draw_calls;
+      status.lod_budget_px = f.lod_budget_px;
       status.camera_x = fly.x(), status.camera_y = fly.y(), status.camera_z = fly.z();
       status.speed_mps = fly.speed();
       status.walking = walking;

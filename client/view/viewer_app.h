@@ -14,6 +14,7 @@
 #include "client/render/display_stamping.h"
 #include "client/render/error_clipmap_renderer.h"
 #include "client/render/lod_scheme.h"
+#include "client/render/viewer_session.h"
 #include "protocol/wire/messages.h"
 #include "transport/tls_context.h"
 
@@ -25,9 +26,11 @@ struct ViewerAppOptions {
   std::string name = "viewer";
   std::optional<wire::AccessToken> token;  // needed where the server has tokens
   transport::TlsClientOptions tls;
-  render::LodScheme lod = render::LodScheme::kClassic;
-  render::RendererConfig renderer;           // the classic clipmap's, and the view distance
-  render::ErrorClipmapConfig error_clipmap;  // the error-driven clipmap's
+  // The session's defaults (render/viewer_session.h).
+  render::LodScheme lod = render::ViewerOptions{}.lod;
+  render::RendererConfig renderer;  // the classic clipmap's, and the view distance
+  render::ErrorClipmapConfig error_clipmap =
+      render::viewer_error_clipmap_defaults();  // the error-driven clipmap's
   render::DisplayStamping stamping = render::DisplayStamping::kAuto;
   int32_t width = 1280, height = 720;
   bool headless = false;                  // EGL + offscreen instead of a window

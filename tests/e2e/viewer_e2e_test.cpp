@@ -57,13 +57,18 @@ std::vector<uint8_t> render_view(render::ViewerSession& v, const scene::Camera& 
   return target->read_rgba();
 }
 
-TEST(ViewerEndToEnd, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrections) {
+// Both --lod schemes: the default (error) and the classic.
+class ViewerOfEitherScheme : public ::testing::TestWithParam<render::LodScheme> {};
+
+TEST_P(ViewerOfEitherScheme, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrections) {
   LOAM_REQUIRE_GL();
   const std::string dir = temp_data_dir("own");
   ServerProcess server;
   ASSERT_TRUE(server.start(dir, {"--hashes-every", "10"})) << server.log();
   const scene::Camera cam = overview();
-  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), small_viewer("viewer"), cam);
+  render::ViewerOptions options = small_viewer("viewer");
+  options.lod = GetParam();
+  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), options, cam);
   ASSERT_TRUE(v.ok()) << v.error().describe();
   render::ViewerSession& view = **v;
   ASSERT_TRUE(view.wait_settled(cam, 30s));
@@ -80,7 +85,7 @@ TEST(ViewerEndToEnd, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrect
   view.display().world().read_coarse(r, shown);
   view.client().store().mirror().read_coarse(r, confirmed);
   EXPECT_NE(shown, confirmed) << "the overlay did not change the display";
-  for (const RectI& d : {r}) view.classic()->invalidate(d);
+  view.invalidate(r);
   EXPECT_NE(render_view(view, cam, 160, 100), before) << "the crater does not show in the render";
 
   ASSERT_TRUE(view.wait_settled(cam, 30s));
@@ -94,6 +99,12 @@ TEST(ViewerEndToEnd, OwnStampShowsBeforeTheServerAnswersAndSettlesWithoutCorrect
   EXPECT_EQ(k.divergent_texels, 0u);
   EXPECT_TRUE(view.display().on_gpu());
 }
+
+INSTANTIATE_TEST_SUITE_P(ViewerEndToEnd, ViewerOfEitherScheme,
+                         ::testing::Values(render::LodScheme::kError, render::LodScheme::kClassic),
+                         [](const ::testing::TestParamInfo<render::LodScheme>& p) {
+                           return std::string(render::to_string(p.param));
+                         });
 
 // A session on an imported DEM: the client cannot generate its initial terrain, so the dug
 // layer measures against what the store kept of each tile's version 0. An own crater reads as

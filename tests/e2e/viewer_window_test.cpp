@@ -76,6 +76,7 @@ view::HudStatus fixed_status(render::ViewerSession& s, const controls::FlyCamera
   status.frame_ms = 16.7;
   status.triangles = 123456;
   status.draw_calls = 42;
+  status.lod_budget_px = 1.0;
   status.camera_x = fly.x(), status.camera_y = fly.y(), status.camera_z = fly.z();
   status.speed_mps = fly.speed();
   status.session.tiles_held = s.stats().tiles_held;

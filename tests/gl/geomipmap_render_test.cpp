@@ -13,6 +13,7 @@
 
 #include "bench/lod/geomipmap_renderer.h"
 #include "bench/lod/quadtree_renderer.h"
+#include "client/lod/projected_error.h"
 #include "client/render/error_clipmap_renderer.h"
 #include "client/render/offscreen_target.h"
 #include "gl_test_context.h"
@@ -367,6 +368,7 @@ TEST(ErrorClipmapRender, WithRegionsHoldingTheWorldTheSelectionIsTheWholeWorldPy
     view.x = cam.x, view.y = cam.y, view.z = cam.z;
     view.pixels_per_radian = lod::pixels_per_radian(256, cam.fov_y_degrees);
     view.tolerance_px = cfg.tolerance_px;
+    lod::set_view_axes(view, {cam.fx, cam.fy, cam.fz}, {cam.ux, cam.uy, cam.uz}, cam.fov_y_degrees, 1.0);
     const lod::ErrorClipmapSelection want = lod::select_error_clipmap(
         g, full, {p.meters_per_sample, p.meters_per_unit, p.height_offset}, view, regions, cfg.morph);
     const lod::ErrorClipmapSelection& got = (*r)->selection();

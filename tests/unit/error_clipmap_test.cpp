@@ -183,6 +183,44 @@ TEST(ErrorClipmap, TheDrawnSurfaceStaysWithinTheScreenErrorBudget) {
   }
 }
 
+TEST(ErrorClipmap, ABlockCapHoldsTheBudgetsSplitsAndRaisesTheBudgetToTheErrorLeftWhole) {
+  // The roots' blocks end at the world's edge: none reaches past it (a leaf beside one that
+  // does fans its side along the world's last row toward it).
+  const Terrain t = rough(513, 513, 8);
+  const ClipmapBlockGrid g = grid_for(t, 9, 7);
+  const ClipmapErrorPyramid e = ClipmapErrorPyramid::compute(g, reader(t));
+  const LodView v = view_at(300, 250, 1500, 1.0);
+  const ErrorClipmapSelection all = select_error_clipmap(g, e, kScale, v, everywhere(g));
+  EXPECT_FALSE(all.stats.budget_bound);
+  EXPECT_EQ(all.stats.tolerance_px, 1.0);
+  const int64_t roots = int64_t(g.blocks_x(g.levels - 1)) * g.blocks_y(g.levels - 1);
+  // A cap the view's budget does not reach changes nothing.
+  const ErrorClipmapSelection roomy =
+      select_error_clipmap(g, e, kScale, v, everywhere(g), true, {}, int64_t(all.blocks.size()) + 100);
+  EXPECT_FALSE(roomy.stats.budget_bound);
+  ASSERT_EQ(roomy.blocks.size(), all.blocks.size());
+  for (size_t i = 0; i < all.blocks.size(); ++i) EXPECT_EQ(roomy.blocks[i].id, all.blocks[i].id);
+  for (const int64_t cap : {int64_t(all.blocks.size()) / 2, int64_t(all.blocks.size()) / 8}) {
+    const ErrorClipmapSelection capped = select_error_clipmap(g, e, kScale, v, everywhere(g), true, {}, cap);
+    EXPECT_TRUE(capped.stats.budget_bound);
+    // Each split makes three more leaves: the budget's within the cap, the restriction's on top.
+    EXPECT_LE(roots + 3 * capped.stats.split, cap);
+    EXPECT_GT(roots + 3 * capped.stats.split, cap - 3);
+    EXPECT_EQ(int64_t(capped.blocks.size()), roots + 3 * (capped.stats.split + capped.stats.forced));
+    EXPECT_GT(capped.stats.tolerance_px, v.tolerance_px);
+    const lod::WatertightReport r = lod::check_watertight(replicate(g, capped), capped.covered);
+    EXPECT_TRUE(r.ok()) << r.describe();
+    // The drawn surface meets the raised budget as the view's is met uncapped (sides toward a
+    // coarser neighbour interpolate between the levels).
+    const double px =
+        worst_screen_error(displayed_surface(g, t.grid(), capped), capped.covered.width(), t, v);
+    std::printf("cap %lld blocks: %zu drawn, budget raised to %.2f px, worst %.2f px\n",
+                static_cast<long long>(cap), capped.blocks.size(), capped.stats.tolerance_px, px);
+    EXPECT_LE(px, 1.5 * capped.stats.tolerance_px);
+    EXPECT_GT(px, v.tolerance_px);  // the cap cost accuracy: it bound
+  }
+}
+
 TEST(ErrorClipmap, FlatTerrainIsDrawnByTheCoarsestBlocksAlone) {
   const Terrain t = flat(257, 257);
   const ClipmapBlockGrid g = grid_for(t, 17, 5);

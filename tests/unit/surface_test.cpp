@@ -9,7 +9,7 @@
 namespace loam {
 namespace {
 
-World random_world(WorldParams p, uint32_t seed, int amplitude = 65535) {
+World random_heights_world(WorldParams p, uint32_t seed, int amplitude = 65535) {
   std::mt19937 rng(seed);
   std::vector<uint16_t> s(size_t(p.sample_rect().area()));
   for (auto& v : s) v = uint16_t(rng() % uint32_t(amplitude));
@@ -30,7 +30,7 @@ WorldParams params(double mps, int32_t ox, int32_t oy) {
 
 TEST(Surface, HeightIsExactAtEverySamplePositionEvenForUnrepresentableSpacing) {
   for (const WorldParams p : {params(0.1, 0, 0), params(0.3, -5, 7), params(2.0, 20000, -30000)}) {
-    const World w = random_world(p, 11);
+    const World w = random_heights_world(p, 11);
     const RectI r = p.sample_rect();
     for (int64_t y = r.y0; y < r.y1; y += 7) {
       for (int64_t x = r.x0; x < r.x1; x += 3) {
@@ -44,7 +44,7 @@ TEST(Surface, HeightIsExactAtEverySamplePositionEvenForUnrepresentableSpacing) {
 
 TEST(Surface, HeightIsContinuousAcrossTileBordersAndCorners) {
   const WorldParams p = params(1.0, -1, -1);  // tile borders at sample 0 and the four-tile corner (0,0)
-  const World w = random_world(p, 12, 2000);
+  const World w = random_heights_world(p, 12, 2000);
   const double max_slope = 2000 * p.meters_per_unit;  // meters per meter between neighbours
   for (double eps : {1e-3, 1e-6, 1e-9}) {
     for (double along = -3.5; along <= 3.5; along += 0.25) {
@@ -60,7 +60,7 @@ TEST(Surface, HeightIsContinuousAcrossTileBordersAndCorners) {
 
 TEST(Surface, BilinearMidpointIsTheAverageOfItsNeighbours) {
   const WorldParams p = params(1.0, 0, 0);
-  const World w = random_world(p, 13);
+  const World w = random_heights_world(p, 13);
   const double mid = height_at(w, 255.5, 255.5);
   const double avg = (p.height_meters(w.coarse(255, 255)) + p.height_meters(w.coarse(256, 255)) +
                       p.height_meters(w.coarse(255, 256)) + p.height_meters(w.coarse(256, 256))) /
@@ -92,7 +92,7 @@ TEST(Surface, NormalOfAnEightyDegreeCliffIsEightyDegrees) {
 
 TEST(Surface, NormalIsContinuousAcrossTileBorders) {
   const WorldParams p = params(1.0, -1, -1);
-  const World w = random_world(p, 14, 300);
+  const World w = random_heights_world(p, 14, 300);
   for (double along = -5; along <= 5; along += 0.5) {
     const Vec3d a = normal_at(w, -1e-9, along), b = normal_at(w, 1e-9, along);
     EXPECT_NEAR(a.x, b.x, 1e-6);
@@ -114,7 +114,7 @@ TEST(Surface, Fd4DerivativeIsExactOnQuarticsIncludingOneSidedEdges) {
 
 TEST(Surface, QueriesOutsideTheWorldClampToItsEdge) {
   const WorldParams p = params(1.0, 0, 0);
-  const World w = random_world(p, 15);
+  const World w = random_heights_world(p, 15);
   EXPECT_EQ(height_at(w, -50.0, 3.0), p.height_meters(w.coarse(0, 3)));
   EXPECT_EQ(height_at(w, 10000.0, 511.0), p.height_meters(w.coarse(511, 511)));
 }
