@@ -253,6 +253,12 @@ std::function<Result<std::unique_ptr<Scheme>>(const terrain::HeightSource&)> sel
   };
 }
 
+// The error-driven clipmap's update after a stamp over `rect`, as the report names it.
+std::string error_clipmap_stamp(render::ErrorClipmapRenderer& r, const RectI& rect) {
+  const render::ErrorClipmapUpdate u = r.invalidate(rect);
+  return std::to_string(u.blocks) + " blocks' error bounds, " + std::to_string(u.texels) + " level samples";
+}
+
 struct Setting {
   std::string scheme, setting;
   std::function<Result<std::unique_ptr<Scheme>>(const terrain::HeightSource&)> make;
@@ -321,14 +327,7 @@ std::vector<Setting> settings(bool quick) {
     cfg.region = region;
     cfg.tolerance_px = tol;
     cfg.exact_levels = exact;
-    return selecting<render::ErrorClipmapRenderer>(
-        cfg,
-        [](render::ErrorClipmapRenderer& r, const RectI& rect) {
-          const render::ErrorClipmapUpdate u = r.invalidate(rect);
-          return std::to_string(u.blocks) + " blocks' error bounds, " + std::to_string(u.texels) +
-                 " level samples";
-        },
-        Truth::kUnionJack);
+    return selecting<render::ErrorClipmapRenderer>(cfg, error_clipmap_stamp, Truth::kUnionJack);
   };
   // Block size, region (level samples held per side; 1024 holds these worlds whole), budget,
   // exact levels.
@@ -535,14 +534,8 @@ int run_lod(const Context& ctx, Report& report) {
                       return std::unique_ptr<Scheme>(new ClipmapScheme(std::move(*r)));
                     }});
     here.push_back({"viewer", named(render::LodScheme::kError),
-                    selecting<render::ErrorClipmapRenderer>(
-                        render::viewer_error_clipmap_config(viewer, p),
-                        [](render::ErrorClipmapRenderer& r, const RectI& rect) {
-                          const render::ErrorClipmapUpdate u = r.invalidate(rect);
-                          return std::to_string(u.blocks) + " blocks' error bounds, " +
-                                 std::to_string(u.texels) + " level samples";
-                        },
-                        Truth::kUnionJack)});
+                    selecting<render::ErrorClipmapRenderer>(render::viewer_error_clipmap_config(viewer, p),
+                                                            error_clipmap_stamp, Truth::kUnionJack)});
     // The clipmaps at the clipmap suite's larger sizes, their view distance the world's diagonal.
     for (int32_t n : ctx.quick ? std::vector<int32_t>{127} : std::vector<int32_t>{127, 255}) {
       here.push_back({"clipmap", "n " + std::to_string(n),

@@ -323,8 +323,8 @@ ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const C
   std::priority_queue<Candidate> queue;
   auto drawn = [&](int32_t l, int64_t bx, int64_t by) { return !split_only || split_only(l, bx, by); };
   int64_t blocks = 0;  // leaves split_only lets through: the blocks a view draws
-  auto consider = [&](int32_t l, int64_t bx, int64_t by) {
-    if (!drawn(l, bx, by)) return;
+  // A drawn leaf: counted, and a candidate for a split.
+  auto add_drawn = [&](int32_t l, int64_t bx, int64_t by) {
     ++blocks;
     if (l > 0) queue.push({screen_px(l, bx, by), {l, int32_t(bx), int32_t(by)}});
   };
@@ -332,7 +332,7 @@ ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const C
   for (int64_t by = top.y0; by < top.y0 + top.ny; ++by) {
     for (int64_t bx = top.x0; bx < top.x0 + top.nx; ++bx) {
       lv[size_t(L - 1)].state[top.at(bx, by)] = kLeaf;
-      consider(L - 1, bx, by);
+      if (drawn(L - 1, bx, by)) add_drawn(L - 1, bx, by);
     }
   }
   if (top.nx > 0 && top.ny > 0) {
@@ -350,9 +350,12 @@ ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const C
       queue.pop();
       continue;
     }
+    std::array<bool, 4> child_drawn{};  // row order; each child's frustum test made once
     int64_t visible = 0;
-    for (int64_t j = 0; j < 2; ++j)
-      for (int64_t i = 0; i < 2; ++i) visible += drawn(b.level - 1, 2 * b.bx + i, 2 * b.by + j) ? 1 : 0;
+    for (int64_t k = 0; k < 4; ++k) {
+      child_drawn[size_t(k)] = drawn(b.level - 1, 2 * b.bx + (k & 1), 2 * b.by + (k >> 1));
+      visible += child_drawn[size_t(k)] ? 1 : 0;
+    }
     if (max_blocks > 0 && blocks - 1 + visible > max_blocks) {
       // The block count is spent: the budget becomes what this block shows, the most any
       // block left shows (the morphs below blend for it).
@@ -364,8 +367,8 @@ ErrorClipmapSelection select_error_clipmap(const ClipmapBlockGrid& grid, const C
     split(b.level, b.bx, b.by);
     ++sel.stats.split;
     --blocks;
-    for (int32_t j = 0; j < 2; ++j)
-      for (int32_t i = 0; i < 2; ++i) consider(b.level - 1, 2 * b.bx + i, 2 * b.by + j);
+    for (int64_t k = 0; k < 4; ++k)
+      if (child_drawn[size_t(k)]) add_drawn(b.level - 1, 2 * b.bx + (k & 1), 2 * b.by + (k >> 1));
   }
   sel.stats.tolerance_px = tolerance;
   // The vertical error (m) the budget allows at the block's box.
