@@ -25,3 +25,14 @@ endfunction()
 function(loam_exact_fp target)
   target_compile_options(${target} PRIVATE -ffp-contract=off -fno-fast-math)
 endfunction()
+
+# Code that drives the code under test rather than being it: test bodies, the benchmark harness
+# and the programs' command-line front ends. In the sanitizer build (the test configuration) it
+# compiles at -Og: the instrumented optimizer passes, not parsing, are most of that build, and
+# -Og takes a test unity batch from 48 s to 18 s (bench/results/build.md). The libraries the tests
+# exercise keep the build type's -O2, so the tests run the code users get at its speed.
+function(loam_driver_code target)
+  if(LOAM_SANITIZE)
+    target_compile_options(${target} PRIVATE -Og)
+  endif()
+endfunction()
