@@ -12,6 +12,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
@@ -81,6 +82,21 @@ inline CLI::Validator IntRange(int64_t lo, int64_t hi) {
         return v >= lo && v <= hi ? std::string() : why;
       },
       range, "IntRange");
+}
+
+// A file written as PNG: the name must end in .png (any case), so a wrong name is refused
+// before anything is drawn, not after.
+inline CLI::Validator PngFile() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        const size_t n = text.size();
+        const bool png = n > 4 && text[n - 4] == '.' &&
+                         std::tolower(static_cast<unsigned char>(text[n - 3])) == 'p' &&
+                         std::tolower(static_cast<unsigned char>(text[n - 2])) == 'n' &&
+                         std::tolower(static_cast<unsigned char>(text[n - 1])) == 'g';
+        return png ? std::string() : "must name a .png file, got " + text;
+      },
+      "FILE.png", "PngFile");
 }
 
 }  // namespace loam::cli

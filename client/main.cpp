@@ -90,7 +90,8 @@ int main(int argc, char** argv) {
       ->check(cli::Finite());
   render_cmd->add_option("--size", size, "WIDTHxHEIGHT")->capture_default_str();
   render_cmd->add_option("--out", ro.out, "PNG file (a path numbers them: out_0000.png, ...)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::PngFile());
   render_cmd->add_option("--path", ro.path, "Camera path file: one 'x y z tx ty tz' line per frame");
   render_cmd->add_flag("!--no-morph", ro.morph, "Disable geomorphing (shows level pops)");
   render_cmd->add_option("--n", ro.n, "Vertices per clipmap level side (2^k - 1)")
@@ -137,7 +138,8 @@ int main(int argc, char** argv) {
   view_cmd->add_option("--screenshot-every", vo.screenshot_every_s, "Headless: a PNG this often (s)")
       ->check(cli::FiniteRange(0, 1e7));
   view_cmd->add_option("--screenshot", vo.screenshot, "PNG file (numbered when several)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(cli::PngFile());
   view_cmd
       ->add_option("--lod", vo.lod,
                    "Level of detail: error (blocks chosen for a screen-space error budget) or classic "

@@ -1,6 +1,6 @@
 // loam-probe: `loam-client probe` as a program of its own. It links no image or GL
-// library, so it starts in milliseconds with a few megabytes where loam-client loads
-// OpenImageIO's hundreds of libraries first (0.3 s, 130 MB here): the command for health
+// library, so it starts in milliseconds with a few megabytes where loam-client loads GDAL's
+// and GL's libraries first: the command for health
 // checks that run every few seconds (the image's HEALTHCHECK, Kubernetes' probes).
 #include <CLI/CLI.hpp>
 #include <cstdio>

@@ -1,10 +1,11 @@
 #include "dem/dem_export.h"
 
-#include <OpenImageIO/imageio.h>
-
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <vector>
+
+#include "dem/image_file.h"
 
 namespace loam {
 namespace {
@@ -13,20 +14,6 @@ Status check_region(const World& world, const RectI& region, const std::string& 
   if (region.empty() || !world.params().sample_rect().contains(region)) {
     return make_error(ErrorCode::kInvalidArgument, path, "export region is empty or outside the world");
   }
-  return {};
-}
-
-template <typename T>
-Status write_image(const std::string& path, int64_t w, int64_t h, OIIO::TypeDesc type,
-                   const std::vector<T>& px) {
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out)
-    return make_error(ErrorCode::kUnsupported, path, "no writer for this file type: " + OIIO::geterror());
-  OIIO::ImageSpec spec(int(w), int(h), 1, type);
-  if (!out->open(path, spec)) return make_error(ErrorCode::kIo, path, "cannot create: " + out->geterror());
-  if (!out->write_image(type, px.data()))
-    return make_error(ErrorCode::kIo, path, "write failed: " + out->geterror());
-  if (!out->close()) return make_error(ErrorCode::kIo, path, "close failed: " + out->geterror());
   return {};
 }
 
@@ -63,7 +50,8 @@ Status export_png16(const World& world, const RectI& region, const std::string& 
   LOAM_TRY(check_region(world, region, path));
   std::vector<uint16_t> px(size_t(region.area()));
   world.read_coarse(region, px);
-  LOAM_TRY(write_image(path, region.width(), region.height(), OIIO::TypeDesc::UINT16, px));
+  LOAM_TRY(write_image_file(
+      path, image_view(int32_t(region.width()), int32_t(region.height()), 1, std::span<const uint16_t>(px))));
   const size_t dot = path.find_last_of('.');
   const std::string side = (dot == std::string::npos ? path : path.substr(0, dot)) + ".json";
   std::ofstream out(side);
@@ -84,7 +72,8 @@ Status export_exr(const World& world, const RectI& region, const std::string& pa
       px[size_t((y - region.y0) * region.width() + (x - region.x0))] = float(h);
     }
   }
-  return write_image(path, region.width(), region.height(), OIIO::TypeDesc::FLOAT, px);
+  return write_image_file(
+      path, image_view(int32_t(region.width()), int32_t(region.height()), 1, std::span<const float>(px)));
 }
 
 }  // namespace loam

@@ -1,4 +1,4 @@
-// Writing a world (or a region of it) out as an image through OpenImageIO.
+// Writing a world (or a region of it) out as an image (dem/image_file.h: GDAL for PNG, OpenEXR).
 //
 // PNG: 16-bit coarse height units exactly as stored, with a JSON sidecar (NAME.json) that
 // gives the vertical mapping and the world's parameters, so importing it again reproduces

@@ -26,13 +26,6 @@ Error fail(ErrorCode code, const std::string& name, const std::string& why) {
   return make_error(code, name, why);
 }
 
-std::string lower_extension(const std::string& name) {
-  std::string ext = std::filesystem::path(name).extension().string();
-  if (!ext.empty() && ext[0] == '.') ext.erase(0, 1);
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 Status check_extension(const std::string& ext, const std::string& name) {
   if (ext.empty()) return fail(ErrorCode::kUnsupported, name, "no file extension to tell the format");
   if (ext != "exr" && !gdal_driver_for_extension(ext)) {

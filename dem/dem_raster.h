@@ -2,7 +2,7 @@
 //
 // Formats, by extension: GeoTIFF/COG (.tif, .tiff), PNG (.png), SRTM HGT (.hgt, named like
 // N47E011.hgt), ESRI ASCII grid (.asc) and VRT (.vrt) through GDAL; OpenEXR (.exr, Loam's
-// float exports) through OpenImageIO. Samples may be 8/16/32-bit integers or floats. Heights
+// float exports) through the OpenEXR library. Samples may be 8/16/32-bit integers or floats. Heights
 // come out in metres as double, NaN where the source has no data (NaN samples, or the band's
 // NoData value); the band's scale and offset apply.
 //

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <string_view>
 
@@ -94,6 +95,7 @@ class GdalSource final : public RasterSource {
     if (has) info.offset = offset;
     const char* unit = GDALGetRasterUnitType(b);
     info.unit = unit ? unit : "";
+    if (const char* nbits = GDALGetMetadataItem(b, "NBITS", "IMAGE_STRUCTURE")) info.bits = std::atoi(nbits);
     return info;
   }
 

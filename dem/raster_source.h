@@ -3,12 +3,14 @@
 // actually read, never the size a header claims.
 //
 // Two implementations: GDAL (gdal_source.h: GeoTIFF/COG, PNG, SRTM HGT, ESRI ASCII grid,
-// VRT) and OpenImageIO for OpenEXR (exr_source.h: Loam's own float exports). Opening reads
+// VRT) and the OpenEXR library (exr_source.h: Loam's own float exports). Opening reads
 // only the header; every read checks the decoder's status, so truncated or corrupt data is an
 // Error, never rows of zeros. Not thread-safe: one source per thread.
 #pragma once
 
+#include <cctype>
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <span>
 #include <string>
@@ -26,6 +28,7 @@ struct RasterBandInfo {
   std::optional<double> scale;   // the band's value scale (value * scale + offset)
   std::optional<double> offset;  // the band's value offset
   std::string unit;              // the band's unit ("m", "ft", or empty)
+  int bits = 0;                  // significant bits of a narrower integer (a 1-, 2- or 4-bit PNG); 0: all
 };
 
 // Where the samples lie on the earth: the affine geotransform (GDAL's order: x0, dx/col,
@@ -42,6 +45,15 @@ struct Georef {
   double linear_unit_m = 1.0;       // metres per linear unit (projected, local)
   std::string linear_unit_name;     // "metre", "US survey foot"...
 };
+
+// The lower-case extension of a file name without its dot ("png"); empty when it has none. The
+// extension picks the reader (and the writer, dem/image_file.h).
+inline std::string lower_extension(const std::string& name) {
+  std::string ext = std::filesystem::path(name).extension().string();
+  if (!ext.empty() && ext[0] == '.') ext.erase(0, 1);
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
 
 class RasterSource {
  public:

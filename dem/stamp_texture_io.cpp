@@ -1,12 +1,12 @@
 #include "dem/stamp_texture_io.h"
 
-#include <OpenImageIO/filesystem.h>
-#include <OpenImageIO/imageio.h>
-
-#include <cctype>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iterator>
+
+#include "dem/exr_source.h"
+#include "dem/gdal_source.h"
 
 namespace loam {
 namespace {
@@ -25,74 +25,70 @@ Result<uint16_t> from_float(double v, const std::string& name) {
 }  // namespace
 
 Result<DecodedTexture> read_stamp_texture_memory(std::span<const uint8_t> bytes, const std::string& name) {
-  std::string ext = OIIO::Filesystem::extension(name, false);
-  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  const std::string ext = lower_extension(name);
   if (ext != "png" && ext != "tif" && ext != "tiff" && ext != "exr") {
     return fail(ErrorCode::kUnsupported, name,
                 "unsupported texture format '" + ext + "' (use PNG, TIFF or EXR)");
   }
-  // OIIO reads through the proxy and never writes to it; the API takes a non-const pointer.
-  OIIO::Filesystem::IOMemReader proxy(const_cast<uint8_t*>(bytes.data()), bytes.size());
-  auto in = OIIO::ImageInput::create(ext);
-  OIIO::ImageSpec spec;
-  // Gray + alpha: the gray channel as stored, never premultiplied by alpha (PNG's default).
-  OIIO::ImageSpec config;
-  config.attribute("oiio:UnassociatedAlpha", 1);
-  if (!in || !in->set_ioproxy(&proxy) || !in->open(name, spec, config)) {
-    std::string why = in ? in->geterror() : OIIO::geterror();
-    if (why.empty()) why = "not a readable image";
-    return fail(ErrorCode::kCorrupt, name, "cannot decode the texture: " + why);
+  // The DEM readers: GDAL for PNG and TIFF, OpenEXR for EXR; opening reads the header only.
+  auto opened = ext == "exr" ? open_exr_memory(bytes, name) : open_gdal_memory(bytes, name, ext);
+  if (!opened.ok()) {
+    return fail(ErrorCode::kCorrupt, name, "cannot decode the texture: " + opened.error().message);
   }
-  spec = in->spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) {
+  RasterSource& src = *opened.value();
+  if (src.width() <= 0 || src.height() <= 0 || src.band_count() <= 0) {
     return fail(ErrorCode::kCorrupt, name, "texture has no samples");
   }
-  if (spec.nchannels > 2) {
+  const RasterBandInfo gray = src.band(1);
+  if (src.band_count() > 2 || gray.color == "Palette") {
     return fail(ErrorCode::kUnsupported, name,
-                "texture has " + std::to_string(spec.nchannels) +
-                    " channels; stamps take grayscale (1, or 2 with alpha)");
+                gray.color == "Palette"
+                    ? std::string("texture is a palette (colour) image; stamps take grayscale")
+                    : "texture has " + std::to_string(src.band_count()) +
+                          " channels; stamps take grayscale (1, or 2 with alpha)");
   }
-  if (spec.width > kMaxTextureSide || spec.height > kMaxTextureSide) {
+  if (src.width() > kMaxTextureSide || src.height() > kMaxTextureSide) {
     return fail(ErrorCode::kOversize, name,
-                "texture is " + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
+                "texture is " + std::to_string(src.width()) + "x" + std::to_string(src.height()) +
                     "; the limit is " + std::to_string(kMaxTextureSide) + " per side");
   }
-  const auto base = OIIO::TypeDesc::BASETYPE(spec.format.basetype);
-  const bool is_float =
-      base == OIIO::TypeDesc::HALF || base == OIIO::TypeDesc::FLOAT || base == OIIO::TypeDesc::DOUBLE;
-  if (base != OIIO::TypeDesc::UINT8 && base != OIIO::TypeDesc::UINT16 && !is_float) {
-    return fail(
-        ErrorCode::kUnsupported, name,
-        std::string("unsupported sample type ") + spec.format.c_str() + " (use 8/16-bit unsigned or float)");
+  const std::string& type = gray.sample_type;
+  const bool is_float = type == "float16" || type == "float32" || type == "float64";
+  if (type != "uint8" && type != "uint16" && !is_float) {
+    return fail(ErrorCode::kUnsupported, name,
+                "unsupported sample type " + type + " (use 8/16-bit unsigned or float)");
   }
   DecodedTexture t;
-  t.width = spec.width;
-  t.height = spec.height;
+  t.width = int32_t(src.width());
+  t.height = int32_t(src.height());
   const size_t count = size_t(t.width) * size_t(t.height);
+  // The first channel only, a strip of rows at a time (a double holds every integer and
+  // half/float sample exactly).
   t.samples.resize(count);
-  bool ok = false;
-  // The first channel only, read in the file's own type so integers keep their exact values.
-  if (base == OIIO::TypeDesc::UINT8) {
-    std::vector<uint8_t> tmp(count);
-    ok = in->read_image(0, 0, 0, 1, OIIO::TypeDesc::UINT8, tmp.data());
-    for (size_t i = 0; i < count; ++i) t.samples[i] = uint16_t(tmp[i] * 257u);
-  } else if (base == OIIO::TypeDesc::UINT16) {
-    ok = in->read_image(0, 0, 0, 1, OIIO::TypeDesc::UINT16, t.samples.data());
-  } else {
-    std::vector<double> tmp(count);
-    ok = in->read_image(0, 0, 0, 1, OIIO::TypeDesc::DOUBLE, tmp.data());
-    for (size_t i = 0; ok && i < count; ++i) {
-      auto v = from_float(tmp[i], name);
-      if (!v.ok()) return v.error();
-      t.samples[i] = v.value();
+  const int bits = gray.bits > 0 && gray.bits < 8 ? gray.bits : 8;
+  // 1-, 2- and 4-bit gray widen to 8 bits by repeating their bits (PNG's own rule: 1 -> 255).
+  const uint32_t widen = 255u / ((1u << bits) - 1u);
+  const int64_t strip = std::max<int64_t>(src.block_rows(), 64);
+  std::vector<double> v;
+  for (int64_t y0 = 0; y0 < t.height; y0 += strip) {
+    const int64_t rows = std::min<int64_t>(strip, t.height - y0);
+    v.resize(size_t(rows) * size_t(t.width));
+    if (auto r = src.read_rows(1, y0, rows, v); !r.ok()) {
+      return fail(ErrorCode::kCorrupt, name, "cannot read the texture's samples: " + r.error().message);
+    }
+    uint16_t* out = t.samples.data() + size_t(y0) * size_t(t.width);
+    for (size_t i = 0; i < v.size(); ++i) {
+      if (type == "uint8") {
+        out[i] = uint16_t(uint32_t(v[i]) * widen * 257u);
+      } else if (type == "uint16") {
+        out[i] = uint16_t(v[i]);
+      } else {
+        auto s = from_float(v[i], name);
+        if (!s.ok()) return s.error();
+        out[i] = s.value();
+      }
     }
   }
-  if (!ok) {
-    std::string why = in->geterror();
-    return fail(ErrorCode::kCorrupt, name,
-                "cannot read the texture's samples: " + (why.empty() ? "decoder error" : why));
-  }
-  in->close();
   return t;
 }
 

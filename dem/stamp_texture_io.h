@@ -1,8 +1,10 @@
-// Stamp texture images from files: a grayscale PNG, TIFF or EXR decoded through OpenImageIO
-// into the 16-bit samples TextureRegistry::add takes (protocol/ stays free of image libraries).
+// Stamp texture images from files: a grayscale PNG, TIFF or EXR decoded by the DEM readers
+// (GDAL for PNG and TIFF, OpenEXR for EXR) into the 16-bit samples TextureRegistry::add takes
+// (protocol/ stays free of image libraries).
 //
 // Sample mapping, chosen so every party that decodes the same file registers the same
-// content id: 16-bit integers as they are; 8-bit integers times 257 (0 -> 0, 255 -> 65535);
+// content id: 16-bit integers as they are; 8-bit integers times 257 (0 -> 0, 255 -> 65535),
+// 1-, 2- and 4-bit gray first widened to 8 bits as PNG defines (1-bit 1 -> 255);
 // floating point (half, float, double) clamped to [0, 1], times 65535, rounded to nearest
 // (halves up). One channel, or two (gray + alpha: alpha is ignored). Row 0 of the file is
 // row 0 of the texture. Safe on untrusted files: every failure is an Error whose field is

@@ -249,8 +249,8 @@ def main():
                     "at most 64 MB over the floor. The ctest `dem.hostile_files_are_refused_within_64mb_over_the_floor` "
                     "runs the same cases.\n\n")
             f.write("The floor is the program itself: `loam-server --version` peaks at %.1f MB in this run, "
-                    "nearly all of it the start-up of the shared libraries it links (OpenImageIO's alone "
-                    "is ~130 MB here; GDAL's ~35 MB). What each case adds over the floor is what its "
+                    "nearly all of it the start-up of the shared libraries it links (GDAL's are ~35 MB "
+                    "here). What each case adds over the floor is what its "
                     "import allocated.\n\n" % (floor_kb / 1024))
             f.write("| file | what it is | bytes | error | exit | peak RSS MB | over the floor MB |\n"
                     "|---|---|---|---|---|---|---|\n")

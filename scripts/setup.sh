@@ -9,14 +9,16 @@ BUILD_PACKAGES=(
   # toolchain
   cmake ninja-build ccache g++ pkg-config
   # libraries
-  libasio-dev libglfw3-dev libglm-dev libzstd-dev libopenimageio-dev libgdal-dev
+  libasio-dev libglfw3-dev libglm-dev libzstd-dev libopenexr-dev libgdal-dev
   libegl-dev libegl-mesa0 libgl1-mesa-dri libgl-dev libepoxy-dev
   libgtest-dev libgmock-dev libcli11-dev libxxhash-dev libimgui-dev liblerc-dev nlohmann-json3-dev
   libssl-dev
 )
 # What testing, fuzzing and benchmarking need besides.
 TEST_PACKAGES=(
-  clang libclang-rt-14-dev clang-format openimageio-tools
+  clang libclang-rt-14-dev clang-format
+  # loam-bench's codec suite measures OpenImageIO's PNG writer; idiff compares golden images
+  libopenimageio-dev openimageio-tools
   xvfb xauth gnuplot-nox gdal-bin
   # deploy/ checks: the systemd unit (systemd-analyze) and the manifests (YAML)
   systemd python3-yaml

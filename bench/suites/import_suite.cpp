@@ -258,7 +258,8 @@ int run_import(const Context& ctx, Report& report) {
         tr.median_s * 1e3, ti.median_s * 1e3, r.max_error_m, rss_mb);
   }
   report.paragraph(
-      "Each DEM is read through GDAL (OpenImageIO for OpenEXR) in strips of rows, then quantized into 16-bit "
+      "Each DEM is read through GDAL (the OpenEXR library for OpenEXR) in strips of rows, then quantized "
+      "into 16-bit "
       "tiles with 25% headroom each side, NoData filled and the last tiles padded with a flat apron. Error "
       "is "
       "|dequantized - source| over valid samples; integer sources with a power-of-two step ratio import "
@@ -273,7 +274,7 @@ int run_import(const Context& ctx, Report& report) {
   std::snprintf(
       floor, sizeof floor,
       "Peak RSS floor: `loam-server --version` peaks at %.1f MB (the start-up of its shared libraries, "
-      "OpenImageIO's most of it); a DEM's import is what a row adds to that. Each child is forked and "
+      "GDAL's most of it); a DEM's import is what a row adds to that. Each child is forked and "
       "exec'd (this process held up to %.1f MB of anonymous memory at the forks; the small rows staying "
       "near the floor show none of it is counted), and the column agrees with `/usr/bin/time -v "
       "loam-server import FILE` to a few MB (time reads slightly higher).",

@@ -7,7 +7,6 @@
 // of a 32768^2 GeoTIFF into a tile pack in bounded memory, serving the refined world and the
 // pack to roaming bots, headless viewers and a 300 m/s flight, a join at 128 KiB/s, and
 // incremental snapshots with retention over a long session (world_scale_store.h).
-#include <OpenImageIO/imageio.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -18,6 +17,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -28,6 +28,7 @@
 #include "client/net/terrain_client.h"
 #include "dem/default_terrain.h"
 #include "dem/dem_raster.h"
+#include "dem/image_file.h"
 #include "dem/refined_default.h"
 #include "server/server_config.h"
 #include "tests/integration/server_process.h"
@@ -128,12 +129,7 @@ bool write_hillshade(const Field& f, const std::string& path) {
       px[size_t(y * f.w + x)] = uint8_t(std::clamp(shade, 0.0, 1.0) * 255.0);
     }
   }
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out) return false;
-  OIIO::ImageSpec spec(int(f.w), int(f.h), 1, OIIO::TypeDesc::UINT8);
-  if (!out->open(path, spec)) return false;
-  const bool ok = out->write_image(OIIO::TypeDesc::UINT8, px.data());
-  return out->close() && ok;
+  return write_image_file(path, image_view(int32_t(f.w), int32_t(f.h), 1, std::span<const uint8_t>(px))).ok();
 }
 
 // Peak resident set (VmHWM) of a live process, MiB; 0 when unreadable.

@@ -1,10 +1,10 @@
 #include "client/render/offscreen_target.h"
 
-#include <OpenImageIO/imageio.h>
-
 #include <cstdio>
+#include <span>
 
 #include "client/render/reversed_depth.h"
+#include "dem/image_file.h"
 
 namespace loam::render {
 
@@ -76,13 +76,7 @@ Status write_png(const std::string& path, int32_t width, int32_t height, const s
     for (size_t i = 0; i < rgba.size(); i += 4)
       pixels.insert(pixels.end(), {rgba[i], rgba[i + 1], rgba[i + 2]});
   }
-  auto out = OIIO::ImageOutput::create(path);
-  if (!out) return make_error(ErrorCode::kIo, path, "no image writer for this file name");
-  OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
-  if (!out->open(path, spec) || !out->write_image(OIIO::TypeDesc::UINT8, pixels.data()) || !out->close()) {
-    return make_error(ErrorCode::kIo, path, out->geterror());
-  }
-  return {};
+  return write_image_file(path, image_view(width, height, channels, std::span<const uint8_t>(pixels)));
 }
 
 }  // namespace loam::render

@@ -1,6 +1,6 @@
 // Headless rendering: an offscreen framebuffer (RGBA8 colour, 32-bit float depth) to render
-// the terrain into, pixel and depth readback in top-down row order, and PNG output through
-// OpenImageIO. Needs the GL context current.
+// the terrain into, pixel and depth readback in top-down row order, and PNG output
+// (dem/image_file.h). Needs the GL context current.
 #pragma once
 
 #include <cstdint>

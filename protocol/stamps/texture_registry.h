@@ -4,7 +4,7 @@
 // width and height as little-endian uint32, then the samples as little-endian uint16, row 0
 // first). Every party registers the same decoded samples and so derives the same id; the
 // image itself travels once. This module is pure: it takes decoded 16-bit gray samples
-// (decoding files through OpenImageIO lives outside protocol/, see dem/stamp_texture_io.h).
+// (decoding image files lives outside protocol/, see dem/stamp_texture_io.h).
 #pragma once
 
 #include <cstdint>

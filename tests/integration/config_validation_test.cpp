@@ -267,6 +267,19 @@ TEST(ConfigValidation, RenderRefusesAVerticalView) {
   EXPECT_TRUE(mentions(r, "straight up or down")) << r.output;
 }
 
+// Pictures are written as PNG: another name is refused before anything is drawn.
+TEST(ConfigValidation, RenderAndViewRefuseAPictureNameThatIsNotPng) {
+  const std::string jpg = temp_data_dir("render") + "/r.jpg";
+  const Ran r = run({LOAM_CLIENT_BINARY, "render", "--out", jpg});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_TRUE(mentions(r, "--out: must name a .png file, got " + jpg)) << r.output;
+#ifdef LOAM_CLIENT_HAS_VIEWER
+  const Ran v = run({LOAM_CLIENT_BINARY, "view", "--headless", "--screenshot", "shot.tif"});
+  EXPECT_NE(v.exit_code, 0);
+  EXPECT_TRUE(mentions(v, "--screenshot: must name a .png file, got shot.tif")) << v.output;
+#endif
+}
+
 // A camera path file is held to the same rules, naming its line.
 TEST(ConfigValidation, RenderRefusesACameraPathLineAtItsLookPoint) {
   const std::string path = temp_data_dir("path") + "/cameras.txt";

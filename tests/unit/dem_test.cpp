@@ -1,4 +1,3 @@
-#include <OpenImageIO/imageio.h>
 #include <cpl_conv.h>
 #include <gdal.h>
 #include <gtest/gtest.h>
@@ -16,12 +15,14 @@
 #include <functional>
 #include <optional>
 #include <random>
+#include <span>
 
 #include "dem/default_terrain.h"
 #include "dem/dem_export.h"
 #include "dem/dem_import.h"
 #include "dem/dem_raster.h"
 #include "dem/gdal_errors.h"
+#include "dem/image_file.h"
 
 namespace loam {
 namespace {
@@ -47,11 +48,8 @@ std::vector<uint8_t> read_bytes(const fs::path& path) {
 }
 
 void write_float_image(const fs::path& path, int w, int h, const std::vector<float>& px) {
-  auto out = OIIO::ImageOutput::create(path.string());
-  ASSERT_TRUE(out);
-  ASSERT_TRUE(out->open(path.string(), OIIO::ImageSpec(w, h, 1, OIIO::TypeDesc::FLOAT)));
-  ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, px.data()));
-  ASSERT_TRUE(out->close());
+  const Status s = write_image_file(path.string(), image_view(w, h, 1, std::span<const float>(px)));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
 }
 
 // A raster written through GDAL (MEM, then CreateCopy to the driver), for tests of formats,

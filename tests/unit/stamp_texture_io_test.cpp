@@ -2,14 +2,17 @@
 // samples, registration by content, and typed errors that name the file.
 #include "dem/stamp_texture_io.h"
 
-#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <string>
 #include <vector>
+
+#include "dem/image_file.h"
 
 namespace loam {
 namespace {
@@ -20,20 +23,16 @@ std::string temp_path(const std::string& file) {
   return (dir / file).string();
 }
 
+// Written by Loam's own image writer (dem/image_file.h): GDAL for PNG and TIFF, OpenEXR.
 template <typename T>
-void write_image(const std::string& path, int w, int h, int channels, OIIO::TypeDesc type,
-                 const std::vector<T>& px) {
-  auto out = OIIO::ImageOutput::create(path);
-  ASSERT_TRUE(out) << OIIO::geterror();
-  OIIO::ImageSpec spec(w, h, channels, type);
-  ASSERT_TRUE(out->open(path, spec)) << out->geterror();
-  ASSERT_TRUE(out->write_image(type, px.data())) << out->geterror();
-  ASSERT_TRUE(out->close());
+void write_image(const std::string& path, int w, int h, int channels, const std::vector<T>& px) {
+  const Status s = write_image_file(path, image_view(w, h, channels, std::span<const T>(px)));
+  ASSERT_TRUE(s.ok()) << s.error().describe();
 }
 
 TEST(StampTextureIo, EightBitPngIsScaledBy257SoWhiteIsFullIntensity) {
   const std::string path = temp_path("gray8.png");
-  write_image<uint8_t>(path, 3, 2, 1, OIIO::TypeDesc::UINT8, {0, 1, 128, 200, 254, 255});
+  write_image<uint8_t>(path, 3, 2, 1, {0, 1, 128, 200, 254, 255});
   auto t = read_stamp_texture_file(path);
   ASSERT_TRUE(t.ok()) << t.error().describe();
   EXPECT_EQ(t.value().width, 3);
@@ -45,7 +44,7 @@ TEST(StampTextureIo, SixteenBitPngAndTiffKeepTheirSamplesAndRowOrder) {
   const std::vector<uint16_t> px = {0, 1, 65535, 12345, 40000, 7};
   for (const char* file : {"gray16.png", "gray16.tif"}) {
     const std::string path = temp_path(file);
-    write_image(path, 2, 3, 1, OIIO::TypeDesc::UINT16, px);
+    write_image(path, 2, 3, 1, px);
     auto t = read_stamp_texture_file(path);
     ASSERT_TRUE(t.ok()) << t.error().describe();
     EXPECT_EQ(t.value().width, 2) << file;
@@ -56,7 +55,7 @@ TEST(StampTextureIo, SixteenBitPngAndTiffKeepTheirSamplesAndRowOrder) {
 TEST(StampTextureIo, FloatExrIsClampedToZeroOneScaledAndRoundedHalvesUp) {
   const std::string path = temp_path("grayf.exr");
   // 0.5 * 65535 = 32767.5 rounds up; out-of-range values clamp.
-  write_image<float>(path, 4, 1, 1, OIIO::TypeDesc::FLOAT, {-0.25f, 0.5f, 1.0f, 7.0f});
+  write_image<float>(path, 4, 1, 1, {-0.25f, 0.5f, 1.0f, 7.0f});
   auto t = read_stamp_texture_file(path);
   ASSERT_TRUE(t.ok()) << t.error().describe();
   EXPECT_EQ(t.value().samples, (std::vector<uint16_t>{0, 32768, 65535, 65535}));
@@ -64,7 +63,7 @@ TEST(StampTextureIo, FloatExrIsClampedToZeroOneScaledAndRoundedHalvesUp) {
 
 TEST(StampTextureIo, GrayWithAlphaUsesTheGrayChannelOnly) {
   const std::string path = temp_path("gray_alpha.png");
-  write_image<uint8_t>(path, 2, 1, 2, OIIO::TypeDesc::UINT8, {10, 0, 20, 255});
+  write_image<uint8_t>(path, 2, 1, 2, {10, 0, 20, 255});
   auto t = read_stamp_texture_file(path);
   ASSERT_TRUE(t.ok()) << t.error().describe();
   EXPECT_EQ(t.value().samples, (std::vector<uint16_t>{2570, 5140}));
@@ -73,8 +72,8 @@ TEST(StampTextureIo, GrayWithAlphaUsesTheGrayChannelOnly) {
 TEST(StampTextureIo, RegisteringTheSameImageFromTwoFormatsGivesOneContentId) {
   const std::vector<uint16_t> px = {0, 1000, 65535, 4};
   const std::string png = temp_path("same.png"), tif = temp_path("same.tif");
-  write_image(png, 2, 2, 1, OIIO::TypeDesc::UINT16, px);
-  write_image(tif, 2, 2, 1, OIIO::TypeDesc::UINT16, px);
+  write_image(png, 2, 2, 1, px);
+  write_image(tif, 2, 2, 1, px);
   TextureRegistry reg;
   auto a = register_stamp_texture_file(reg, png);
   auto b = register_stamp_texture_file(reg, tif);
@@ -92,7 +91,7 @@ TEST(StampTextureIo, EveryFailureIsTypedAndNamesTheFile) {
   EXPECT_EQ(r.error().field, missing);
 
   const std::string rgb = temp_path("rgb.png");
-  write_image<uint8_t>(rgb, 1, 1, 3, OIIO::TypeDesc::UINT8, {1, 2, 3});
+  write_image<uint8_t>(rgb, 1, 1, 3, {1, 2, 3});
   r = read_stamp_texture_file(rgb);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kUnsupported);
@@ -106,7 +105,7 @@ TEST(StampTextureIo, EveryFailureIsTypedAndNamesTheFile) {
   EXPECT_EQ(r.error().field, junk);
 
   const std::string nan = temp_path("nan.exr");
-  write_image<float>(nan, 1, 1, 1, OIIO::TypeDesc::FLOAT, {std::nanf("")});
+  write_image<float>(nan, 1, 1, 1, {std::nanf("")});
   r = read_stamp_texture_file(nan);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kNotFinite);
@@ -119,8 +118,7 @@ TEST(StampTextureIo, EveryFailureIsTypedAndNamesTheFile) {
   EXPECT_EQ(r.error().field, "texture.bmp");
 
   const std::string big = temp_path("big.png");
-  write_image(big, kMaxTextureSide + 1, 1, 1, OIIO::TypeDesc::UINT8,
-              std::vector<uint8_t>(size_t(kMaxTextureSide + 1)));
+  write_image(big, kMaxTextureSide + 1, 1, 1, std::vector<uint8_t>(size_t(kMaxTextureSide + 1)));
   r = read_stamp_texture_file(big);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().code, ErrorCode::kOversize);
