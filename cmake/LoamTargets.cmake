@@ -26,11 +26,19 @@ function(loam_exact_fp target)
   target_compile_options(${target} PRIVATE -ffp-contract=off -fno-fast-math)
 endfunction()
 
+# The hot numeric code the tests run most (protocol/: stamp kernels, codec, refinement): in the
+# sanitizer build it keeps -O2 over that build's -O1, so the tests exercise it as optimized as
+# users get it.
+function(loam_hot_code target)
+  if(LOAM_SANITIZE)
+    target_compile_options(${target} PRIVATE -O2)
+  endif()
+endfunction()
+
 # Code that drives the code under test rather than being it: test bodies, the benchmark harness
 # and the programs' command-line front ends. In the sanitizer build (the test configuration) it
 # compiles at -Og: the instrumented optimizer passes, not parsing, are most of that build, and
-# -Og takes a test unity batch from 48 s to 18 s (bench/results/build.md). The libraries the tests
-# exercise keep the build type's -O2, so the tests run the code users get at its speed.
+# -Og takes a test unity batch from 48 s to 18 s (bench/results/build.md).
 function(loam_driver_code target)
   if(LOAM_SANITIZE)
     target_compile_options(${target} PRIVATE -Og)

@@ -26,6 +26,10 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   // A reconnect must find the session it left: the same world, and a sequence at least the one
   // this client saw (what the server acknowledged or announced is durable). Anything else is
   // another server, or a session restored from an older backup: nothing in flight goes there.
+  // Welcome names the last stamp applied, and an ack goes out at the durability point, before
+  // the apply: a server that still holds this client's resume key is the same live session
+  // (its ledger does not survive a restart), whose acknowledged stamps are applied and
+  // announced after the Welcome, so there only the events received must be reached.
   const bool resuming = store_ != nullptr;
   const WorldParams before = welcome_.world;
   connection_->set_tls(tls_);
@@ -34,10 +38,11 @@ Status TerrainClient::handshake(const std::string& host, uint16_t port) {
   welcome_ = *w;
   if (resuming && !(welcome_.world == before))
     return make_error(ErrorCode::kUnsupported, "welcome.world", "the server hosts a different world now");
-  if (resuming && welcome_.global_sequence < last_seen_seq_)
+  const uint64_t floor = welcome_.resume_key_known ? last_event_seq_ : last_seen_seq_;
+  if (resuming && welcome_.global_sequence < floor)
     return make_error(ErrorCode::kUnsupported, "welcome.global_sequence",
                       "the server is at sequence " + std::to_string(welcome_.global_sequence) +
-                          ", behind the " + std::to_string(last_seen_seq_) +
+                          ", behind the " + std::to_string(floor) +
                           " this client saw: not the session it left");
   // The base version 0 is, when this program can generate it: untouched tiles are made here.
   base_.reset();

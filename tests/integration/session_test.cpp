@@ -309,7 +309,8 @@ TEST(Session, AReconnectToASessionBehindWhatTheClientSawIsRefused) {
   ASSERT_FALSE(st.ok());
   EXPECT_EQ(st.error().field, "welcome.global_sequence") << st.error().describe();
   // The session it left takes it back.
-  EXPECT_TRUE(c.reconnect("127.0.0.1", first.port()).ok());
+  const Status back = c.reconnect("127.0.0.1", first.port());
+  EXPECT_TRUE(back.ok()) << back.error().describe();
   EXPECT_EQ(first.terminate(), 0) << first.log();
   EXPECT_EQ(second.terminate(), 0) << second.log();
 }
