@@ -101,23 +101,26 @@ TEST(ImageFile, WrongSizesFormatsAndPathsAreTypedErrorsNamingTheFile) {
   const std::vector<float> f(6, 1.0f);
   const std::vector<uint8_t> b(6, 1);
   const std::string dir = image_test_dir().string();
-  auto expect_code = [](const Status& s, ErrorCode code, const std::string& path) {
-    ASSERT_FALSE(s.ok());
-    EXPECT_EQ(s.error().code, code) << s.error().describe();
-    EXPECT_EQ(s.error().field, path);
+  struct Case {
+    const char* file;
+    ImageView image;
+    ErrorCode code;
   };
-  expect_code(write_image_file(dir + "/f.png", image_view(3, 2, 1, std::span<const float>(f))),
-              ErrorCode::kUnsupported, dir + "/f.png");
-  expect_code(write_image_file(dir + "/b.exr", image_view(3, 2, 1, std::span<const uint8_t>(b))),
-              ErrorCode::kUnsupported, dir + "/b.exr");
-  expect_code(write_image_file(dir + "/b.bmp", image_view(3, 2, 1, std::span<const uint8_t>(b))),
-              ErrorCode::kUnsupported, dir + "/b.bmp");
-  expect_code(write_image_file(dir + "/short.png", image_view(4, 2, 1, std::span<const uint8_t>(b))),
-              ErrorCode::kInvalidArgument, dir + "/short.png");
-  expect_code(write_image_file(dir + "/no/such/dir/x.png", image_view(3, 2, 1, std::span<const uint8_t>(b))),
-              ErrorCode::kIo, dir + "/no/such/dir/x.png");
-  expect_code(write_image_file(dir + "/no/such/dir/x.exr", image_view(3, 2, 1, std::span<const float>(f))),
-              ErrorCode::kIo, dir + "/no/such/dir/x.exr");
+  const std::vector<Case> cases = {
+      {"f.png", image_view(3, 2, 1, std::span<const float>(f)), ErrorCode::kUnsupported},  // PNG is not float
+      {"b.exr", image_view(3, 2, 1, std::span<const uint8_t>(b)), ErrorCode::kUnsupported},  // EXR is float
+      {"b.bmp", image_view(3, 2, 1, std::span<const uint8_t>(b)), ErrorCode::kUnsupported},
+      {"short.png", image_view(4, 2, 1, std::span<const uint8_t>(b)), ErrorCode::kInvalidArgument},
+      {"no/such/dir/x.png", image_view(3, 2, 1, std::span<const uint8_t>(b)), ErrorCode::kIo},
+      {"no/such/dir/x.exr", image_view(3, 2, 1, std::span<const float>(f)), ErrorCode::kIo},
+  };
+  for (const Case& c : cases) {
+    const std::string path = dir + "/" + c.file;
+    const Status s = write_image_file(path, c.image);
+    ASSERT_FALSE(s.ok()) << path;
+    EXPECT_EQ(s.error().code, c.code) << s.error().describe();
+    EXPECT_EQ(s.error().field, path);
+  }
 }
 
 TEST(ExrSource, ChannelsComeInColourOrderWithTheirTypesAndNoGeoreference) {
