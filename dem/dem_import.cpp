@@ -24,6 +24,7 @@ std::string ImportReport::summary() const {
                 headroom_below_m, headroom_above_m, max_error_m, rms_error_m, exact ? " (exact)" : "");
   std::string out = buf;
   if (!scale_note.empty()) out += "spacing           " + scale_note + "\n";
+  if (orientation != "north-up") out += "orientation       " + orientation + "\n";
   return out;
 }
 
@@ -164,6 +165,7 @@ ImportReport import_report(const DemInfo& dem, const DemStats& stats, const Rect
   r.scale_source = dem.scale_source;
   r.scale_note = dem.scale_note;
   r.anisotropy = dem.anisotropy;
+  r.orientation = dem.orientation;
   return r;
 }
 

@@ -42,6 +42,7 @@ struct ImportReport {
   std::string scale_source;
   std::string scale_note;  // how georeferencing gave the spacing, when it did
   double anisotropy = 1.0;
+  std::string orientation = "north-up";  // DemInfo::orientation: how the source was turned north-up
 
   std::string summary() const;  // multi-line human text
 };

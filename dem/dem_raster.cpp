@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <memory>
 #include <sstream>
 
+#include "dem/ascii_grid_check.h"
 #include "dem/dem_georef.h"
 #include "dem/dem_sidecar.h"
 #include "dem/exr_source.h"
@@ -101,6 +103,40 @@ int64_t strip_rows(const RasterSource& src) {
 }  // namespace
 
 struct DemStripsOpener {
+  // Row 0 north, column 0 west: flips for a south-up or east-left geotransform; refuses a
+  // rotated or sheared one (resampling it is gdalwarp's job, and the message says how).
+  static Status orient(const Georef& g, int64_t w, int64_t h, const std::string& name, DemStrips& out) {
+    if (!g.has_transform) return {};
+    const double* t = g.transform;
+    for (int i = 0; i < 6; ++i) {
+      if (!std::isfinite(t[i])) return fail(ErrorCode::kCorrupt, name, "geotransform is not finite");
+    }
+    // Rotation terms that move the raster's far edge by under a hundredth of a sample are
+    // rounding in the file, not a rotation.
+    const bool rotated = std::fabs(t[2]) * double(h) > 0.01 * std::fabs(t[1]) ||
+                         std::fabs(t[4]) * double(w) > 0.01 * std::fabs(t[5]);
+    if (rotated) {
+      char steps[160];
+      std::snprintf(steps, sizeof steps, "column step %.6g, %.6g; row step %.6g, %.6g", t[1], t[4], t[2],
+                    t[5]);
+      return fail(ErrorCode::kUnsupported, name,
+                  std::string("the geotransform is rotated or sheared (") + steps +
+                      "): Loam reads north-up rasters; make it north-up first, e.g. gdalwarp " + name +
+                      " north_up.tif");
+    }
+    out.flip_rows_ = t[5] > 0;
+    out.flip_columns_ = t[1] < 0;
+    DemInfo& dem = out.info_;
+    if (out.flip_rows_ && out.flip_columns_) {
+      dem.orientation = "south-up and east-left (rows and columns flipped)";
+    } else if (out.flip_rows_) {
+      dem.orientation = "south-up (rows flipped)";
+    } else if (out.flip_columns_) {
+      dem.orientation = "east-left (columns flipped)";
+    }
+    return {};
+  }
+
   // Checks the header, picks the band and resolves the scale. `whole`: the raster is to be
   // read whole (read_dem_*), so the whole-raster cap applies; else the streamed side cap.
   static Result<DemStrips> open(std::unique_ptr<RasterSource> owned, const std::string& name,
@@ -134,6 +170,7 @@ struct DemStripsOpener {
     }
 
     DemStrips out;
+    LOAM_TRY(orient(src.georef(), w, h, name, out));
     DemInfo& dem = out.info_;
     dem.name = name;
     dem.width = w;
@@ -207,7 +244,16 @@ Result<int64_t> DemStrips::read_rows(int64_t y0, int64_t rows, std::span<double>
   if (y0 < 0 || rows <= 0 || y0 + rows > info_.height || out.size() != size_t(rows * info_.width)) {
     return fail(ErrorCode::kInvalidArgument, info_.name, "strip outside the raster");
   }
-  LOAM_TRY(src_->read_rows(info_.band, y0, rows, out));
+  const int64_t w = info_.width;
+  LOAM_TRY(src_->read_rows(info_.band, flip_rows_ ? info_.height - y0 - rows : y0, rows, out));
+  if (flip_rows_) {
+    for (int64_t a = 0, b = rows - 1; a < b; ++a, --b) {
+      std::swap_ranges(out.begin() + a * w, out.begin() + (a + 1) * w, out.begin() + b * w);
+    }
+  }
+  if (flip_columns_) {
+    for (int64_t r = 0; r < rows; ++r) std::reverse(out.begin() + r * w, out.begin() + (r + 1) * w);
+  }
   const bool nodata_nan = nodata_ && std::isnan(*nodata_);
   int64_t missing_count = 0;
   for (double& v : out) {
@@ -275,6 +321,7 @@ Result<DemRaster> read_dem_file(const std::string& path, const DemScaleOptions& 
   LOAM_TRY(check_extension(ext, path));
   auto sidecar = read_sidecar_beside(path);
   if (!sidecar) return sidecar.error();
+  if (ext == "asc") LOAM_TRY(check_ascii_grid_file(path));
   auto src = ext == "exr" ? open_exr_file(path) : open_gdal_file(path, ext);
   if (!src) return src.error();
   auto strips = DemStripsOpener::open(std::move(*src), path, *sidecar, options, true);
@@ -291,6 +338,7 @@ Result<DemStrips> open_dem_strips(const std::string& path, const DemScaleOptions
   LOAM_TRY(check_extension(ext, path));
   auto sidecar = read_sidecar_beside(path);
   if (!sidecar) return sidecar.error();
+  if (ext == "asc") LOAM_TRY(check_ascii_grid_file(path));
   auto src = ext == "exr" ? open_exr_file(path) : open_gdal_file(path, ext);
   if (!src) return src.error();
   return DemStripsOpener::open(std::move(*src), path, *sidecar, options, false);
@@ -301,6 +349,7 @@ Result<DemRaster> read_dem_memory(std::span<const uint8_t> bytes, const std::str
   if (bytes.empty()) return fail(ErrorCode::kInvalidArgument, name, "the image is empty");
   const std::string ext = lower_extension(name);
   LOAM_TRY(check_extension(ext, name));
+  if (ext == "asc") LOAM_TRY(check_ascii_grid(bytes, name));
   auto src = ext == "exr" ? open_exr_memory(bytes, name) : open_gdal_memory(bytes, name, ext);
   if (!src) return src.error();
   auto strips = DemStripsOpener::open(std::move(*src), name, sidecar_json, options, true);

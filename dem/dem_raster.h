@@ -15,6 +15,14 @@
 // explicit options, the sidecar, the band's scale/offset (and its unit: feet become metres),
 // or identity. The raster's scale_source and scale_note say which.
 //
+// Orientation: a geotransform with a positive row step (south-up) or a negative column step
+// (east-left) is read flipped, exactly (no resampling), so row 0 is always the north edge and
+// DemInfo::orientation says what was done; a rotated or sheared geotransform is refused with the
+// gdalwarp command that makes the raster north-up.
+//
+// ESRI ASCII grids are checked as text first (dem/ascii_grid_check.h): GDAL would read a
+// cell that is not a number as 0.
+//
 // Safe on untrusted input: the file is read in strips of rows, so memory grows with the data
 // actually decoded and never with the size a header claims; a raster over kMaxDemSamples
 // (2^28 samples) or 2^20 samples a side is refused before any sample is read; truncated or
@@ -66,6 +74,9 @@ struct DemInfo {
   std::string sample_type;     // the band's: "uint16", "int16", "float32"...
   int band = 1;                // the band read
   std::optional<LoamSidecarWorld> loam_world;  // set when the sidecar holds Loam's quantization
+  // How the source's rows and columns were turned to give row 0 north and column 0 west:
+  // "north-up", "south-up (rows flipped)", "east-left (columns flipped)" or both flipped.
+  std::string orientation = "north-up";
 };
 
 struct DemRaster : DemInfo {
@@ -102,6 +113,7 @@ class DemStrips {
   std::unique_ptr<RasterSource> src_;
   std::optional<double> nodata_;
   double scale_ = 1.0, offset_ = 0.0;
+  bool flip_rows_ = false, flip_columns_ = false;  // the source is south-up / east-left
 };
 
 // Opens a DEM file for strip reads (the sidecar NAME.json beside it is used when present).

@@ -49,14 +49,16 @@ Result<Sidecar> parse_sidecar(const std::string& text, const std::string& name) 
     if (!xy.is_array() || xy.size() != 2 || !xy[0].is_number() || !xy[1].is_number())
       return corrupt(name, "'meters_per_sample_xy' is not two numbers");
     const double x = xy[0].get<double>(), y = xy[1].get<double>();
-    if (!std::isfinite(x) || !std::isfinite(y) || x <= 0 || y <= 0)
-      return corrupt(name, "'meters_per_sample_xy' must be finite and > 0");
+    // The range a DEM's spacing may take (dem_raster.h), so the mean and the ratio stay finite.
+    if (!(x >= 1e-6 && x <= 1e5 && y >= 1e-6 && y <= 1e5))
+      return corrupt(name, "'meters_per_sample_xy' must be two spacings in [1e-6, 1e5] m");
     // Loam's samples are square: use the geometric mean and report the anisotropy.
     s.meters_per_sample = std::sqrt(x * y);
     s.anisotropy = y / x;
   } else {
     auto m = number(j, "meters_per_sample", name);
     if (!m) return m.error();
+    if (*m && !(**m > 0 && **m <= 1e5)) return corrupt(name, "'meters_per_sample' must be in (0, 1e5]");
     s.meters_per_sample = *m;
   }
   auto scale = number(j, "height_scale_m", name);

@@ -2,22 +2,20 @@
 # Builds (if needed) and runs libFuzzer targets for a fixed time each.
 #   fuzz/run.sh TARGET SECONDS     e.g. fuzz/run.sh wire_fuzz 30
 #   fuzz/run.sh all SECONDS        every fuzz/*_fuzz.cpp, JOBS (default: the cores) at a time
-#   fuzz/run.sh build              only builds every target and the clang golden check
-#                                  (scripts/test.sh runs it at low priority beside the tests)
 # Exits non-zero on any crash, sanitizer report, timeout or property violation; the input
 # that triggered it is left in fuzz/corpus-work/artifacts/ (git-ignored). The committed seed
 # corpus fuzz/corpus/TARGET/ is only read; new inputs go to fuzz/corpus-work/TARGET/.
 # Environment: BUILD_DIR (default build-fuzz), CXX/CC (default clang++-14/clang-14), JOBS.
 set -euo pipefail
 
-if [[ $# -ne 2 && ! ($# -eq 1 && $1 == build) ]]; then
-  echo "usage: $0 TARGET|all SECONDS | $0 build   (targets: fuzz/*_fuzz.cpp)" >&2
+if [[ $# -ne 2 ]]; then
+  echo "usage: $0 TARGET|all SECONDS   (targets: fuzz/*_fuzz.cpp)" >&2
   exit 2
 fi
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${BUILD_DIR:-$root/build-fuzz}
-seconds=${2:-0}
-if [[ $1 == all || $1 == build ]]; then
+seconds=$2
+if [[ $1 == all ]]; then
   targets=()
   for src in "$root"/fuzz/*_fuzz.cpp; do targets+=("$(basename "$src" .cpp)"); done
 else
@@ -28,9 +26,6 @@ if [[ ! -f $build/build.ninja ]]; then
   cmake -S "$root" -B "$build" -G Ninja \
     -DCMAKE_CXX_COMPILER="${CXX:-clang++-14}" -DCMAKE_C_COMPILER="${CC:-clang-14}" \
     -DLOAM_FUZZ=ON -DLOAM_SANITIZE=ON
-fi
-if [[ $1 == build ]]; then
-  exec ninja -C "$build" -j "${JOBS:-2}" "${targets[@]}" stamp_golden_check
 fi
 ninja -C "$build" -j "${JOBS:-2}" "${targets[@]}"
 

@@ -109,6 +109,16 @@ def tiff_u16(width, height, values, rows_per_strip=16):
     return tiff(width, height, 2, 16, 1, strips, rows_per_strip)
 
 
+def tiff_rotated(width, height, values, degrees):
+    """A uint16 TIFF whose ModelTransformationTag turns the grid by `degrees` (a rotated geotransform)."""
+    c, s = 10 * math.cos(math.radians(degrees)), 10 * math.sin(math.radians(degrees))
+    matrix = struct.pack("<16d", c, -s, 0, 500000.0, -s, -c, 0, 4100000.0, 0, 0, 0, 0, 0, 0, 0, 1)
+    data = struct.pack("<%dH" % len(values), *values)
+    args = (width, height, 2, 16, 1, [data], height)
+    at = len(tiff(*args, extra_tags=[(34264, 12, 16, 0)]))  # the matrix goes after the pixels
+    return tiff(*args, extra_tags=[(34264, 12, 16, at)]) + matrix
+
+
 def tiff_claiming(width, height, present):
     return tiff(width, height, 2, 16, 1, [bytes((i * 13) & 0xFF for i in range(present))], height)
 
@@ -159,6 +169,12 @@ def cases():
         ("short.asc", "ESRI ASCII grid with 3 of its 40 rows",
          b"ncols 40\nnrows 40\nxllcorner 0\nyllcorner 0\ncellsize 1\n" + b"".join(
              b" ".join(b"%d" % (x + y) for x in range(40)) + b"\n" for y in range(3)), None),
+        ("banana.asc", "ESRI ASCII grid with a cell that reads 'banana' (GDAL would take it as 0)",
+         b"ncols 40\nnrows 40\nxllcorner 0\nyllcorner 0\ncellsize 1\n" + b"".join(
+             b" ".join(b"banana" if (x, y) == (17, 29) else b"%d" % (x + y) for x in range(40)) + b"\n"
+             for y in range(40)), None),
+        ("rotated.tif", "GeoTIFF whose geotransform is rotated by 30 degrees",
+         tiff_rotated(64, 48, [1000 + (i % 64) * 3 + (i // 64) for i in range(64 * 48)], 30.0), None),
         ("missing_source.vrt", "VRT whose source file does not exist",
          b'<VRTDataset rasterXSize="64" rasterYSize="48"><VRTRasterBand dataType="UInt16" band="1">'
          b'<SimpleSource><SourceFilename relativeToVRT="1">nowhere.tif</SourceFilename><SourceBand>1</SourceBand>'

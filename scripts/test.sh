@@ -1,9 +1,8 @@
 #!/usr/bin/env bash
 # The README's test command: sets up the machine, builds every test in one configuration
 # (GCC, AddressSanitizer + UndefinedBehaviorSanitizer, warnings as errors) and runs them
-# under ctest; builds protocol/ with clang 14 beside that at low priority, then runs each
-# libFuzzer target briefly and checks that clang's build of the stamp code reproduces the golden
-# stamp-sequence hash.
+# under ctest; then builds protocol/ with clang 14, runs each libFuzzer target briefly and
+# checks that clang's build of the stamp code reproduces the golden stamp-sequence hash.
 # Environment: LOAM_FUZZ_SECONDS (default 20), LOAM_SKIP_FUZZ=1 to skip the fuzzers.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -20,20 +19,6 @@ export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$PWD/tests/lsan.supp:print_sup
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-halt_on_error=1:print_stacktrace=1}"
 jobs=$(nproc)
 
-# The clang build of the fuzz targets and the golden check needs no test result: it starts now,
-# at the lowest priority, and takes only the cores the GCC build and the tests leave idle (links,
-# tests that wait on sockets, timers or the GL lock). The fuzzers themselves run after ctest,
-# each on a core of its own.
-fuzz=0
-if [ "${LOAM_SKIP_FUZZ:-0}" != "1" ] && [ -f fuzz/CMakeLists.txt ]; then fuzz=1; fi
-if [ "$fuzz" = 1 ]; then
-  mkdir -p build-fuzz
-  nice -n 19 bash fuzz/run.sh build >build-fuzz/background-build.log 2>&1 &
-  fuzz_build=$!
-  # A failed GCC build or test stops this script; the background build stops with it.
-  trap 'kill "$fuzz_build" 2>/dev/null || true' EXIT
-fi
-
 echo "== build (gcc, asan+ubsan)"
 cmake -S . -B build/asan -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLOAM_SANITIZE=ON >/dev/null
 ninja -C build/asan -j "$jobs"
@@ -46,13 +31,8 @@ if [ -z "${DISPLAY:-}" ] && command -v xvfb-run >/dev/null; then xvfb=(xvfb-run 
 (cd build/asan && "${xvfb[@]}" ctest --output-on-failure -j "$jobs" --timeout 900)
 end_phase tests
 
-if [ "$fuzz" = 1 ]; then
+if [ "${LOAM_SKIP_FUZZ:-0}" != "1" ] && [ -f fuzz/CMakeLists.txt ]; then
   echo "== fuzz (clang 14 build of protocol/, ${LOAM_FUZZ_SECONDS:-20} s per target)"
-  if ! wait "$fuzz_build"; then
-    cat build-fuzz/background-build.log
-    echo "the clang build of the fuzz targets failed (log above)" >&2
-    exit 1
-  fi
   bash fuzz/run.sh all "${LOAM_FUZZ_SECONDS:-20}"
   echo "== clang determinism (the golden stamp sequence and refinement built with clang 14)"
   ninja -C build-fuzz stamp_golden_check

@@ -527,6 +527,125 @@ TEST(DemImport, ReadsEsriAsciiGrid) {
   fs::remove_all(dir);
 }
 
+// A cell GDAL's reader would take as 0 is refused, from a file and from memory, with its row
+// and column; a clean grid beside it still reads.
+TEST(DemImport, AsciiGridCellThatIsNotANumberIsRefusedNamingItsRowAndColumn) {
+  const fs::path dir = temp_dir();
+  const std::string header = "ncols 5\nnrows 4\nxllcorner 0\nyllcorner 0\ncellsize 10\nNODATA_value -9999\n";
+  std::ofstream(dir / "banana.asc") << header
+                                    << "1 2 3 4 5\n6 7 8 9 10\n11 12 banana 14 15\n16 17 18 19 20\n";
+  auto dem = read_dem_file((dir / "banana.asc").string());
+  ASSERT_FALSE(dem.ok());
+  EXPECT_EQ(dem.error().code, ErrorCode::kCorrupt);
+  EXPECT_EQ(dem.error().describe(),
+            (dir / "banana.asc").string() + ": row 3, column 3 (line 9): 'banana' is not a number");
+  auto strips = open_dem_strips((dir / "banana.asc").string());
+  ASSERT_FALSE(strips.ok());
+  EXPECT_NE(strips.error().message.find("row 3, column 3"), std::string::npos) << strips.error().describe();
+  const auto bytes = read_bytes(dir / "banana.asc");
+  auto mem = read_dem_memory(bytes, "banana.asc", "");
+  ASSERT_FALSE(mem.ok());
+  EXPECT_EQ(mem.error().describe(), "banana.asc: row 3, column 3 (line 9): 'banana' is not a number");
+  std::ofstream(dir / "clean.asc") << header << "1 2 3 4 5\n6 7 8 9 10\n11 12 13 14 15\n16 17 18 19 -9999\n";
+  auto clean = read_dem_file((dir / "clean.asc").string());
+  ASSERT_TRUE(clean.ok()) << clean.error().describe();
+  EXPECT_DOUBLE_EQ(clean->meters[12], 13.0);
+  EXPECT_EQ(clean->nodata_count, 1);
+  fs::remove_all(dir);
+}
+
+// A raster whose geotransform runs south-up (positive row step) or east-left (negative column
+// step) is the same terrain as its north-up twin: read flipped, sample for sample, whole and in
+// strips of any height, and the import says what it turned.
+TEST(DemImport, SouthUpAndEastLeftGeoTiffsReadExactlyAsTheirNorthUpTwin) {
+  const fs::path dir = temp_dir();
+  const int w = 53, h = 41;
+  const std::vector<double> north_up = rough_terrain(w, h, 23);
+  TestRaster r = single_band(w, h, GDT_Int16, north_up);
+  r.transform = std::array<double, 6>{500000.0, 30.0, 0, 4100000.0 + 30.0 * h, 0, -30.0};
+  r.epsg = 32613;
+  write_raster(dir / "north.tif", "GTiff", r);
+  const struct {
+    const char* name;
+    bool flip_rows, flip_columns;
+    const char* orientation;
+  } cases[] = {
+      {"south.tif", true, false, "south-up (rows flipped)"},
+      {"east_left.tif", false, true, "east-left (columns flipped)"},
+      {"both.tif", true, true, "south-up and east-left (rows and columns flipped)"},
+  };
+  auto north = read_dem_file((dir / "north.tif").string());
+  ASSERT_TRUE(north.ok()) << north.error().describe();
+  EXPECT_EQ(north->orientation, "north-up");
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.name);
+    // The file stores the rows and columns in its own order; its transform says so.
+    std::vector<double> stored(north_up.size());
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const int sy = c.flip_rows ? h - 1 - y : y, sx = c.flip_columns ? w - 1 - x : x;
+        stored[size_t(sy * w + sx)] = north_up[size_t(y * w + x)];
+      }
+    }
+    TestRaster f = single_band(w, h, GDT_Int16, stored);
+    f.transform = std::array<double, 6>{c.flip_columns ? 500000.0 + 30.0 * w : 500000.0,
+                                        c.flip_columns ? -30.0 : 30.0,
+                                        0,
+                                        c.flip_rows ? 4100000.0 : 4100000.0 + 30.0 * h,
+                                        0,
+                                        c.flip_rows ? 30.0 : -30.0};
+    f.epsg = 32613;
+    write_raster(dir / c.name, "GTiff", f);
+    auto dem = read_dem_file((dir / c.name).string());
+    ASSERT_TRUE(dem.ok()) << dem.error().describe();
+    EXPECT_EQ(dem->orientation, c.orientation);
+    EXPECT_EQ(dem->meters, north->meters);
+    EXPECT_DOUBLE_EQ(dem->meters_per_sample, 30.0);
+    // Strips of 1, 7 and 41 rows at any start give the same rows.
+    auto strips = open_dem_strips((dir / c.name).string());
+    ASSERT_TRUE(strips.ok()) << strips.error().describe();
+    for (const int rows : {1, 7, h}) {
+      for (int y0 = 0; y0 + rows <= h; y0 += 5) {
+        std::vector<double> got(size_t(rows * w));
+        ASSERT_TRUE(strips->read_rows(y0, rows, got).ok());
+        ASSERT_TRUE(std::equal(got.begin(), got.end(), north->meters.begin() + y0 * w)) << y0 << "+" << rows;
+      }
+    }
+    auto imported = import_dem(*dem);
+    ASSERT_TRUE(imported.ok()) << imported.error().describe();
+    EXPECT_EQ(imported->report.orientation, c.orientation);
+    EXPECT_NE(imported->report.summary().find(std::string("orientation       ") + c.orientation),
+              std::string::npos)
+        << imported->report.summary();
+  }
+  fs::remove_all(dir);
+}
+
+// A rotated or sheared geotransform would need resampling: refused, naming the steps and the
+// gdalwarp command that makes the raster north-up. Rounding-sized rotation terms are not a
+// rotation.
+TEST(DemImport, RotatedGeoTransformIsRefusedWithTheCommandThatMakesItNorthUp) {
+  const fs::path dir = temp_dir();
+  const int w = 30, h = 20;
+  TestRaster r = single_band(w, h, GDT_Float32, rough_terrain(w, h, 4));
+  const double c = std::cos(0.3) * 10.0, s = std::sin(0.3) * 10.0;
+  r.transform = std::array<double, 6>{1000.0, c, -s, 2000.0, -s, -c};
+  write_raster(dir / "rotated.tif", "GTiff", r);
+  auto dem = read_dem_file((dir / "rotated.tif").string());
+  ASSERT_FALSE(dem.ok());
+  EXPECT_EQ(dem.error().code, ErrorCode::kUnsupported);
+  EXPECT_NE(dem.error().message.find("rotated or sheared"), std::string::npos) << dem.error().describe();
+  EXPECT_NE(dem.error().message.find("gdalwarp " + (dir / "rotated.tif").string()), std::string::npos)
+      << dem.error().describe();
+  EXPECT_FALSE(open_dem_strips((dir / "rotated.tif").string()).ok());
+  r.transform = std::array<double, 6>{1000.0, 10.0, 1e-12, 2000.0, -1e-12, -10.0};
+  write_raster(dir / "nearly.tif", "GTiff", r);
+  auto nearly = read_dem_file((dir / "nearly.tif").string());
+  ASSERT_TRUE(nearly.ok()) << nearly.error().describe();
+  EXPECT_EQ(nearly->orientation, "north-up");
+  fs::remove_all(dir);
+}
+
 TEST(DemImport, ReadsVrt) {
   const fs::path dir = temp_dir();
   const std::vector<double> v = rough_terrain(50, 40, 9);
