@@ -27,7 +27,11 @@ if [[ ! -f $build/build.ninja ]]; then
     -DCMAKE_CXX_COMPILER="${CXX:-clang++-14}" -DCMAKE_C_COMPILER="${CC:-clang-14}" \
     -DLOAM_FUZZ=ON -DLOAM_SANITIZE=ON
 fi
-ninja -C "$build" -j "${JOBS:-2}" "${targets[@]}"
+# `all` also builds the clang golden check (scripts/test.sh runs it next) in the same ninja run,
+# where its compile shares the cores with the targets'.
+extra=()
+if [[ $1 == all ]]; then extra=(stamp_golden_check); fi
+ninja -C "$build" -j "${JOBS:-2}" "${targets[@]}" "${extra[@]}"
 
 # detect_leaks stays on: a leak on a decode path is a bug too.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1}
