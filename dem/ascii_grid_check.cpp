@@ -24,7 +24,8 @@ std::string lowered(const std::string& s) {
 // [+-] digits [. digits] [(e|E) [+-] digits], with at least one digit before the exponent; or
 // nan. No locale, no hex, no inf: what a grid's writer prints for a height.
 bool is_number(const std::string& t) {
-  if (lowered(t) == "nan" || lowered(t) == "-nan") return true;
+  // Only a token that ends in n or N can be nan: no per-cell lowering (grids hold 2^28 cells).
+  if (!t.empty() && lower(t.back()) == 'n') return lowered(t) == "nan" || lowered(t) == "-nan";
   size_t i = 0;
   if (i < t.size() && (t[i] == '+' || t[i] == '-')) ++i;
   size_t digits = 0;
@@ -109,12 +110,16 @@ Status AsciiGridChecker::feed(std::span<const char> bytes) {
 }
 
 Status AsciiGridChecker::token_end() {
-  const std::string t = std::move(token_);
-  token_.clear();
-  return header_or_cell(t);
+  Status st = header_or_cell(token_);
+  token_.clear();  // keeps its capacity: no allocation per cell
+  return st;
 }
 
 Status AsciiGridChecker::header_or_cell(const std::string& t) {
+  if (in_data_ && is_number(t)) {  // the common case, every cell: nothing built
+    ++cells_;
+    return {};
+  }
   const std::string where = "line " + std::to_string(token_line_);
   if (!pending_key_.empty()) {
     // The value of a header keyword.
