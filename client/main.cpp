@@ -160,6 +160,12 @@ int main(int argc, char** argv) {
                                                          {"auto", render::DisplayStamping::kAuto}},
           CLI::ignore_case));
   view_cmd
+      ->add_option("--gpu-cache-mb", vo.gpu_cache_mb,
+                   "GPU stamping: the display's tile cache for the coarse layer (MiB, 128 KiB a tile; the "
+                   "detail layer's takes half); tiles past it are evicted and filled again when next stamped")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));  // 2048 pages: the array texture layers GL 4.5 guarantees
+  view_cmd
       ->add_option("--lod-tolerance", vo.error_clipmap.tolerance_px,
                    "Error-driven clipmap: the screen-space error budget (pixels)")
       ->capture_default_str()

@@ -29,6 +29,9 @@ struct StampUniforms {
   int32_t table[kProfileEntries + 4];
 };
 static_assert(sizeof(StampUniforms) == (20 + kProfileEntries + 4) * 4);
+// The per-part fields before the table: all a part rewrites where its table is already there.
+constexpr size_t kStampHeaderBytes = offsetof(StampUniforms, table);
+static_assert(kStampHeaderBytes == 80);
 
 constexpr GLuint kWaveBinding = 4;
 const UniformBlockMember kWaveMembers[] = {
@@ -178,8 +181,13 @@ Result<std::unique_ptr<GpuStamper>> GpuStamper::create(const World& world, const
   s->params_ = world.params();
   if (Status st = s->build_programs(); !st.ok()) return st.error();
 
+  // One slot per profile table kept: a stamp whose table is there uploads its 80-byte header.
+  s->slot_stride_ = (sizeof(StampUniforms) + uniform_buffer_alignment() - 1) / uniform_buffer_alignment() *
+                    uniform_buffer_alignment();
   s->params_buf_ = make_buffer();
-  glNamedBufferStorage(s->params_buf_.get(), sizeof(StampUniforms), nullptr, GL_DYNAMIC_STORAGE_BIT);
+  glNamedBufferStorage(s->params_buf_.get(), GLsizeiptr(s->slot_stride_ * kTableSlots), nullptr,
+                       GL_DYNAMIC_STORAGE_BIT);
+  s->slots_.resize(kTableSlots);
   s->result_buf_ = make_buffer();
   glNamedBufferStorage(s->result_buf_.get(), sizeof kNoContact, &kNoContact, GL_DYNAMIC_STORAGE_BIT);
   if (s->vertex_path_ && options.path != StampPath::kCompute) {
@@ -293,6 +301,7 @@ Status GpuStamper::build_programs() {
 
 void GpuStamper::reset_contact() {
   glNamedBufferSubData(result_buf_.get(), 0, sizeof kNoContact, &kNoContact);
+  traffic_.bytes_uploaded += sizeof kNoContact;
 }
 
 Status GpuStamper::texture_for(uint64_t id, GLuint& out) {
@@ -323,11 +332,14 @@ void GpuStamper::fill_page(Layer layer, int32_t page, int32_t tx, int32_t ty) {
   visit_layer(layer, [&](auto row) {
     using R = decltype(row);
     const auto tile = mirror_->tile_samples<R>(TileCoord{R::kLayer, 0, tx, ty});
+    ++traffic_.page_fills;
     if (tile.empty()) {
       const typename R::Sample zero{};  // an unstored tile (detail) is all zero
       glClearTexSubImage(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, &zero);
+      traffic_.bytes_uploaded += sizeof zero;
     } else {
       glTextureSubImage3D(tex, 0, 0, 0, page, kTileSize, kTileSize, 1, f.format, f.type, tile.data());
+      traffic_.bytes_uploaded += tile.size_bytes();
     }
   });
 }
@@ -349,7 +361,8 @@ Result<std::vector<GpuStamper::PagePart>> GpuStamper::resident_parts(Layer layer
       if (!slot) {
         release(layer, parts);
         return make_error(ErrorCode::kBusy, "gpu.pages",
-                          "every page is awaiting a readback: collect, then submit again");
+                          "every page is awaiting a readback or held by this batch: collect or end the "
+                          "batch, then submit again");
       }
       // Pinned at once: a later acquire of this call must not take it back.
       p.pin(slot->page);
@@ -359,6 +372,24 @@ Result<std::vector<GpuStamper::PagePart>> GpuStamper::resident_parts(Layer layer
     }
   }
   return parts;
+}
+
+GpuStamper::TableSlot GpuStamper::table_slot(const ProfileTable& table) {
+  ++table_clock_;
+  // Tables repeat: a kind at the same intensity and shape bakes the same one whatever the
+  // radius (a walker's footprints, a tool preset).
+  size_t victim = 0;
+  for (size_t i = 0; i < slots_.size(); ++i) {
+    Slot& s = slots_[i];
+    if (s.used != 0 && s.table == table) {
+      s.used = table_clock_;
+      return {i * slot_stride_, false};
+    }
+    if (s.used < slots_[victim].used) victim = i;
+  }
+  slots_[victim].table = table;
+  slots_[victim].used = table_clock_;
+  return {victim * slot_stride_, true};
 }
 
 void GpuStamper::release(Layer layer, const std::vector<PagePart>& parts) {
@@ -395,6 +426,8 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b
     glBindTextureUnit(0, tex);
   }
   std::copy(b.table.begin(), b.table.end(), u.table);
+  const TableSlot slot = table_slot(b.table);
+  bool whole = slot.fresh;  // the first part writes the table too
   // The per-part fields: where the part lies in its page and relative to the center.
   auto load_part = [&](const PagePart& part) {
     u.rect_x0 = int32_t(part.rect.x0 - part.tile.x0);
@@ -405,8 +438,11 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b
     u.d0x = int32_t(part.rect.x0 * 256 - q.center_x);
     u.d0y = int32_t(part.rect.y0 * 256 - q.center_y);
     u.vertex_runs_per_row = int32_t((part.rect.width() + kVertexRun - 1) / kVertexRun);
-    glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
-    glBindBufferBase(GL_UNIFORM_BUFFER, 0, params_buf_.get());
+    const size_t bytes = whole ? sizeof u : kStampHeaderBytes;
+    glNamedBufferSubData(params_buf_.get(), GLintptr(slot.offset), GLsizeiptr(bytes), &u);
+    traffic_.bytes_uploaded += bytes;
+    whole = false;
+    glBindBufferRange(GL_UNIFORM_BUFFER, 0, params_buf_.get(), GLintptr(slot.offset), sizeof u);
   };
   const bool contact_pass = stamp_kind(q.kind).needs_contact;
   if (contact_pass) {
@@ -533,8 +569,11 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b,
   u.wave_origin_x = int32_t(init.x0 - box.x0);
   u.wave_origin_y = int32_t(init.y0 - box.y0);
   std::copy(b.table.begin(), b.table.end(), u.table);
-  glNamedBufferSubData(params_buf_.get(), 0, sizeof u, &u);
-  glBindBufferBase(GL_UNIFORM_BUFFER, 0, params_buf_.get());
+  const TableSlot slot = table_slot(b.table);
+  const size_t written = slot.fresh ? sizeof u : kStampHeaderBytes;
+  glNamedBufferSubData(params_buf_.get(), GLintptr(slot.offset), GLsizeiptr(written), &u);
+  traffic_.bytes_uploaded += written;
+  glBindBufferRange(GL_UNIFORM_BUFFER, 0, params_buf_.get(), GLintptr(slot.offset), sizeof u);
   GLuint cur = wave_a_.get(), prev = wave_b_.get();
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 2, cur);
   glBindBufferBase(GL_SHADER_STORAGE_BUFFER, 3, prev);
@@ -559,6 +598,7 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b,
     if (!a.empty()) {
       set_rect(wb.active_rect, a);
       wave_block_.write(0, wb);
+      traffic_.bytes_uploaded += sizeof wb;
       glDispatchCompute(groups(a.width()), groups(a.height()), 1);
       glMemoryBarrier(GL_SHADER_STORAGE_BARRIER_BIT);
     }
@@ -577,6 +617,7 @@ Status GpuStamper::stamp_shockwave(const QuantizedStamp& q, const BakedStamp& b,
     // The page texel of box cell (0, 0) (outside the page for parts not at the box's corner).
     wb.texel_origin[0] = int32_t(box.x0 - part.tile.x0), wb.texel_origin[1] = int32_t(box.y0 - part.tile.y0);
     wave_block_.write(0, wb);
+    traffic_.bytes_uploaded += sizeof wb;
     glBindImageTexture(0, pages_tex, 0, GL_FALSE, part.page, GL_READ_WRITE,
                        page_format(q.layer).internal_format);
     glDispatchCompute(groups(cells.width()), groups(cells.height()), 1);
@@ -590,6 +631,7 @@ void GpuStamper::queue_readback(Layer layer, const RectI& rect, const std::vecto
   p.layer = layer;
   p.rect = rect;
   p.pixel_bytes = size_t(rect.area()) * pixel_size(layer);
+  traffic_.bytes_read_back += p.pixel_bytes;
   const size_t need = std::max<size_t>(p.pixel_bytes, 1);
   // Reuse a pixel buffer big enough, else make one (sized with headroom to be reused).
   auto it = std::find_if(free_pbos_.begin(), free_pbos_.end(),
@@ -645,8 +687,18 @@ Result<uint64_t> GpuStamper::submit(const QuantizedStamp& q) {
     release(q.layer, *parts);
     return st.error();
   }
+  if (!options_.read_back) {
+    // The caller brings the mirror up to these pages; until then they must stay.
+    for (const PagePart& part : *parts) held_.emplace_back(q.layer, part.page);
+    return next_ticket_++;
+  }
   queue_readback(q.layer, rect, *parts);  // holds the parts' pins until collected
   return pending_.back().ticket;
+}
+
+void GpuStamper::end_batch() {
+  for (const auto& [layer, page] : held_) pages_mut(layer).unpin(page);
+  held_.clear();
 }
 
 std::vector<StampReadback> GpuStamper::collect(World& world) {
@@ -718,6 +770,7 @@ void GpuStamper::upload(World& world, Layer layer, const RectI& rect) {
         }
         glTextureSubImage3D(p.texture(), 0, GLint(part.x0 - tile.x0), GLint(part.y0 - tile.y0), *page,
                             GLsizei(part.width()), GLsizei(part.height()), 1, f.format, f.type, data.data());
+        traffic_.bytes_uploaded += data.size() * sizeof(typename R::Sample);
       });
     }
   }
@@ -738,6 +791,7 @@ std::vector<int32_t> GpuStamper::read_gpu(Layer layer, const RectI& rect) {
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
   glPixelStorei(GL_PACK_ALIGNMENT, 1);
   out.resize(size_t(r.area()));
+  traffic_.bytes_read_back += size_t(r.area()) * pixel_size(layer);
   for (const PagePart& part : *parts) {
     const size_t n = size_t(part.rect.area());
     const GLint x = GLint(part.rect.x0 - part.tile.x0), y = GLint(part.rect.y0 - part.tile.y0);

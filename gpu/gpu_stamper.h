@@ -22,15 +22,15 @@
 // old samples from a copy of the rect (a vertex may be shaded twice; the pass must be
 // idempotent). Both passes share the kernel, and both are checked against the reference.
 //
-// Readback: submit() queues a read of the stamp's rect into a pixel buffer object plus a
-// fence and returns at once; collect() waits for the fences in order, maps each buffer,
-// compares it with the mirror (which holds the state before that stamp; per-sample atomics
-// in the shader would serialize on llvmpipe) and writes the samples that differ straight
-// into the World's tiles, marking exactly the changed rect of each tile dirty. The World is
-// only ever written by collect(), on the caller's thread, after the transfer into the
-// buffer has completed, so the mirror is never read or written while a transfer is in
-// flight; between submit() and collect() the mirror is simply older than the GPU copy.
-// apply() is submit + collect: the reference's contract.
+// Readback: without GpuStamperOptions::read_back (a viewer's display, whose mirror copies the
+// confirmed store) nothing is read back: submit() stamps and returns. Otherwise submit() queues a read of the
+// stamp's rect into a pixel buffer object plus a fence and returns at once; collect() waits for the fences in
+// order, maps each buffer, compares it with the mirror (which holds the state before that stamp; per-sample
+// atomics in the shader would serialize on llvmpipe) and writes the samples that differ straight into the
+// World's tiles, marking exactly the changed rect of each tile dirty. The World is only ever written by
+// collect(), on the caller's thread, after the transfer into the buffer has completed, so the mirror is never
+// read or written while a transfer is in flight; between submit() and collect() the mirror is simply older
+// than the GPU copy. apply() is submit + collect: the reference's contract.
 //
 // Needs the GL 4.5 context it was created in to be current on the calling thread. Not
 // thread-safe. A vertex-path stamp binds its own empty framebuffer and vertex array for the
@@ -79,6 +79,11 @@ struct GpuStamperOptions {
   // detail pages 64 MiB. A stamp reaching more tiles of a layer than its budget is refused
   // (kOversize).
   PerLayer<int32_t> max_pages{{1024, 1024}};
+  // false: nothing is read back. The caller keeps the mirror current itself (a display that
+  // copies the confirmed store): submit() stamps the GPU copy alone and holds the pages it
+  // stamped until end_batch(), once the mirror holds what they hold (a page is only ever
+  // refilled from a mirror that is current for it); collect() returns nothing.
+  bool read_back = true;
 };
 
 class GpuStamper {
@@ -113,6 +118,8 @@ class GpuStamper {
   // `world` (marking them dirty; the caller commits). Returns one entry per ticket.
   std::vector<StampReadback> collect(World& world);
   size_t pending() const { return pending_.size(); }
+  // Without read_back: the mirror now holds every stamp submitted, their pages may be evicted.
+  void end_batch();
 
   // The CPU reference's contract (apply_stamp): apply q to the GPU copy and the mirror,
   // return the bounding rect of the samples that changed (empty: none).
@@ -137,6 +144,7 @@ class GpuStamper {
   RectI layer_rect(Layer layer) const { return layers_[layer].rect; }
   const TilePages& pages(Layer layer) const { return layers_[layer].pages; }
   GpuStamperMemory memory() const;
+  const GpuStamperTraffic& traffic() const { return traffic_; }
 
   // The stage that runs a per-sample stamp whose rect has `samples` samples.
   StampPath path_for(int64_t samples) const;
@@ -168,6 +176,13 @@ class GpuStamper {
     std::vector<int32_t> pinned;  // pages of `layer` kept until the readback is collected
   };
   TilePages& pages_mut(Layer layer) { return layers_[layer].pages; }
+  // Where a stamp's constants go: the slot of the parameter buffer holding its profile table
+  // (fresh: the table must be written with the first part's header).
+  struct TableSlot {
+    size_t offset = 0;
+    bool fresh = false;
+  };
+  TableSlot table_slot(const ProfileTable& table);
   // Makes every tile under `rect` resident (filling fresh pages from the mirror) and pins
   // their pages; the caller unpins them (release) or hands them to a readback.
   Result<std::vector<PagePart>> resident_parts(Layer layer, const RectI& rect);
@@ -195,6 +210,16 @@ class GpuStamper {
   WorldParams params_;
   PerLayer<GpuLayer> layers_;
   GlBuffer params_buf_, result_buf_, wave_a_, wave_b_;
+  // The parameter buffer's slots (StampParams blocks), each keeping the last profile table
+  // written to it; least recently used is rewritten.
+  static constexpr size_t kTableSlots = 32;
+  struct Slot {
+    ProfileTable table{};
+    uint64_t used = 0;  // 0: never written
+  };
+  std::vector<Slot> slots_;
+  size_t slot_stride_ = 0;
+  uint64_t table_clock_ = 0;
   UniformBuffer<WaveBlock> wave_block_;
   size_t wave_capacity_ = 0;
   // Vertex path: an empty framebuffer and vertex array to draw with.
@@ -204,6 +229,8 @@ class GpuStamper {
   std::unordered_map<uint64_t, GlTexture> stamp_textures_;
   std::deque<Pending> pending_;
   std::vector<Pending> free_pbos_;
+  std::vector<std::pair<Layer, int32_t>> held_;  // pages stamped without read_back, until end_batch()
+  GpuStamperTraffic traffic_;
   uint64_t next_ticket_ = 1;
 };
 

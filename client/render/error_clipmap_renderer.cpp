@@ -137,6 +137,9 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
   auto normal_pass = gpu::LevelNormalPass::create();
   if (!normal_pass) return normal_pass.error();
   r->normal_pass_.emplace(std::move(*normal_pass));
+  auto fill = gpu::LevelFill::create();
+  if (!fill) return fill.error();
+  r->fill_.emplace(std::move(*fill));
 
   const std::string_view vertex[] = {"geomipmap_blocks.glsl", "error_clipmap_frame.glsl", "patch_morph.glsl",
                                      "error_clipmap.vert.glsl"};
@@ -341,6 +344,58 @@ void ErrorClipmapRenderer::update_normals(int32_t l, const RectI& changed) {
   normal_pass_->update(v.heights.get(), v.normals.get(), region_, shifted(l, regions_[size_t(l)]),
                        shifted(l, r), shifted(l, world), source_->params(),
                        scale_.meters_per_sample * double(s));
+}
+
+std::vector<uint16_t> ErrorClipmapRenderer::read_level_heights(int32_t l, const RectI& rect) const {
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  const int64_t n = region_;
+  std::vector<uint16_t> layer(size_t(n * n));
+  glPixelStorei(GL_PACK_ALIGNMENT, 2);
+  const Level& level = level_[size_t(l)];
+  glGetTextureSubImage(levels_texture_.get(), 0, 0, 0, level.layer, GLsizei(n), GLsizei(n), 1, GL_RED_INTEGER,
+                       GL_UNSIGNED_SHORT, GLsizei(layer.size() * sizeof(uint16_t)), layer.data());
+  std::vector<uint16_t> out;
+  out.reserve(size_t(rect.area()));
+  for (int64_t y = rect.y0; y < rect.y1; ++y) {
+    for (int64_t x = rect.x0; x < rect.x1; ++x)
+      out.push_back(layer[size_t(floor_mod(y + level.offset_y, n) * n + floor_mod(x + level.offset_x, n))]);
+  }
+  return out;
+}
+
+std::vector<float> ErrorClipmapRenderer::read_level_change(int32_t l, const RectI& rect) const {
+  std::vector<float> out;
+  if (!change_texture_) return out;
+  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
+  const int64_t n = region_;
+  std::vector<float> layer(size_t(n * n));
+  glPixelStorei(GL_PACK_ALIGNMENT, 4);
+  const Level& level = level_[size_t(l)];
+  glGetTextureSubImage(change_texture_.get(), 0, 0, 0, level.layer, GLsizei(n), GLsizei(n), 1, GL_RED,
+                       GL_FLOAT, GLsizei(layer.size() * sizeof(float)), layer.data());
+  out.reserve(size_t(rect.area()));
+  for (int64_t y = rect.y0; y < rect.y1; ++y) {
+    for (int64_t x = rect.x0; x < rect.x1; ++x)
+      out.push_back(layer[size_t(floor_mod(y + level.offset_y, n) * n + floor_mod(x + level.offset_x, n))]);
+  }
+  return out;
+}
+
+std::optional<size_t> ErrorClipmapRenderer::fill_on_gpu(int32_t l, const RectI& rect,
+                                                        const gpu::LevelFillSource& gpu) {
+  const Level& level = level_[size_t(l)];
+  const int64_t s = int64_t(1) << l;
+  gpu::LevelFillTarget t;
+  t.heights = levels_texture_.get();
+  t.change = change_texture_ && change_known_ ? change_texture_.get() : 0;
+  t.layer = level.layer;
+  t.offset_x = int32_t(level.offset_x), t.offset_y = int32_t(level.offset_y);
+  t.tex_size = region_;
+  // The change layer holds the mip's change only where the level reads its mip (upload()).
+  std::optional<std::array<int64_t, 2>> below;
+  if (floor_mod(world_.x0, s) == 0 && floor_mod(world_.y0, s) == 0)
+    below = std::array<int64_t, 2>{(world_.width() - 1) / s + 1, (world_.height() - 1) / s + 1};
+  return fill_->fill(t, gpu, l, rect, below, source_->params().meters_per_unit);
 }
 
 std::vector<uint32_t> ErrorClipmapRenderer::read_level_normals(int32_t l, const RectI& rect) const {
@@ -620,7 +675,7 @@ ErrorClipmapFrameStats ErrorClipmapRenderer::draw(const scene::Camera& camera, i
   return stats;
 }
 
-ErrorClipmapUpdate ErrorClipmapRenderer::invalidate(const RectI& mip0_rect) {
+ErrorClipmapUpdate ErrorClipmapRenderer::invalidate(const RectI& mip0_rect, const gpu::LevelFillSource* gpu) {
   ErrorClipmapUpdate u;
   const RectI r = mip0_rect.intersect(world_);
   if (r.empty()) return u;
@@ -638,7 +693,16 @@ ErrorClipmapUpdate ErrorClipmapRenderer::invalidate(const RectI& mip0_rect) {
     if (local.y1 == world_.height()) in_level.y1 = INT64_MAX / 4;
     const RectI dirty = in_level.intersect(regions_[size_t(l)]);
     if (dirty.empty()) continue;
-    u.texels += upload(l, dirty);
+    const std::optional<size_t> on_gpu = gpu ? fill_on_gpu(l, dirty, *gpu) : std::nullopt;
+    if (on_gpu) {
+      u.texels_on_gpu += dirty.area();
+      u.bytes_uploaded += *on_gpu;
+    } else {
+      const int64_t texels = upload(l, dirty);
+      u.texels += texels;
+      // R16UI heights, and the change layer's floats.
+      u.bytes_uploaded += size_t(texels) * (sizeof(uint16_t) + (change_texture_ ? sizeof(float) : 0));
+    }
     update_normals(l, dirty);
   }
   u.blocks = int32_t(

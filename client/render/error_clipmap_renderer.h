@@ -41,6 +41,7 @@
 #include "client/render/terrain_look.h"
 #include "client/scene/camera.h"
 #include "gpu/gl_handle.h"
+#include "gpu/level_fill.h"
 #include "gpu/normal_pass.h"
 #include "gpu/uniform_block.h"
 
@@ -92,8 +93,10 @@ struct ErrorClipmapFrameStats {
 };
 
 struct ErrorClipmapUpdate {
-  int32_t blocks = 0;  // error bounds recomputed
-  int64_t texels = 0;  // level samples re-read and uploaded
+  int32_t blocks = 0;         // error bounds recomputed
+  int64_t texels = 0;         // level samples re-read and uploaded
+  int64_t texels_on_gpu = 0;  // level samples filled from the GPU tile cache
+  size_t bytes_uploaded = 0;  // level samples, or the fill's page table and constants
   double cpu_ms = 0;
 };
 
@@ -114,8 +117,12 @@ class ErrorClipmapRenderer {
   // Draws the blocks last selected into the bound framebuffer's viewport (depth test on;
   // clears nothing).
   ErrorClipmapFrameStats draw(const scene::Camera& camera, int32_t width, int32_t height);
-  // Samples of `mip0_rect` (the world's global grid) changed in the source.
-  ErrorClipmapUpdate invalidate(const RectI& mip0_rect);
+  // Samples of `mip0_rect` (the world's global grid) changed in the source. With `gpu` (the
+  // display's GPU tile cache, holding those samples as the source does), each level takes
+  // them GPU to GPU where every tile it reads has a page (gpu/level_fill.h); otherwise they are
+  // read and uploaded. Only for samples the cache changed by stamping: the change layer moves
+  // by the height difference there, which assumes the level held the previous samples.
+  ErrorClipmapUpdate invalidate(const RectI& mip0_rect, const gpu::LevelFillSource* gpu = nullptr);
   // Detail samples of `detail_rect` (detail grid) changed in the source.
   void invalidate_detail(const RectI& detail_rect);
   // Moves the sun (degrees: azimuth clockwise from north, elevation above the horizon).
@@ -145,6 +152,10 @@ class ErrorClipmapRenderer {
   // Layers of the level textures: a level per layer, but levels that hold the whole world in
   // less than a layer share one (packed side by side).
   int32_t layers() const { return layers_; }
+  // Level l's heights and change (meters) over `rect` (level samples inside its region), as
+  // the textures hold them (tests).
+  std::vector<uint16_t> read_level_heights(int32_t l, const RectI& rect) const;
+  std::vector<float> read_level_change(int32_t l, const RectI& rect) const;
   // Level l's FD4 normals over `rect` (level samples inside its drawn part), packed like
   // protocol/normal_map.h (tests).
   std::vector<uint32_t> read_level_normals(int32_t l, const RectI& rect) const;
@@ -169,6 +180,8 @@ class ErrorClipmapRenderer {
   };
   ErrorClipmapRenderer() = default;
   int64_t upload(int32_t l, const RectI& rect);
+  // Level l's `rect` filled from the GPU tile cache; nullopt where it cannot be.
+  std::optional<size_t> fill_on_gpu(int32_t l, const RectI& rect, const gpu::LevelFillSource& gpu);
   // Instances of the selected blocks (and the walls on the world's edges) outside `frustum`'s
   // culling, grouped into one draw per pattern, appended to `instances`.
   struct Draw {
@@ -222,6 +235,7 @@ class ErrorClipmapRenderer {
   bool change_known_ = false;       // the source answered read_change at least once
   std::vector<float> change_scratch_, change_part_;
   std::optional<gpu::LevelNormalPass> normal_pass_;
+  std::optional<gpu::LevelFill> fill_;
   std::optional<TerrainLook> look_;
   std::optional<DetailRegion> detail_;
   gpu::GlProgram program_, shadow_program_;

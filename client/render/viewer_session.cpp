@@ -7,6 +7,7 @@
 #include "client/render/display_gpu_stamper.h"
 #include "client/scene/start_view.h"
 #include "dem/refined_default.h"
+#include "gpu/gpu_stamper.h"
 #include "protocol/layer.h"
 
 namespace loam::render {
@@ -65,10 +66,14 @@ Result<std::unique_ptr<ViewerSession>> ViewerSession::connect(const std::string&
   v->stamping_ = resolve_stamping(options.stamping, reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
   auto display = terrain::DisplayTerrain::create(
       v->client_.store(),
-      v->stamping_ == DisplayStamping::kGpu ? gpu_display_stamper() : terrain::DisplayStamperFactory{},
+      v->stamping_ == DisplayStamping::kGpu
+          ? gpu_display_stamper(
+                {.max_pages = PerLayer<int32_t>{{options.gpu_cache_pages, options.gpu_cache_pages}}})
+          : terrain::DisplayStamperFactory{},
       &v->client_.textures());
   if (!display) return display.error();
   v->display_ = std::move(*display);
+  v->audit_tiles_ = options.gpu_audit_tiles;
   v->display_->set_initial_base(v->client_.shared_base());  // the dug-material layer's reference
   (void)v->display_->sync(v->client_);                      // takes in the coarsest tiles
   v->snapshots_ = std::make_unique<query::SnapshotBuilder>(world);
@@ -128,21 +133,42 @@ Status ViewerSession::update(const scene::Camera& camera, std::chrono::milliseco
     next_ping_ = now + std::chrono::seconds(1);
     (void)client_.ping();
     (void)client_.request_stats();
+    // The sampled check of the GPU copy: a tile a second, read back and compared.
+    audit_due_ = true;
   }
   LOAM_TRY(follow(camera));
   const std::vector<terrain::DisplayDirty> dirty = display_->sync(client_);
+  // The display's GPU copy, where the levels take stamped samples from (tiles held at mip 0,
+  // which the levels read as the display holds them).
+  gpu::LevelFillSource fill;
+  if (const gpu::GpuStamper* cache = display_->gpu_cache()) {
+    fill.world = client_.welcome().world.sample_rect();
+    fill.pages = &cache->pages(Layer::kCoarse);
+    fill.page = [this, cache](int32_t tx, int32_t ty) -> std::optional<int32_t> {
+      if (!client_.store().holds({Layer::kCoarse, 0, tx, ty})) return std::nullopt;
+      return cache->pages(Layer::kCoarse).find(tx, ty);
+    };
+  }
   for (const terrain::DisplayDirty& d : dirty) {
     // The levels read the layer with mips (level l its mip l); the detail region the other.
     if (!layer_info(d.layer).has_mips) {
       if (renderer_) renderer_->invalidate_detail(d.rect);
       if (error_renderer_) error_renderer_->invalidate_detail(d.rect);
     } else if (error_renderer_) {
-      error_renderer_->invalidate(d.rect);
+      const ErrorClipmapUpdate u =
+          error_renderer_->invalidate(d.rect, d.stamped_on_gpu && fill.pages ? &fill : nullptr);
+      level_traffic_.texels_uploaded += uint64_t(u.texels);
+      level_traffic_.texels_on_gpu += uint64_t(u.texels_on_gpu);
+      level_traffic_.bytes_uploaded += u.bytes_uploaded;
     } else {
       renderer_->invalidate(d.rect);
     }
   }
   refresh_terrain(dirty);
+  if (audit_due_ && audit_tiles_ > 0) {
+    (void)display_->audit_gpu(size_t(audit_tiles_));
+    audit_due_ = false;
+  }
   return pumped;
 }
 
@@ -275,6 +301,8 @@ ViewerStats ViewerSession::stats() const {
   s.gpu_terrain_bytes =
       m.gpu.total() + (error_renderer_ ? error_renderer_->gpu_bytes() : renderer_->gpu_bytes());
   s.cpu_terrain_bytes = m.cpu_bytes + store.held_bytes();
+  s.display_traffic = display_->gpu_traffic();
+  s.level_traffic = level_traffic_;
   s.rtt_ms = client_.rtt_ms().value_or(-1.0);
   s.bytes_in_per_s = bytes_in_per_s_;
   if (const auto& st = client_.server_stats()) {

@@ -38,6 +38,13 @@ struct ViewerOptions {
   ErrorClipmapConfig error_clipmap = viewer_error_clipmap_defaults();  // the error-driven clipmap's
   lod::InterestConfig interest;  // n and levels are taken from the renderer
   DisplayStamping stamping = DisplayStamping::kGpu;
+  // The display's GPU tile cache, in pages of 256 x 256 samples per layer (a coarse page is
+  // 128 KiB, a detail page 64 KiB): tiles past it are evicted, least recently used first, and
+  // filled again from the CPU copy when next stamped (`view --gpu-cache-mb`).
+  int32_t gpu_cache_pages = 1024;
+  // Tiles of the display's GPU copy read back and compared with its CPU copy each second: the
+  // sampled check (0: none).
+  int32_t gpu_audit_tiles = 1;
   wire::Role role = wire::Role::kPlayer;
   std::string name = "viewer";
   std::optional<wire::AccessToken> token;  // needed where the server has tokens
@@ -52,6 +59,13 @@ struct ViewerOptions {
 RendererConfig viewer_renderer_config(const ViewerOptions& options, const WorldParams& world);
 ErrorClipmapConfig viewer_error_clipmap_config(const ViewerOptions& options, const WorldParams& world);
 
+// What the levels took in after the display changed (not region moves), cumulative.
+struct LevelTraffic {
+  uint64_t texels_uploaded = 0;  // read on the CPU and uploaded
+  uint64_t texels_on_gpu = 0;    // filled from the display's GPU tile cache
+  uint64_t bytes_uploaded = 0;
+};
+
 struct ViewerStats {
   uint64_t tiles_subscribed = 0, tiles_held = 0;
   uint64_t regions = 0, events_applied = 0, hash_checks = 0, hash_mismatches = 0;
@@ -62,6 +76,11 @@ struct ViewerStats {
   size_t gpu_terrain_bytes = 0, gpu_page_bytes = 0;
   int32_t gpu_pages_resident = 0;
   size_t cpu_terrain_bytes = 0;
+  // What the terrain moved over the bus, cumulative: the display's GPU copy (pages filled,
+  // rects uploaded, stamp constants; read back: the audit's tiles), and the levels' updates
+  // after changes (samples uploaded, or filled GPU to GPU, and the bytes that took).
+  gpu::GpuStamperTraffic display_traffic;
+  LevelTraffic level_traffic;
   // The session (refreshed once a second): round trip (-1: none yet), bytes in per second
   // against the budget the server streams within (0: none), the server's tick times.
   double rtt_ms = -1, bytes_in_per_s = 0;
@@ -140,6 +159,9 @@ class ViewerSession {
   std::unique_ptr<ErrorClipmapRenderer> error_renderer_;
   double view_distance_m_ = 0;
   DisplayStamping stamping_ = DisplayStamping::kGpu;
+  bool audit_due_ = false;  // audit the display's GPU copy at the next update
+  int32_t audit_tiles_ = 1;
+  LevelTraffic level_traffic_;
   std::unique_ptr<lod::ClipmapInterest> interest_;
   std::unique_ptr<query::SnapshotBuilder> snapshots_;
   std::shared_ptr<const query::TerrainSnapshot> terrain_;

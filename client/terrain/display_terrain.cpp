@@ -66,42 +66,31 @@ bool DisplayTerrain::holds_mip0(Layer layer, const RectI& reach) const {
 }
 
 void DisplayTerrain::stamp(const QuantizedStamp& q) {
-  if (stamper_) {
-    // The store has validated this stamp (or will reject it the same way): an error here is
-    // a stamp that changes nothing, as on the server. Busy: the page cache is full of stamps
-    // awaiting readback; collecting them frees it.
-    auto t = stamper_->submit(q);
-    if (!t && t.error().code == ErrorCode::kBusy) {
-      for (const gpu::StampReadback& rb : stamper_->collect(display_)) {
-        if (!rb.changed.empty()) gpu_done_.push_back({rb.layer, rb.changed});
-      }
-      (void)stamper_->submit(q);
-    }
-    return;
-  }
+  // The GPU copy first: a page it fills fresh reads the mirror, which must not hold q yet.
+  const bool on_gpu = stamper_ && stamper_->submit(q).ok();
   auto r = apply_stamp(display_, q, textures_);
-  if (r && !r->empty()) cpu_done_.push_back({q.layer, *r});
+  const RectI changed = r ? *r : RectI{};
+  if (!changed.empty()) cpu_done_.push_back({q.layer, changed, on_gpu});
+  if (stamper_) {
+    // The store validated q (or rejects it the same way: it changes nothing, as on the
+    // server). Where the cache could not take it (every page held, or more tiles than its
+    // budget), the mirror's result goes up instead.
+    if (!on_gpu && !changed.empty()) stamper_->upload(display_, q.layer, changed);
+    stamper_->end_batch();
+  }
 }
 
 void DisplayTerrain::finish(std::vector<DisplayDirty>& dirty) {
-  dirty.insert(dirty.end(), gpu_done_.begin(), gpu_done_.end());
-  gpu_done_.clear();
-  if (stamper_) {
-    for (const gpu::StampReadback& rb : stamper_->collect(display_)) {
-      if (!rb.changed.empty()) dirty.push_back({rb.layer, rb.changed});
-    }
-  } else {
-    dirty.insert(dirty.end(), cpu_done_.begin(), cpu_done_.end());
-    cpu_done_.clear();
-  }
+  dirty.insert(dirty.end(), cpu_done_.begin(), cpu_done_.end());
+  cpu_done_.clear();
 }
 
-void DisplayTerrain::copy_from_store(Layer layer, const RectI& rect) {
+void DisplayTerrain::copy_from_store(Layer layer, const RectI& rect, bool upload) {
   const RectI r = rect.intersect(layer_sample_rect(display_.params(), layer));
   if (r.empty()) return;
   (void)copy_rect(store_->mirror(), display_, layer, r);
   counters_.texels_copied += uint64_t(r.area());
-  if (stamper_) stamper_->upload(display_, layer, r);
+  if (stamper_ && upload) stamper_->upload(display_, layer, r);
 }
 
 std::vector<int32_t> DisplayTerrain::expected_after(const Pending& p,
@@ -159,13 +148,9 @@ std::vector<DisplayDirty> DisplayTerrain::sync(client::TerrainClient& client) {
   const std::vector<client::StoreChange>& changes = last_changes_;
   settle(client, std::chrono::steady_clock::now());
   SyncRects rects;
-  // The display's CPU mirror must hold everything submitted before it is read or copied into.
-  finish(dirty);
   const std::vector<Expected> expected = plan_settled(changes, rects);
-  const std::vector<LayerRect> stamped = follow_changes(changes, rects, dirty);
-  finish(dirty);
+  follow_changes(changes, rects, dirty);
   spread_under_overlay(rects);
-  repair_divergence(stamped, rects);
   copy_and_reapply(rects, dirty);
   count_and_retire(expected);
   forget_unheld();
@@ -214,12 +199,13 @@ std::vector<DisplayTerrain::Expected> DisplayTerrain::plan_settled(
   return expected;
 }
 
-// 3. Follow the store's changes: stamp events where the display is confirmed under their
-// reach; everything else becomes a stale rect, copied from the store later. Returns the events
-// stamped here, to compare with the store.
-std::vector<DisplayTerrain::LayerRect> DisplayTerrain::follow_changes(
-    const std::vector<client::StoreChange>& changes, SyncRects& rects, std::vector<DisplayDirty>& dirty) {
-  std::vector<LayerRect> stamped;
+// 3. Follow the store's changes. An event whose reach the display shows as confirmed is
+// followed by copying the samples it changed from the store (after the stale rects, below) and,
+// with a GPU copy, by stamping it there: the same shaders give the same samples (the
+// conformance tests and audit_gpu() hold them to it), and nothing comes back. Everything else
+// becomes a stale rect, copied from the store and uploaded.
+void DisplayTerrain::follow_changes(const std::vector<client::StoreChange>& changes, SyncRects& rects,
+                                    std::vector<DisplayDirty>& dirty) {
   for (const client::StoreChange& c : changes) {
     std::vector<RectI>& stale = rects.stale[c.layer];
     if (c.kind == client::StoreChange::Kind::kRegion) {
@@ -235,16 +221,18 @@ std::vector<DisplayTerrain::LayerRect> DisplayTerrain::follow_changes(
     if (c.rect.empty()) continue;
     auto reach = stamp_reach(c.stamp, display_.params(), textures_);
     const RectI r = reach ? *reach : c.rect;
-    if (intersects_any(stale, r) || intersects_any(rects.overlay[c.layer], r)) {
+    const bool confirmed_under = !intersects_any(stale, r) && !intersects_any(rects.overlay[c.layer], r);
+    // The GPU copy follows by stamping; where it cannot (its pages are all held by this sync's
+    // stamps), the rect is uploaded with the stale ones.
+    if (confirmed_under && (!stamper_ || stamper_->submit(c.stamp).ok())) {
+      rects.followed[c.layer].push_back(c.rect);
+      dirty.push_back({c.layer, c.rect, stamper_ != nullptr});
+      ++(stamper_ ? counters_.events_stamped : counters_.events_copied);
+    } else {
       stale.push_back(c.rect);
       ++counters_.events_copied;
-    } else {
-      stamp(c.stamp);
-      stamped.push_back({c.layer, c.rect});
-      ++counters_.events_stamped;
     }
   }
-  return stamped;
 }
 
 // 4. Overlay stamps over a stale rect are rebuilt whole, which makes their reach stale too.
@@ -263,43 +251,20 @@ void DisplayTerrain::spread_under_overlay(SyncRects& rects) {
   }
 }
 
-// 5. Stamped events must have given the store's samples: count and repair any difference
-// (only where no overlay stamp stays on top).
-void DisplayTerrain::repair_divergence(const std::vector<LayerRect>& stamped, SyncRects& rects) {
-  for (const LayerRect& s : stamped) {
-    std::vector<RectI>& stale = rects.stale[s.layer];
-    const bool covered =
-        intersects_any(stale, s.rect) || std::any_of(pending_.begin(), pending_.end(), [&](const Pending& p) {
-          return !p.retire && p.stamp.layer == s.layer && intersects(p.reach, s.rect);
-        });
-    if (covered) continue;
-    // Only held tiles are compared: the store keeps nothing of the others.
-    const RectI tiles = tiles_overlapping(s.rect);
-    for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
-      for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
-        if (!store_->holds({s.layer, 0, int32_t(tx), int32_t(ty)})) continue;
-        const RectI part = s.rect.intersect(tile_rect(int32_t(tx), int32_t(ty)));
-        const auto mine = read_layer(display_, s.layer, part);
-        const auto theirs = read_layer(store_->mirror(), s.layer, part);
-        uint64_t diff = 0;
-        for (size_t k = 0; k < mine.size(); ++k) diff += mine[k] != theirs[k];
-        if (diff != 0) {
-          counters_.divergent_texels += diff;
-          stale.push_back(part);
-        }
-      }
-    }
-  }
-}
-
-// 6. Copy the confirmed samples in, then re-apply the overlay stamps on top, in order.
+// 5. Copy the confirmed samples in (the GPU copy has the events it stamped; it takes the stale
+// rects), then re-apply the overlay stamps on top, in order.
 void DisplayTerrain::copy_and_reapply(const SyncRects& rects, std::vector<DisplayDirty>& dirty) {
+  rects.followed.for_each([&](Layer layer, const std::vector<RectI>& followed) {
+    for (const RectI& r : followed) copy_from_store(layer, r, false);
+  });
   rects.stale.for_each([&](Layer layer, const std::vector<RectI>& stale) {
     for (const RectI& r : stale) {
-      copy_from_store(layer, r);
+      copy_from_store(layer, r, true);
       dirty.push_back({layer, r});
     }
   });
+  // The mirror now holds what every page stamped this sync holds.
+  if (stamper_) stamper_->end_batch();
   for (const Pending& p : pending_) {
     if (p.reapply) stamp(p.stamp);
   }
@@ -307,7 +272,7 @@ void DisplayTerrain::copy_and_reapply(const SyncRects& rects, std::vector<Displa
   display_.commit(0);
 }
 
-// 7. Corrections: texels where the confirmed result differs from what was expected; the
+// 6. Corrections: texels where the confirmed result differs from what was expected; the
 // settled predictions leave the overlay.
 void DisplayTerrain::count_and_retire(const std::vector<Expected>& expected) {
   for (const Expected& e : expected) {
@@ -343,12 +308,43 @@ void DisplayTerrain::forget_unheld() {
   }
 }
 
+uint64_t DisplayTerrain::audit_gpu(size_t max_tiles) {
+  if (!stamper_) return 0;
+  std::vector<TileCoord> tiles = display_.edited_coarse_tiles(0);
+  const std::vector<TileCoord> detail = display_.stored_detail_tiles();
+  tiles.insert(tiles.end(), detail.begin(), detail.end());
+  // Resident tiles only: the others are filled from the mirror when next needed.
+  std::erase_if(tiles, [&](const TileCoord& c) { return !stamper_->resident(c.layer, c.tx, c.ty); });
+  if (tiles.empty()) return 0;
+  uint64_t diff = 0;
+  for (size_t k = 0; k < std::min(max_tiles, tiles.size()); ++k) {
+    const TileCoord& c = tiles[(audit_cursor_ + k) % tiles.size()];
+    const RectI r = tile_rect(c.tx, c.ty).intersect(layer_sample_rect(display_.params(), c.layer));
+    const std::vector<int32_t> gpu = stamper_->read(c.layer, r);
+    const std::vector<int32_t> mine = read_layer(display_, c.layer, r);
+    uint64_t d = 0;
+    for (size_t i = 0; i < std::min(gpu.size(), mine.size()); ++i) d += gpu[i] != mine[i];
+    if (d != 0) stamper_->upload(display_, c.layer, r);  // repaired
+    diff += d;
+  }
+  audit_cursor_ = (audit_cursor_ + max_tiles) % tiles.size();
+  counters_.gpu_tiles_audited += std::min(max_tiles, tiles.size());
+  counters_.divergent_texels += diff;
+  return diff;
+}
+
 DisplayMemory DisplayTerrain::memory() const {
   DisplayMemory m;
   m.cpu_bytes = display_.edited_bytes();
   if (stamper_) m.gpu = stamper_->memory();
   return m;
 }
+
+gpu::GpuStamperTraffic DisplayTerrain::gpu_traffic() const {
+  return stamper_ ? stamper_->traffic() : gpu::GpuStamperTraffic{};
+}
+
+const gpu::GpuStamper* DisplayTerrain::gpu_cache() const { return stamper_ ? &stamper_->cache() : nullptr; }
 
 DisplayTerrain::TileSource DisplayTerrain::source_for(int32_t mip, int32_t tx, int32_t ty) const {
   if (store_->holds({Layer::kCoarse, 0, tx, ty})) return {0, display_.coarse_tile(0, tx, ty)};

@@ -4,12 +4,21 @@
 // in a GPU tile cache (a DisplayStamper: the shared stamp shaders, bit-exact with the CPU
 // reference). The display itself needs no GL: without a stamper it stamps on the CPU.
 //
+// Nothing is read back from the GPU copy. The CPU copy follows the store by copying; the GPU
+// copy by stamping the same stamps with the shared shaders (bit-exact with the reference, as
+// the conformance tests prove), so an event costs the GPU its stamp's constants and the CPU a
+// copy of the samples it changed, and the renderer fills its levels from the GPU copy. Own
+// stamps are stamped on both (the GPU first: a page it fills fresh reads the CPU copy), and a
+// stamp the cache cannot take (every page held, or more tiles than its budget) is uploaded from
+// the CPU copy instead. audit_gpu() reads back a few tiles and compares them (a sampled check,
+// never per event).
+//
 // Each frame, sync() follows the client:
-//   - events the confirmed store applied are stamped on the GPU copy too, where the display
-//     equals the confirmed state under the stamp's whole reach; the result is compared with
-//     the store's (divergent texels are counted and repaired: 0 on every backend so far);
-//   - where the display cannot follow by stamping (a region replaced a tile, an event fell
-//     where the overlay is), the confirmed samples are copied in ("stale" rects);
+//   - events the confirmed store applied are followed where the display equals the confirmed
+//     state under the stamp's whole reach: the CPU copy takes the samples they changed from the
+//     store, the GPU copy stamps them;
+//   - where the display cannot follow so (a region replaced a tile, an event fell where the
+//     overlay is), the confirmed samples are copied in and uploaded ("stale" rects);
 //   - an own stamp is retired once the server rejected it, or its event has arrived and been
 //     applied (or covered by a region); its reach is then rebuilt from the store, and every
 //     overlay stamp overlapping a rebuilt rect is re-applied, in order. A correction is a texel
@@ -47,17 +56,19 @@
 namespace loam::terrain {
 
 struct DisplayCounters {
-  uint64_t events_stamped = 0;    // confirmed events stamped on the display copy
-  uint64_t events_copied = 0;     // confirmed events followed by copying (overlay or region in the way)
-  uint64_t predicted = 0;         // own stamps drawn as overlay
-  uint64_t not_predicted = 0;     // own stamps over tiles not held (shown when confirmed)
-  uint64_t retired = 0;           // overlay stamps settled (applied, rejected or timed out)
-  uint64_t rejected = 0;          // ... of which the server rejected
-  uint64_t abandoned = 0;         // ... of which the connection was lost before their ack
-  uint64_t corrections = 0;       // texels of the overlay that differed from the confirmed result
-  uint64_t divergent_texels = 0;  // display != store after stamping the same event (repaired)
-  uint64_t texels_copied = 0;     // samples copied from the store into the display
-  uint64_t tiles_forgotten = 0;   // tiles dropped because the store no longer holds them
+  uint64_t events_stamped = 0;     // confirmed events stamped on the display's GPU copy
+  uint64_t events_copied = 0;      // confirmed events followed by copying alone (no GPU copy, or
+                                   // the overlay or a region in the way)
+  uint64_t predicted = 0;          // own stamps drawn as overlay
+  uint64_t not_predicted = 0;      // own stamps over tiles not held (shown when confirmed)
+  uint64_t retired = 0;            // overlay stamps settled (applied, rejected or timed out)
+  uint64_t rejected = 0;           // ... of which the server rejected
+  uint64_t abandoned = 0;          // ... of which the connection was lost before their ack
+  uint64_t corrections = 0;        // texels of the overlay that differed from the confirmed result
+  uint64_t divergent_texels = 0;   // GPU copy != CPU copy, found by audit_gpu() (repaired)
+  uint64_t gpu_tiles_audited = 0;  // tiles audit_gpu() compared
+  uint64_t texels_copied = 0;      // samples copied from the store into the display
+  uint64_t tiles_forgotten = 0;    // tiles dropped because the store no longer holds them
 };
 
 // What the display holds: its CPU copy of the held tiles and its GPU tile cache.
@@ -70,6 +81,9 @@ struct DisplayMemory {
 struct DisplayDirty {
   Layer layer = Layer::kCoarse;
   RectI rect;
+  // The GPU copy changed these samples by stamping (the renderer may take them from there);
+  // false: copied in on the CPU (and uploaded to the GPU copy where resident).
+  bool stamped_on_gpu = false;
 };
 
 class DisplayTerrain final : public HeightSource {
@@ -109,6 +123,16 @@ class DisplayTerrain final : public HeightSource {
   size_t overlay_size() const { return pending_.size(); }
   const DisplayCounters& counters() const { return counters_; }
   DisplayMemory memory() const;
+  // Bytes the GPU copy took and gave (zero without one).
+  gpu::GpuStamperTraffic gpu_traffic() const;
+  // The GPU tile cache (null without one): a renderer fills its levels from its pages, which
+  // hold what the CPU copy holds for every resident tile after sync().
+  const gpu::GpuStamper* gpu_cache() const;
+  // Reads back up to `max_tiles` resident tiles of the GPU copy (the next ones in turn), compares
+  // them with the CPU copy and repairs any difference (counters: divergent_texels). Returns
+  // the texels that differed. A synchronous readback of 128 KiB a coarse tile: a sampled check
+  // (the viewer audits one tile a second), and a full one in tests.
+  uint64_t audit_gpu(size_t max_tiles);
   const World& world() const { return display_; }
   bool on_gpu() const { return stamper_ != nullptr; }
   // Own stamps whose event never comes (the tiles were unsubscribed meanwhile) retire after this.
@@ -126,27 +150,24 @@ class DisplayTerrain final : public HeightSource {
     // confirmed samples (it stays, and a stale rect reached under it).
     bool retire = false, reapply = false;
   };
-  struct LayerRect {
-    Layer layer = Layer::kCoarse;
-    RectI rect;
-  };
   // What a settled, accepted prediction should have become (compared after the copy).
   struct Expected {
     Layer layer = Layer::kCoarse;
     RectI rect;
     std::vector<int32_t> samples;
   };
-  // One sync's rects per layer: copied from the store (stale), and under the predictions that
-  // stay (overlay).
+  // One sync's rects per layer: copied from the store and uploaded (stale), under the
+  // predictions that stay (overlay), and changed by events followed (copied on the CPU alone:
+  // the GPU copy stamped them).
   struct SyncRects {
-    PerLayer<std::vector<RectI>> stale, overlay;
+    PerLayer<std::vector<RectI>> stale, overlay, followed;
   };
   DisplayTerrain(const client::ConfirmedStore& store, const TextureRegistry* textures);
 
   bool holds_mip0(Layer layer, const RectI& reach) const;
-  void stamp(const QuantizedStamp& q);  // queued on the GPU, done at once on the CPU
+  void stamp(const QuantizedStamp& q);  // an own stamp: on the GPU copy, then the CPU copy
   void finish(std::vector<DisplayDirty>& dirty);
-  void copy_from_store(Layer layer, const RectI& rect);
+  void copy_from_store(Layer layer, const RectI& rect, bool upload);
   // Drops the display's copy (CPU and GPU) of tiles the store no longer holds, except under
   // an own stamp still shown: memory follows the subscription.
   void forget_unheld();
@@ -169,10 +190,9 @@ class DisplayTerrain final : public HeightSource {
   // sync()'s phases, in order.
   void settle(client::TerrainClient& client, std::chrono::steady_clock::time_point now);
   std::vector<Expected> plan_settled(const std::vector<client::StoreChange>& changes, SyncRects& rects);
-  std::vector<LayerRect> follow_changes(const std::vector<client::StoreChange>& changes, SyncRects& rects,
-                                        std::vector<DisplayDirty>& dirty);
+  void follow_changes(const std::vector<client::StoreChange>& changes, SyncRects& rects,
+                      std::vector<DisplayDirty>& dirty);
   void spread_under_overlay(SyncRects& rects);
-  void repair_divergence(const std::vector<LayerRect>& stamped, SyncRects& rects);
   void copy_and_reapply(const SyncRects& rects, std::vector<DisplayDirty>& dirty);
   void count_and_retire(const std::vector<Expected>& expected);
 
@@ -181,7 +201,7 @@ class DisplayTerrain final : public HeightSource {
   World display_;
   std::unique_ptr<DisplayStamper> stamper_;
   std::vector<DisplayDirty> cpu_done_;
-  std::vector<DisplayDirty> gpu_done_;  // readbacks collected early (a full page cache)
+  size_t audit_cursor_ = 0;
   std::vector<Pending> pending_;
   std::vector<client::StoreChange> last_changes_;
   std::shared_ptr<const TileBase> initial_base_;

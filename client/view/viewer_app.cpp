@@ -67,13 +67,17 @@ void print_stats(double t, const render::ViewerSession& s, const render::FrameSt
       "viewer %6.1f s: frame %.1f ms, %lld triangles, %d draws%s | tiles %llu/%llu | events "
       "%llu applied, %llu "
       "on "
-      "the GPU | overlay %zu, predicted %llu, corrections %llu | divergent %llu | hashes %llu checked, %llu "
+      "the GPU | levels %llu samples filled on the GPU, %llu uploaded | GPU bus %.1f KiB up, %.1f KiB back | "
+      "overlay %zu, predicted %llu, corrections %llu | divergent %llu | hashes %llu checked, %llu "
       "mismatched | terrain memory GPU %.1f MiB (%d pages), CPU %.1f MiB | RTT %.1f ms, in %.1f KiB/s, "
       "server "
       "tick p99 %.2f ms\n",
       t, frame_ms, (long long)f.triangles, f.draw_calls, budget, (unsigned long long)v.tiles_held,
       (unsigned long long)v.tiles_subscribed, (unsigned long long)v.events_applied,
-      (unsigned long long)v.display.events_stamped, v.overlay, (unsigned long long)v.display.predicted,
+      (unsigned long long)v.display.events_stamped, (unsigned long long)v.level_traffic.texels_on_gpu,
+      (unsigned long long)v.level_traffic.texels_uploaded,
+      double(v.display_traffic.bytes_uploaded + v.level_traffic.bytes_uploaded) / 1024.0,
+      double(v.display_traffic.bytes_read_back) / 1024.0, v.overlay, (unsigned long long)v.display.predicted,
       (unsigned long long)v.display.corrections, (unsigned long long)v.display.divergent_texels,
       (unsigned long long)v.hash_checks, (unsigned long long)v.hash_mismatches,
       double(v.gpu_terrain_bytes) / (1 << 20), v.gpu_pages_resident, double(v.cpu_terrain_bytes) / (1 << 20),
@@ -125,6 +129,7 @@ render::ViewerOptions session_options(const ViewerAppOptions& o) {
   vo.renderer = o.renderer;
   vo.error_clipmap = o.error_clipmap;
   vo.stamping = o.stamping;
+  vo.gpu_cache_pages = int32_t(o.gpu_cache_mb * 8);  // 128 KiB a coarse page
   vo.name = o.name;
   vo.token = o.token;
   vo.tls = o.tls;

@@ -32,6 +32,7 @@ struct ViewerAppOptions {
   render::ErrorClipmapConfig error_clipmap =
       render::viewer_error_clipmap_defaults();  // the error-driven clipmap's
   render::DisplayStamping stamping = render::DisplayStamping::kAuto;
+  int32_t gpu_cache_mb = 128;  // the display's GPU tile cache (coarse pages; detail pages take half)
   int32_t width = 1280, height = 720;
   bool headless = false;                  // EGL + offscreen instead of a window
   double seconds = 0;                     // stop after this long (0: until the window closes; headless: 30)

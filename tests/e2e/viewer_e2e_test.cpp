@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdint>
 #include <random>
 #include <thread>
 
@@ -47,6 +49,64 @@ QuantizedStamp crater_at(const WorldParams& w, double x, double y, double r, dou
   auto q = validate_stamp(p, w);
   EXPECT_TRUE(q.ok());
   return *q;
+}
+
+// The display's GPU copy holds its CPU copy in every resident tile (each read back whole), and
+// every level texture holds what the level's CPU read gives: no change the GPU path took was
+// lost or taken differently.
+void expect_gpu_terrain_matches(render::ViewerSession& v) {
+  const uint64_t audited = v.display().counters().gpu_tiles_audited;
+  EXPECT_EQ(v.display().audit_gpu(SIZE_MAX), 0u);
+  EXPECT_GT(v.display().counters().gpu_tiles_audited, audited) << "no tile is resident";
+  render::ErrorClipmapRenderer* r = v.error_clipmap();
+  ASSERT_NE(r, nullptr);
+  for (int32_t l = 0; l < r->levels(); ++l) {
+    const RectI region = r->region(l);
+    if (region.empty()) continue;
+    std::vector<uint16_t> cpu(size_t(region.area()));
+    r->read_level(l, region, cpu);
+    EXPECT_EQ(r->read_level_heights(l, region), cpu) << "level " << l;
+  }
+}
+
+// An own crater and a bot's, near the camera (in the viewer's mip-0 tiles), `n` times, the
+// viewer's frames going meanwhile (updates and renders); returns the last global sequence
+// stamped, once the viewer saw it and settled.
+uint64_t stamp_near_the_camera(render::ViewerSession& view, client::TerrainClient& bot,
+                               const scene::Camera& cam, int n, uint32_t seed) {
+  auto target = render::OffscreenTarget::create(160, 100);
+  EXPECT_TRUE(target.ok());
+  auto frame = [&] {
+    target->begin(0.5f, 0.6f, 0.75f, 0.0f);
+    view.render(cam, 160, 100);
+  };
+  frame();  // the levels' regions are placed
+  std::mt19937 rng(seed);
+  const WorldParams& w = bot.welcome().world;
+  std::uniform_real_distribution<double> ux(750, 1300), uy(500, 1000), ur(6, 30);
+  std::vector<uint32_t> seqs;
+  for (int i = 0; i < n; ++i) {
+    auto s = bot.deform(crater_at(w, ux(rng), uy(rng), ur(rng), 2));
+    EXPECT_TRUE(s.ok());
+    if (s.ok()) seqs.push_back(*s);
+    if (i % 3 == 0) {
+      EXPECT_TRUE(view.deform(crater_at(w, ux(rng), uy(rng), ur(rng), 3)).ok());
+    }
+    EXPECT_TRUE(view.update(cam, 5ms).ok());
+    frame();
+    EXPECT_TRUE(bot.pump(0ms).ok());
+  }
+  EXPECT_TRUE(bot.wait_until([&] { return bot.ack(seqs.back()).has_value(); }, 30s));
+  EXPECT_TRUE(view.wait_settled(cam, 30s));
+  const uint64_t last = std::max(bot.ack(seqs.back())->global_seq, view.client().last_seen_seq());
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (view.client().last_event_seq() < last && std::chrono::steady_clock::now() < deadline) {
+    EXPECT_TRUE(view.update(cam, 5ms).ok());
+  }
+  EXPECT_GE(view.client().last_event_seq(), last);
+  EXPECT_TRUE(view.wait_settled(cam, 30s));
+  frame();
+  return last;
 }
 
 std::vector<uint8_t> render_view(render::ViewerSession& v, const scene::Camera& cam, int32_t w, int32_t h) {
@@ -110,6 +170,132 @@ INSTANTIATE_TEST_SUITE_P(ViewerEndToEnd, ViewerOfEitherScheme,
 // layer measures against what the store kept of each tile's version 0. An own crater reads as
 // dug as soon as it shows (its tiles still at version 0) and still once the server confirmed
 // it (the kept copies); ground away from it reads as unchanged.
+// GPU stamping (the display's tile cache) with the default renderer: confirmed events and own
+// stamps reach the level textures GPU to GPU. Nothing is read back, the GPU copy and every level
+// equal their CPU counterparts afterwards, and the change layer (dug earth) moved with the
+// heights as the CPU computes it.
+TEST(ViewerEndToEnd, GpuStampedChangesFillTheLevelsOnTheGpuAndNothingIsReadBack) {
+  LOAM_REQUIRE_GL();
+  const std::string dir = temp_data_dir("gpu_levels");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--tick-hz", "60", "--hashes-every", "10"})) << server.log();
+  const scene::Camera cam = overview();
+  render::ViewerOptions o = small_viewer("viewer");
+  o.error_clipmap.region = 256;
+  o.gpu_audit_tiles = 0;  // the sampled check reads back; this test wants to see nothing else does
+  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), o, cam);
+  ASSERT_TRUE(v.ok()) << v.error().describe();
+  render::ViewerSession& view = **v;
+  ASSERT_TRUE(view.display().on_gpu());
+  client::TerrainClient bot;
+  ASSERT_TRUE(bot.connect("127.0.0.1", server.port(), "bot", wire::Role::kBot).ok());
+  ASSERT_TRUE(bot.subscribe(bot.all_coarse_tiles(0)).ok());
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  const render::ViewerStats before = view.stats();
+
+  const uint64_t last = stamp_near_the_camera(view, bot, cam, 30, 11);
+  const render::ViewerStats s = view.stats();
+  EXPECT_GT(s.display.events_stamped, 0u);
+  EXPECT_GT(s.display.predicted, 0u);
+  EXPECT_GT(s.level_traffic.texels_on_gpu, 0u);
+  EXPECT_EQ(s.display_traffic.bytes_read_back, 0u);
+  const uint64_t changes = s.display.events_stamped + s.display.predicted;
+  const uint64_t fills = s.display_traffic.page_fills - before.display_traffic.page_fills;
+  std::printf(
+      "%llu stamps on the GPU copy: %.0f B of constants each, %llu pages filled; levels: %llu samples filled "
+      "on the GPU (%.0f B uploaded each change), %llu uploaded\n",
+      (unsigned long long)changes,
+      double(s.display_traffic.bytes_uploaded - before.display_traffic.bytes_uploaded - fills * 131072) /
+          double(changes),
+      (unsigned long long)fills, (unsigned long long)s.level_traffic.texels_on_gpu,
+      double(s.level_traffic.bytes_uploaded - before.level_traffic.bytes_uploaded) / double(changes),
+      (unsigned long long)(s.level_traffic.texels_uploaded - before.level_traffic.texels_uploaded));
+  expect_gpu_terrain_matches(view);
+  EXPECT_TRUE(store_matches(view.client(), replayed_world(dir, last)));
+
+  // The change layers: what the CPU computes from the heights, to their half-float precision.
+  render::ErrorClipmapRenderer& r = *view.error_clipmap();
+  const RectI world = view.client().welcome().world.sample_rect();
+  ASSERT_EQ(world.x0 % 1024, 0);  // every level reads its mip, change layer included
+  ASSERT_EQ(world.y0 % 1024, 0);
+  size_t dug = 0, off = 0;
+  for (int32_t l = 0; l < std::min(r.levels(), 10); ++l) {
+    const int64_t step = int64_t(1) << l;
+    const RectI inside =
+        r.region(l).intersect({0, 0, (world.width() - 1) / step + 1, (world.height() - 1) / step + 1});
+    if (inside.empty()) continue;
+    std::vector<float> cpu(size_t(inside.area()));
+    ASSERT_TRUE(view.display().read_change(l, inside.translated(world.x0 / step, world.y0 / step), cpu));
+    const std::vector<float> gpu = r.read_level_change(l, inside);
+    ASSERT_EQ(gpu.size(), cpu.size());
+    for (size_t i = 0; i < cpu.size(); ++i) {
+      dug += cpu[i] < -0.01f;
+      off += std::abs(gpu[i] - cpu[i]) > std::max(1e-3f, std::abs(cpu[i]) / 1024.0f);
+    }
+  }
+  EXPECT_GT(dug, 0u) << "no dug ground in view";
+  EXPECT_EQ(off, 0u) << "change samples that differ from the CPU's";
+}
+
+// A GPU tile cache of two pages: stamps reach more tiles than it holds, so pages are evicted and
+// filled again from the CPU copy, and stamps wider than the cache go up from the CPU copy. The
+// GPU copy and the levels still equal the CPU's, and the store the server's log.
+TEST(ViewerEndToEnd, ASmallGpuTileCacheEvictsRefillsAndStillMatchesTheStore) {
+  LOAM_REQUIRE_GL();
+  const std::string dir = temp_data_dir("small_cache");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--tick-hz", "60", "--hashes-every", "10"})) << server.log();
+  const scene::Camera cam = overview();
+  render::ViewerOptions o = small_viewer("viewer");
+  o.error_clipmap.region = 256;
+  o.gpu_cache_pages = 2;
+  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), o, cam);
+  ASSERT_TRUE(v.ok()) << v.error().describe();
+  render::ViewerSession& view = **v;
+  client::TerrainClient bot;
+  ASSERT_TRUE(bot.connect("127.0.0.1", server.port(), "bot", wire::Role::kBot).ok());
+  ASSERT_TRUE(bot.subscribe(bot.all_coarse_tiles(0)).ok());
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+
+  const uint64_t last = stamp_near_the_camera(view, bot, cam, 40, 12);
+  const terrain::DisplayMemory m = view.display().memory();
+  EXPECT_GT(m.gpu.evictions, 0u);
+  EXPECT_LE(m.gpu.resident_pages[Layer::kCoarse], 2);
+  expect_gpu_terrain_matches(view);
+  EXPECT_TRUE(store_matches(view.client(), replayed_world(dir, last)));
+  EXPECT_EQ(view.display().counters().corrections, 0u);
+}
+
+// Own stamps the server refuses (over its rate limit) were shown at once; each is undone on both
+// copies from the store (the CPU copy's rect copied back and uploaded), so the GPU copy, the
+// levels and the display equal the confirmed state again.
+TEST(ViewerEndToEnd, RefusedOwnStampsAreUndoneOnTheGpuCopyFromTheStore) {
+  LOAM_REQUIRE_GL();
+  const std::string dir = temp_data_dir("refused");
+  ServerProcess server;
+  ASSERT_TRUE(server.start(dir, {"--deforms-per-second", "1", "--deform-burst", "1"})) << server.log();
+  const scene::Camera cam = overview();
+  render::ViewerOptions o = small_viewer("viewer");
+  o.error_clipmap.region = 256;
+  auto v = render::ViewerSession::connect("127.0.0.1", server.port(), o, cam);
+  ASSERT_TRUE(v.ok()) << v.error().describe();
+  render::ViewerSession& view = **v;
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  const WorldParams& w = view.client().welcome().world;
+  for (int i = 0; i < 6; ++i) ASSERT_TRUE(view.deform(crater_at(w, 900 + 40 * i, 760, 20, 6)).ok());
+  EXPECT_EQ(view.display().overlay_size(), 6u);
+  ASSERT_TRUE(view.wait_settled(cam, 30s));
+  const terrain::DisplayCounters& k = view.display().counters();
+  EXPECT_GT(k.rejected, 0u);
+  EXPECT_LT(k.rejected, 6u);
+  const RectI r{400, 330, 640, 430};  // every crater's reach, samples
+  std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
+  view.display().world().read_coarse(r, shown);
+  view.client().store().mirror().read_coarse(r, confirmed);
+  EXPECT_EQ(shown, confirmed);
+  expect_gpu_terrain_matches(view);
+}
+
 TEST(ViewerEndToEnd, ErrorDrivenClipmapViewerHoldsItsRegionsTilesAndShowsAStampOnceSettled) {
   LOAM_REQUIRE_GL();
   const std::string dir = temp_data_dir("error_lod");
@@ -374,6 +560,7 @@ TEST(ViewerEndToEnd, TwoViewersAndABotConvergeOnTheServersHashesAndRenderTheSame
     const terrain::DisplayCounters& k = v->display().counters();
     EXPECT_EQ(k.divergent_texels, 0u);
     EXPECT_GT(k.events_stamped, 0u);
+    expect_gpu_terrain_matches(*v);
     EXPECT_EQ(v->display().overlay_size(), 0u);
     std::printf(
         "%s: %llu events stamped on the GPU, %llu followed by copying, %llu predicted, %llu corrections\n",

@@ -223,5 +223,55 @@ TEST(GpuStamp, ThousandSeededRandomStampsMatchCpuOnTheVertexPath) {
   expect_random_stamps_match_cpu(StampPath::kVertex, "vertex path");
 }
 
+// A kind at the same intensity and shape bakes the same profile table whatever its radius and
+// centre (a walker's footprints, a tool preset): the stamper keeps such tables on the GPU and
+// a stamp that finds its table there uploads only its 80-byte header per tile. Presets
+// alternate with more distinct tables than the slots hold, so slots are reused, and every
+// stamp still matches the CPU texel for texel.
+TEST(GpuStamp, RepeatedProfileTablesUploadOnlyTheHeaderAndMatchCpu) {
+  LOAM_REQUIRE_GL();
+  World cpu = rough_world(5), mirror = cpu;
+  auto s = GpuStamper::create(mirror, nullptr, {}, {.path = StampPath::kCompute});
+  ASSERT_TRUE(s.ok()) << s.error().describe();
+  const WorldParams p = mirror.params();
+  auto stamp = [&](StampKind kind, double x, double y, double r, double intensity) {
+    StampParams sp;
+    sp.kind = kind;
+    sp.center_x = x;
+    sp.center_y = y;
+    sp.radius = r;
+    sp.intensity = intensity;
+    sp.shape = 0.4;
+    return validate_stamp(sp, p).value();
+  };
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> pos(-200, 500), radius(3, 40);
+  const StampKind kinds[] = {StampKind::kCrater, StampKind::kGaussian, StampKind::kFootprint};
+  // Three repeating presets, then 40 distinct tables (more than the slots), then the presets.
+  std::vector<QuantizedStamp> stamps;
+  for (int i = 0; i < 30; ++i) stamps.push_back(stamp(kinds[i % 3], pos(rng), pos(rng), radius(rng), 4.0));
+  for (int i = 0; i < 40; ++i)
+    stamps.push_back(stamp(StampKind::kCrater, pos(rng), pos(rng), 10, 1.1 + 0.25 * i));
+  for (int i = 0; i < 30; ++i) stamps.push_back(stamp(kinds[i % 3], pos(rng), pos(rng), radius(rng), 4.0));
+  uint64_t header_only = 0;
+  for (size_t i = 0; i < stamps.size(); ++i) {
+    const uint64_t before = (*s)->traffic().bytes_uploaded, fills = (*s)->traffic().page_fills;
+    ASSERT_TRUE((*s)->apply(mirror, stamps[i]).ok());
+    (void)apply_stamp(cpu, stamps[i]);
+    const uint64_t constants = (*s)->traffic().bytes_uploaded - before -
+                               ((*s)->traffic().page_fills - fills) * uint64_t(kTileSamples) * 2;
+    if (constants < 1024) ++header_only;
+    // Repeats of a preset whose table is still kept (after its first three, and after the 40
+    // distinct tables evicted it) write headers only.
+    if ((i >= 3 && i < 30) || i >= 73) {
+      EXPECT_LE(constants, 80u * 4 + 4) << "stamp " << i;  // 4 tiles at most; a footprint's contact reset
+    }
+  }
+  EXPECT_EQ(header_only, 27u + 27u);
+  mirror.commit(1);
+  cpu.commit(1);
+  EXPECT_EQ(count_mismatches(cpu, mirror), 0);
+}
+
 }  // namespace
 }  // namespace loam::gpu
