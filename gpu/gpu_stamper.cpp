@@ -427,7 +427,8 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b
   }
   std::copy(b.table.begin(), b.table.end(), u.table);
   const TableSlot slot = table_slot(b.table);
-  bool whole = slot.fresh;  // the first part writes the table too
+  const bool whole = slot.fresh;  // the first part writes the table too
+  bool header = false;
   // The per-part fields: where the part lies in its page and relative to the center.
   auto load_part = [&](const PagePart& part) {
     u.rect_x0 = int32_t(part.rect.x0 - part.tile.x0);
@@ -438,10 +439,24 @@ Status GpuStamper::stamp_per_sample(const QuantizedStamp& q, const BakedStamp& b
     u.d0x = int32_t(part.rect.x0 * 256 - q.center_x);
     u.d0y = int32_t(part.rect.y0 * 256 - q.center_y);
     u.vertex_runs_per_row = int32_t((part.rect.width() + kVertexRun - 1) / kVertexRun);
-    const size_t bytes = whole ? sizeof u : kStampHeaderBytes;
-    glNamedBufferSubData(params_buf_.get(), GLintptr(slot.offset), GLsizeiptr(bytes), &u);
-    traffic_.bytes_uploaded += bytes;
-    whole = false;
+    if (!header) {
+      // The first part writes the stamp's header (and its table where the slot lacks it).
+      const size_t bytes = whole ? sizeof u : kStampHeaderBytes;
+      glNamedBufferSubData(params_buf_.get(), GLintptr(slot.offset), GLsizeiptr(bytes), &u);
+      traffic_.bytes_uploaded += bytes;
+      header = true;
+    } else {
+      // The next ones only what is the part's own: its rect, its offset from the centre and
+      // the vertex pass's runs (28 bytes).
+      const auto put = [&](size_t offset, size_t bytes) {
+        glNamedBufferSubData(params_buf_.get(), GLintptr(slot.offset + offset), GLsizeiptr(bytes),
+                             reinterpret_cast<const char*>(&u) + offset);
+        traffic_.bytes_uploaded += bytes;
+      };
+      put(offsetof(StampUniforms, rect_x0), 4 * sizeof(int32_t));
+      put(offsetof(StampUniforms, d0x), 2 * sizeof(int32_t));
+      put(offsetof(StampUniforms, vertex_runs_per_row), sizeof(int32_t));
+    }
     glBindBufferRange(GL_UNIFORM_BUFFER, 0, params_buf_.get(), GLintptr(slot.offset), sizeof u);
   };
   const bool contact_pass = stamp_kind(q.kind).needs_contact;

@@ -1,6 +1,7 @@
 #include "gpu/level_fill.h"
 
 #include <algorithm>
+#include <cstring>
 
 #include "gpu/shader_library.h"
 
@@ -8,48 +9,80 @@ namespace loam::gpu {
 
 namespace {
 
-constexpr GLuint kTableBinding = 5;  // FillPages
-constexpr GLuint kBlockBinding = 6;  // LevelFillParams
+constexpr GLuint kFillTableBinding = 5;   // FillPages
+constexpr GLuint kFillSlotBinding = 6;    // LevelSlots
+constexpr GLuint kFillEventBinding = 7;   // LevelEvent
+constexpr GLuint kFillNormalBinding = 9;  // LevelNormals
 
-const UniformBlockMember kFillMembers[] = {
-    LOAM_UNIFORM_MEMBER(LevelFillBlock, rect, "f_rect"),
-    LOAM_UNIFORM_MEMBER(LevelFillBlock, world, "f_world"),
-    LOAM_UNIFORM_MEMBER(LevelFillBlock, tiles, "f_tiles"),
-    LOAM_UNIFORM_MEMBER(LevelFillBlock, texel, "f_texel"),
-    LOAM_UNIFORM_MEMBER(LevelFillBlock, change, "f_change"),
-    LOAM_UNIFORM_MEMBER(LevelFillBlock, scale, "f_scale"),
+const UniformBlockMember kEventMembers[] = {
+    LOAM_UNIFORM_MEMBER(LevelEventBlock, rect0, "e_rect0"),
+    LOAM_UNIFORM_MEMBER(LevelEventBlock, tiles, "e_tiles"),
+    LOAM_UNIFORM_MEMBER(LevelEventBlock, world, "e_world"),
+    LOAM_UNIFORM_MEMBER(LevelEventBlock, levels, "e_levels"),
 };
+
+// One invocation per sample, 64 a group, in rows of at most 65535 groups.
+void dispatch_flat(int64_t invocations) {
+  if (invocations <= 0) return;
+  const int64_t groups = (invocations + 63) / 64;
+  const int64_t x = std::min<int64_t>(groups, 65535), y = (groups + x - 1) / x;
+  glDispatchCompute(GLuint(x), GLuint(y), 1);
+}
 
 }  // namespace
 
-Result<LevelFill> LevelFill::create() {
-  auto program = build_compute_program("level_fill.comp.glsl");
-  if (!program) return program.error();
-  LOAM_TRY(verify_uniform_block(program->get(), "LevelFillParams", sizeof(LevelFillBlock), kFillMembers));
-  LOAM_TRY(verify_no_loose_uniforms(program->get()));
+Result<LevelFill> LevelFill::create(int32_t levels) {
+  const std::string_view files[] = {"level_event.glsl", "level_fill.comp.glsl"};
+  auto fill = build_compute_program_from(files);
+  if (!fill) return fill.error();
+  LOAM_TRY(verify_uniform_block(fill->get(), "LevelEvent", sizeof(LevelEventBlock), kEventMembers));
+  LOAM_TRY(verify_no_loose_uniforms(fill->get()));
+  auto normals = build_event_level_normal_program();
+  if (!normals) return normals.error();
+  LOAM_TRY(verify_uniform_block(normals->get(), "LevelEvent", sizeof(LevelEventBlock), kEventMembers));
   LevelFill f;
-  f.program_ = std::move(*program);
-  f.block_.emplace();
+  f.fill_program_ = std::move(*fill);
+  f.normal_program_ = std::move(*normals);
+  const size_t n = size_t(std::max(levels, 1));
+  f.event_.emplace();
+  f.slots_ = make_buffer();
+  glNamedBufferStorage(f.slots_.get(), GLsizeiptr(n * sizeof(LevelSlotBlock)), nullptr,
+                       GL_DYNAMIC_STORAGE_BIT);
+  f.normal_slots_ = make_buffer();
+  glNamedBufferStorage(f.normal_slots_.get(), GLsizeiptr(n * sizeof(NormalBlock)), nullptr,
+                       GL_DYNAMIC_STORAGE_BIT);
+  f.slot_copy_.resize(n);
+  f.normal_copy_.resize(n);
+  f.written_.assign(n, false);
   return f;
 }
 
-std::optional<size_t> LevelFill::fill(const LevelFillTarget& target, const LevelFillSource& source,
-                                      int32_t mip, const RectI& rect,
-                                      std::optional<std::array<int64_t, 2>> change_below,
-                                      double meters_per_unit) {
-  if (rect.empty()) return size_t{0};
-  if (!source.pages || source.world.empty()) return std::nullopt;
-  const int64_t s = int64_t(1) << mip, W = source.world.width(), H = source.world.height();
-  // The mip-0 samples the rect reads: its corners' positions (clamped to the world).
-  auto pos = [&](int64_t q, int64_t lo, int64_t size) {
-    return lo + std::clamp<int64_t>(q * s, 0, size - 1);
-  };
-  const RectI read{pos(rect.x0, source.world.x0, W), pos(rect.y0, source.world.y0, H),
-                   pos(rect.x1 - 1, source.world.x0, W) + 1, pos(rect.y1 - 1, source.world.y0, H) + 1};
-  const RectI tiles = tiles_overlapping(read);
+size_t LevelFill::set_level(int32_t l, const LevelSlotBlock& slot, const NormalBlock& normals) {
+  const size_t i = size_t(l);
+  if (i >= written_.size()) return 0;
+  size_t bytes = 0;
+  if (!written_[i] || std::memcmp(&slot_copy_[i], &slot, sizeof slot) != 0) {
+    glNamedBufferSubData(slots_.get(), GLintptr(i * sizeof slot), sizeof slot, &slot);
+    slot_copy_[i] = slot;
+    bytes += sizeof slot;
+  }
+  if (!written_[i] || std::memcmp(&normal_copy_[i], &normals, sizeof normals) != 0) {
+    glNamedBufferSubData(normal_slots_.get(), GLintptr(i * sizeof normals), sizeof normals, &normals);
+    normal_copy_[i] = normals;
+    bytes += sizeof normals;
+  }
+  written_[i] = true;
+  return bytes;
+}
+
+std::optional<size_t> LevelFill::run(const LevelFillSource& source, const RectI& rect0, int32_t levels,
+                                     const LevelTextures& t, int64_t samples, int64_t normal_samples) {
+  const RectI r = rect0.intersect(source.world);
+  if (!source.pages || r.empty() || levels > int32_t(written_.size())) return std::nullopt;
+  // Every level reads mip-0 positions inside the rect (past the far edges: the edge samples,
+  // inside it too): its tiles, all of them there, or nothing is done.
+  const RectI tiles = tiles_overlapping(r);
   if (tiles.area() > kMaxTiles) return std::nullopt;
-  // Every tile under the rect's span must be there, though a stride may skip some: the fill
-  // is all or nothing.
   scratch_.assign(size_t(tiles.area()), -1);
   for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
     for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
@@ -65,36 +98,36 @@ std::optional<size_t> LevelFill::fill(const LevelFillTarget& target, const Level
     glNamedBufferStorage(table_.get(), GLsizeiptr(table_capacity_), nullptr, GL_DYNAMIC_STORAGE_BIT);
   }
   glNamedBufferSubData(table_.get(), 0, GLsizeiptr(table_bytes), scratch_.data());
-  LevelFillBlock b{};
-  b.rect[0] = int32_t(rect.x0), b.rect[1] = int32_t(rect.y0), b.rect[2] = int32_t(rect.x1),
-  b.rect[3] = int32_t(rect.y1);
-  b.world[0] = int32_t(source.world.x0), b.world[1] = int32_t(source.world.y0), b.world[2] = int32_t(W),
-  b.world[3] = int32_t(H);
-  b.tiles[0] = int32_t(tiles.x0), b.tiles[1] = int32_t(tiles.y0), b.tiles[2] = int32_t(tiles.width()),
-  b.tiles[3] = int32_t(s);
-  b.texel[0] = target.offset_x, b.texel[1] = target.offset_y, b.texel[2] = target.layer,
-  b.texel[3] = target.tex_size;
-  const bool change = target.change != 0 && change_below.has_value();
-  b.change[0] = change ? 1 : 0;
-  if (change) {
-    b.change[1] = int32_t(std::min<int64_t>((*change_below)[0], INT32_MAX));
-    b.change[2] = int32_t(std::min<int64_t>((*change_below)[1], INT32_MAX));
-  }
-  b.scale[0] = float(meters_per_unit);
-  block_->write(0, b);
+  const RectI& w = source.world;
+  LevelEventBlock e{};
+  e.rect0[0] = int32_t(r.x0 - w.x0), e.rect0[1] = int32_t(r.y0 - w.y0), e.rect0[2] = int32_t(r.x1 - w.x0),
+  e.rect0[3] = int32_t(r.y1 - w.y0);
+  e.tiles[0] = int32_t(tiles.x0), e.tiles[1] = int32_t(tiles.y0), e.tiles[2] = int32_t(tiles.width());
+  e.world[0] = int32_t(w.x0), e.world[1] = int32_t(w.y0), e.world[2] = int32_t(w.width()),
+  e.world[3] = int32_t(w.height());
+  e.levels[0] = levels;
+  event_->write(0, e);
+  event_->bind(kFillEventBinding);
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kFillSlotBinding, slots_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kFillTableBinding, table_.get());
+  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kFillNormalBinding, normal_slots_.get());
   // The stamps' image stores into the pages must be visible to texelFetch, and earlier passes'
-  // reads and writes of the level to these image loads and stores.
+  // reads and writes of the levels to these loads and stores.
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
-  glUseProgram(program_.get());
+  glUseProgram(fill_program_.get());
   glBindTextureUnit(0, source.pages->texture());
-  glBindImageTexture(0, target.heights, 0, GL_TRUE, 0, GL_READ_WRITE, GL_R16UI);
-  if (change) glBindImageTexture(1, target.change, 0, GL_TRUE, 0, GL_READ_WRITE, GL_R16F);
-  glBindBufferBase(GL_SHADER_STORAGE_BUFFER, kTableBinding, table_.get());
-  block_->bind(kBlockBinding);
-  glDispatchCompute(GLuint((rect.width() + 7) / 8), GLuint((rect.height() + 7) / 8), 1);
-  // The normal pass and the draws read what was stored.
+  glBindImageTexture(0, t.heights, 0, GL_TRUE, 0, GL_READ_WRITE, GL_R16UI);
+  if (t.change) glBindImageTexture(1, t.change, 0, GL_TRUE, 0, GL_READ_WRITE, GL_R16F);
+  dispatch_flat(samples);
+  // Every level's heights stored before the normals read them (the stencils reach across).
   glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
-  return table_bytes + sizeof b;
+  glUseProgram(normal_program_.get());
+  glBindTextureUnit(0, t.heights);
+  glBindImageTexture(1, t.normals, 0, GL_TRUE, 0, GL_WRITE_ONLY, GL_RG16_SNORM);
+  dispatch_flat(normal_samples);
+  // The draws read what was stored.
+  glMemoryBarrier(GL_TEXTURE_FETCH_BARRIER_BIT | GL_SHADER_IMAGE_ACCESS_BARRIER_BIT);
+  return table_bytes + sizeof e;
 }
 
 }  // namespace loam::gpu

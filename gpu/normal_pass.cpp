@@ -23,13 +23,18 @@ const UniformBlockMember kNormalMembers[] = {
 };
 
 // A normal pass's program: its parameters in the checked block, nothing looked up by name.
-Result<GlProgram> build_normal_program(std::string_view file) {
-  const std::string_view files[] = {"fd4_normal.glsl", file};
-  auto program = build_compute_program_from(files);
+Result<GlProgram> build_normal_program(std::span<const std::string_view> files,
+                                       std::span<const ShaderDefine> defines = {}) {
+  auto program = build_compute_program_from(files, defines);
   if (!program) return program.error();
   LOAM_TRY(verify_uniform_block(program->get(), "NormalParams", sizeof(NormalBlock), kNormalMembers));
   LOAM_TRY(verify_no_loose_uniforms(program->get()));
   return program;
+}
+
+Result<GlProgram> build_normal_program(std::string_view file) {
+  const std::string_view files[] = {"fd4_normal.glsl", file};
+  return build_normal_program(files);
 }
 
 void dispatch(GLuint program, const UniformBuffer<NormalBlock>& block, const RectI& rect) {
@@ -90,6 +95,16 @@ std::vector<uint32_t> NormalPass::read(const RectI& rect) {
   return out;
 }
 
+Result<GlProgram> build_event_level_normal_program() {
+  // Every level's parameters come from an array (gpu/level_fill.h), not NormalParams.
+  const std::string_view files[] = {"fd4_normal.glsl", "level_event.glsl", "level_normals.comp.glsl"};
+  const ShaderDefine defines[] = {{"FROM_EVENT", "1"}, {"NORMAL_PARAMS_PER_LEVEL", "1"}};
+  auto program = build_compute_program_from(files, defines);
+  if (!program) return program.error();
+  LOAM_TRY(verify_no_loose_uniforms(program->get()));
+  return program;
+}
+
 Result<LevelNormalPass> LevelNormalPass::create() {
   auto program = build_normal_program("level_normals.comp.glsl");
   if (!program) return program.error();
@@ -98,10 +113,8 @@ Result<LevelNormalPass> LevelNormalPass::create() {
   return pass;
 }
 
-void LevelNormalPass::update(GLuint heights, GLuint normals, int32_t tex_size, const RectI& region,
-                             const RectI& rect, const RectI& world, const WorldParams& params,
-                             double spacing_m) {
-  if (rect.empty() || world.empty()) return;
+NormalBlock level_normal_block(int32_t tex_size, const RectI& region, const RectI& rect, const RectI& world,
+                               const WorldParams& params, double spacing_m) {
   NormalBlock b{};
   b.rect[0] = int32_t(rect.x0), b.rect[1] = int32_t(rect.y0), b.rect[2] = int32_t(rect.x1),
   b.rect[3] = int32_t(rect.y1);
@@ -114,7 +127,14 @@ void LevelNormalPass::update(GLuint heights, GLuint normals, int32_t tex_size, c
   b.height_offset = params.height_offset;
   b.meters_per_unit = params.meters_per_unit;
   b.spacing = spacing_m;
-  block_.write(0, b);
+  return b;
+}
+
+void LevelNormalPass::update(GLuint heights, GLuint normals, int32_t tex_size, const RectI& region,
+                             const RectI& rect, const RectI& world, const WorldParams& params,
+                             double spacing_m) {
+  if (rect.empty() || world.empty()) return;
+  block_.write(0, level_normal_block(tex_size, region, rect, world, params, spacing_m));
   glBindTextureUnit(0, heights);
   glBindImageTexture(1, normals, 0, GL_FALSE, 0, GL_WRITE_ONLY, GL_RG16_SNORM);
   dispatch(program_.get(), block_, rect);

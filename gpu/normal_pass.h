@@ -69,6 +69,15 @@ class NormalPass {
 // toroidal RG16_SNORM texture (filterable) holding exactly the packed snorm16 values. Level
 // samples are the world's samples at the level's spacing, so the finest level's normals equal
 // NormalPass's bit for bit.
+// The level pass's parameters (LevelNormalPass::update's arguments).
+NormalBlock level_normal_block(int32_t tex_size, const RectI& region, const RectI& rect, const RectI& world,
+                               const WorldParams& params, double spacing_m);
+
+// The level pass after a stamp (define FROM_EVENT; gpu/level_fill.h): every level in one
+// dispatch, each level's rect from shaders/level_event.glsl and its parameters (NormalBlocks)
+// from an array.
+Result<GlProgram> build_event_level_normal_program();
+
 class LevelNormalPass {
  public:
   static Result<LevelNormalPass> create();

@@ -7,6 +7,14 @@
 // unpackSnorm2x16 reads it back, nz = sqrt(1 - nx^2 - ny^2).
 double height_m(ivec2 p);
 
+#ifdef NORMAL_PARAMS_PER_LEVEL
+// Set by the including shader for the level its invocation computes (the level passes that
+// follow a stamp: every level in one dispatch, level_event.glsl).
+ivec4 n_rect;
+ivec2 n_world_lo, n_world_size, n_region_lo, n_region_base;
+int n_tex_size;
+double n_height_offset, n_meters_per_unit, n_spacing;
+#else
 // The normal passes' parameters (gpu/normal_pass.h, NormalBlock; std140, checked member by
 // member when the program is built). The world pass leaves the level fields 0.
 layout(std140, binding = 3) uniform NormalParams {
@@ -21,6 +29,7 @@ layout(std140, binding = 3) uniform NormalParams {
   double n_meters_per_unit;
   double n_spacing;       // meters between samples
 };
+#endif
 
 // fd4_derivative along `axis` at index i on [0, n).
 double fd4(ivec2 p, ivec2 axis, int i, int n) {

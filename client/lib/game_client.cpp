@@ -185,6 +185,8 @@ struct Client::Impl {
   std::unique_ptr<query::SnapshotBuilder> builder;
   std::set<TileCoord> view_tiles;
   std::vector<TileCoord> last_held;
+  uint64_t last_seq = 0;  // the last_event_seq() and overlay size last published
+  size_t last_overlay = 0;
   std::map<uint32_t, uint64_t> ticket_of_seq;  // own stamps sent, awaiting their ack
   std::chrono::steady_clock::time_point next_reconnect{};
   std::chrono::steady_clock::time_point next_stats{};
@@ -256,7 +258,12 @@ void Client::Impl::publish(const std::vector<terrain::DisplayDirty>& dirty, bool
   for (const TileCoord& c : net.store().held()) {
     if (c.mip == 0) held.push_back(c);
   }
-  if (!force && dirty.empty() && held == last_held) return;
+  // A settled right prediction changes no sample, but the snapshot's overlay count and sequence.
+  const uint64_t seq = net.last_event_seq();
+  const size_t overlay = display->overlay_size();
+  if (!force && dirty.empty() && held == last_held && seq == last_seq && overlay == last_overlay) return;
+  last_seq = seq;
+  last_overlay = overlay;
   std::vector<query::ChangedRect> changed;
   changed.reserve(dirty.size());
   for (const terrain::DisplayDirty& d : dirty) changed.push_back({d.layer, d.rect});

@@ -137,7 +137,7 @@ Result<std::unique_ptr<ErrorClipmapRenderer>> ErrorClipmapRenderer::create(
   auto normal_pass = gpu::LevelNormalPass::create();
   if (!normal_pass) return normal_pass.error();
   r->normal_pass_.emplace(std::move(*normal_pass));
-  auto fill = gpu::LevelFill::create();
+  auto fill = gpu::LevelFill::create(r->grid_.levels);
   if (!fill) return fill.error();
   r->fill_.emplace(std::move(*fill));
 
@@ -381,21 +381,29 @@ std::vector<float> ErrorClipmapRenderer::read_level_change(int32_t l, const Rect
   return out;
 }
 
-std::optional<size_t> ErrorClipmapRenderer::fill_on_gpu(int32_t l, const RectI& rect,
-                                                        const gpu::LevelFillSource& gpu) {
+size_t ErrorClipmapRenderer::set_fill_level(int32_t l) {
   const Level& level = level_[size_t(l)];
   const int64_t s = int64_t(1) << l;
-  gpu::LevelFillTarget t;
-  t.heights = levels_texture_.get();
-  t.change = change_texture_ && change_known_ ? change_texture_.get() : 0;
-  t.layer = level.layer;
-  t.offset_x = int32_t(level.offset_x), t.offset_y = int32_t(level.offset_y);
-  t.tex_size = region_;
+  gpu::LevelSlotBlock b{};
+  // A level not placed yet holds nothing: an empty region.
+  const RectI region = level.valid ? regions_[size_t(l)] : RectI{};
+  const RectI draw = level.valid ? drawable_[size_t(l)] : RectI{};
+  b.region[0] = int32_t(region.x0), b.region[1] = int32_t(region.y0), b.region[2] = int32_t(region.x1),
+  b.region[3] = int32_t(region.y1);
+  b.drawable[0] = int32_t(draw.x0), b.drawable[1] = int32_t(draw.y0), b.drawable[2] = int32_t(draw.x1),
+  b.drawable[3] = int32_t(draw.y1);
+  b.texel[0] = int32_t(level.offset_x), b.texel[1] = int32_t(level.offset_y), b.texel[2] = level.layer,
+  b.texel[3] = region_;
   // The change layer holds the mip's change only where the level reads its mip (upload()).
-  std::optional<std::array<int64_t, 2>> below;
-  if (floor_mod(world_.x0, s) == 0 && floor_mod(world_.y0, s) == 0)
-    below = std::array<int64_t, 2>{(world_.width() - 1) / s + 1, (world_.height() - 1) / s + 1};
-  return fill_->fill(t, gpu, l, rect, below, source_->params().meters_per_unit);
+  const bool aligned = floor_mod(world_.x0, s) == 0 && floor_mod(world_.y0, s) == 0;
+  b.change[0] = change_texture_ && change_known_ && aligned ? 1 : 0;
+  b.change[1] = int32_t((world_.width() - 1) / s + 1), b.change[2] = int32_t((world_.height() - 1) / s + 1);
+  b.change[3] = int32_t(s);
+  b.scale[0] = float(source_->params().meters_per_unit);
+  const RectI world{0, 0, (world_.width() - 1) / s + 1, (world_.height() - 1) / s + 1};
+  const gpu::NormalBlock n = gpu::level_normal_block(region_, shifted(l, region), {}, shifted(l, world),
+                                                     source_->params(), scale_.meters_per_sample * double(s));
+  return fill_->set_level(l, b, n);
 }
 
 std::vector<uint32_t> ErrorClipmapRenderer::read_level_normals(int32_t l, const RectI& rect) const {
@@ -681,29 +689,50 @@ ErrorClipmapUpdate ErrorClipmapRenderer::invalidate(const RectI& mip0_rect, cons
   if (r.empty()) return u;
   const auto t0 = std::chrono::steady_clock::now();
   const RectI local{r.x0 - world_.x0, r.y0 - world_.y0, r.x1 - world_.x0, r.y1 - world_.y0};
+  // Each level's samples (and past the far edges those repeating an edge sample in the rect).
+  std::vector<RectI> dirty(size_t(grid_.levels));
+  int64_t samples = 0, normal_samples = 0;
   for (int32_t l = 0; l < grid_.levels; ++l) {
-    const Level& level = level_[size_t(l)];
-    if (!level.valid) continue;
+    if (!level_[size_t(l)].valid) continue;
     const int64_t s = int64_t(1) << l;
-    // Level samples whose mip-0 position lies in the rect, and those past the far edges that
-    // repeat an edge sample in it.
+    // level_event.glsl computes the same rects on the GPU.
     RectI in_level{ceil_div(local.x0, s), ceil_div(local.y0, s), ceil_div(local.x1, s),
                    ceil_div(local.y1, s)};
     if (local.x1 == world_.width()) in_level.x1 = INT64_MAX / 4;
     if (local.y1 == world_.height()) in_level.y1 = INT64_MAX / 4;
-    const RectI dirty = in_level.intersect(regions_[size_t(l)]);
-    if (dirty.empty()) continue;
-    const std::optional<size_t> on_gpu = gpu ? fill_on_gpu(l, dirty, *gpu) : std::nullopt;
+    const RectI d = in_level.intersect(regions_[size_t(l)]);
+    if (d.empty()) continue;
+    dirty[size_t(l)] = d;
+    samples += d.area();
+    normal_samples += RectI{d.x0 - 4, d.y0 - 4, d.x1 + 4, d.y1 + 4}.intersect(drawable_[size_t(l)]).area();
+  }
+  // GPU to GPU where the cache holds every tile the rect reads: one block for the stamp, each
+  // level's rect computed from it on the GPU, one dispatch for every level's samples and one
+  // for their normals (gpu/level_fill.h).
+  std::optional<size_t> on_gpu;
+  if (gpu && fill_) {
+    size_t places = 0;
+    for (int32_t l = 0; l < grid_.levels; ++l) places += set_fill_level(l);
+    const gpu::LevelTextures t{levels_texture_.get(),
+                               change_texture_ && change_known_ ? change_texture_.get() : 0,
+                               normals_texture_.get()};
+    on_gpu = fill_->run(*gpu, r, grid_.levels, t, samples, normal_samples);
     if (on_gpu) {
-      u.texels_on_gpu += dirty.area();
-      u.bytes_uploaded += *on_gpu;
-    } else {
-      const int64_t texels = upload(l, dirty);
-      u.texels += texels;
-      // R16UI heights, and the change layer's floats.
-      u.bytes_uploaded += size_t(texels) * (sizeof(uint16_t) + (change_texture_ ? sizeof(float) : 0));
+      u.bytes_uploaded += *on_gpu + places;
+      u.texels_on_gpu += samples;
     }
-    update_normals(l, dirty);
+  }
+  if (!on_gpu) {
+    for (int32_t l = 0; l < grid_.levels; ++l) {
+      const RectI& d = dirty[size_t(l)];
+      if (d.empty()) continue;
+      const int64_t texels = upload(l, d);
+      u.texels += texels;
+      // R16UI heights, the change layer's floats, and the normal pass's block.
+      u.bytes_uploaded += size_t(texels) * (sizeof(uint16_t) + (change_texture_ ? sizeof(float) : 0)) +
+                          sizeof(gpu::NormalBlock);
+      update_normals(l, d);
+    }
   }
   u.blocks = int32_t(
       errors_

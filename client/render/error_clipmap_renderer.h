@@ -19,8 +19,10 @@
 // Each frame: the regions move with the camera (uploads), the blocks are chosen on the CPU,
 // culled against the frustum (render/frustum.h), sorted by side pattern and drawn instanced,
 // one draw per pattern (at most 16 with restricted sides). A stamp re-reads its rect into
-// every level region holding it and recomputes the error bounds of exactly the blocks it
-// touches (invalidate()).
+// every level region holding it, from the display's GPU tile cache where it stamped there (one
+// dispatch for every level's samples, one for their normals: gpu/level_fill.h) or on the CPU
+// and uploaded, and recomputes the error bounds of exactly the blocks it touches
+// (invalidate()).
 //
 // Level samples come from the source's mips, except beyond the world's far edges, where they
 // repeat mip 0's edge samples (as the error pyramid assumes) rather than the mip's own.
@@ -180,8 +182,8 @@ class ErrorClipmapRenderer {
   };
   ErrorClipmapRenderer() = default;
   int64_t upload(int32_t l, const RectI& rect);
-  // Level l's `rect` filled from the GPU tile cache; nullopt where it cannot be.
-  std::optional<size_t> fill_on_gpu(int32_t l, const RectI& rect, const gpu::LevelFillSource& gpu);
+  // Level l's place for the GPU fill (written where it changed; returns the bytes written).
+  size_t set_fill_level(int32_t l);
   // Instances of the selected blocks (and the walls on the world's edges) outside `frustum`'s
   // culling, grouped into one draw per pattern, appended to `instances`.
   struct Draw {

@@ -149,7 +149,34 @@ Status ViewerSession::update(const scene::Camera& camera, std::chrono::milliseco
       return cache->pages(Layer::kCoarse).find(tx, ty);
     };
   }
+  // The levels take each sample once: rects read on the CPU are merged where their union costs
+  // no more than both (an event's changes to several held mips give nested extents), and a rect
+  // inside one read on the CPU needs nothing of its own.
+  std::vector<terrain::DisplayDirty> todo;
   for (const terrain::DisplayDirty& d : dirty) {
+    if (d.stamped_on_gpu) continue;
+    terrain::DisplayDirty m = d;
+    for (bool grew = true; grew;) {
+      grew = false;
+      for (auto it = todo.begin(); it != todo.end(); ++it) {
+        const RectI u = it->rect.unite(m.rect);
+        if (it->layer == m.layer && u.area() <= it->rect.area() + m.rect.area()) {
+          m.rect = u;
+          todo.erase(it);
+          grew = true;
+          break;
+        }
+      }
+    }
+    todo.push_back(m);
+  }
+  for (const terrain::DisplayDirty& d : dirty) {
+    const bool covered = std::any_of(todo.begin(), todo.end(), [&](const terrain::DisplayDirty& o) {
+      return !o.stamped_on_gpu && o.layer == d.layer && o.rect.contains(d.rect);
+    });
+    if (d.stamped_on_gpu && !covered) todo.push_back(d);
+  }
+  for (const terrain::DisplayDirty& d : todo) {
     // The levels read the layer with mips (level l its mip l); the detail region the other.
     if (!layer_info(d.layer).has_mips) {
       if (renderer_) renderer_->invalidate_detail(d.rect);
@@ -177,7 +204,11 @@ void ViewerSession::refresh_terrain(const std::vector<terrain::DisplayDirty>& di
   for (const TileCoord& c : client_.store().held()) {
     if (c.mip == 0) held.push_back(c);
   }
-  if (terrain_ && dirty.empty() && held == terrain_held_) return;
+  // A settled right prediction changes no sample, but the snapshot's overlay count and sequence.
+  if (terrain_ && dirty.empty() && held == terrain_held_ &&
+      terrain_->stamp().own_stamps_shown == display_->overlay_size() &&
+      terrain_->stamp().event_seq == client_.last_event_seq())
+    return;
   std::vector<query::ChangedRect> changed;
   for (const terrain::DisplayDirty& d : dirty) changed.push_back({d.layer, d.rect});
   terrain_ =

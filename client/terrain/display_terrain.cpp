@@ -85,12 +85,14 @@ void DisplayTerrain::finish(std::vector<DisplayDirty>& dirty) {
   cpu_done_.clear();
 }
 
-void DisplayTerrain::copy_from_store(Layer layer, const RectI& rect, bool upload) {
+int64_t DisplayTerrain::copy_from_store(Layer layer, const RectI& rect, bool upload) {
   const RectI r = rect.intersect(layer_sample_rect(display_.params(), layer));
-  if (r.empty()) return;
-  (void)copy_rect(store_->mirror(), display_, layer, r);
+  if (r.empty()) return 0;
+  const int64_t changed = copy_rect(store_->mirror(), display_, layer, r);
   counters_.texels_copied += uint64_t(r.area());
-  if (stamper_ && upload) stamper_->upload(display_, layer, r);
+  // Where nothing changed the GPU copy already holds these samples (it holds the CPU copy's).
+  if (stamper_ && upload && changed > 0) stamper_->upload(display_, layer, r);
+  return changed;
 }
 
 std::vector<int32_t> DisplayTerrain::expected_after(const Pending& p,
@@ -192,7 +194,7 @@ std::vector<DisplayTerrain::Expected> DisplayTerrain::plan_settled(
       rects.overlay[p.stamp.layer].push_back(p.reach);
       continue;
     }
-    rects.stale[p.stamp.layer].push_back(p.reach);
+    rects.add_stale(p.stamp.layer, p.reach, true);
     // A rejected stamp simply disappears; an accepted one is compared with what happened.
     if (p.accepted) expected.push_back({p.stamp.layer, p.reach, expected_after(p, changes)});
   }
@@ -207,14 +209,17 @@ std::vector<DisplayTerrain::Expected> DisplayTerrain::plan_settled(
 void DisplayTerrain::follow_changes(const std::vector<client::StoreChange>& changes, SyncRects& rects,
                                     std::vector<DisplayDirty>& dirty) {
   for (const client::StoreChange& c : changes) {
-    std::vector<RectI>& stale = rects.stale[c.layer];
+    const std::vector<RectI>& stale = rects.stale[c.layer];
     if (c.kind == client::StoreChange::Kind::kRegion) {
       if (c.tile.mip == 0) {
-        stale.push_back(c.rect);
+        rects.add_stale(c.layer, c.rect);
       } else {
-        // Levels reading that mip (where mip 0 is not held) change: the tile's mip-0 extent.
+        // Levels reading that mip change where mip 0 is not held (where it is, they read mip
+        // 0, which an event's change to this mip tile also changed): the samples' mip-0 extent.
         const int64_t s = int64_t(1) << c.tile.mip;
-        dirty.push_back({c.layer, {c.rect.x0 * s, c.rect.y0 * s, c.rect.x1 * s, c.rect.y1 * s}});
+        const RectI extent{c.rect.x0 * s, c.rect.y0 * s, c.rect.x1 * s, c.rect.y1 * s};
+        if (!holds_mip0(c.layer, extent.intersect(layer_sample_rect(display_.params(), c.layer))))
+          dirty.push_back({c.layer, extent});
       }
       continue;
     }
@@ -222,14 +227,20 @@ void DisplayTerrain::follow_changes(const std::vector<client::StoreChange>& chan
     auto reach = stamp_reach(c.stamp, display_.params(), textures_);
     const RectI r = reach ? *reach : c.rect;
     const bool confirmed_under = !intersects_any(stale, r) && !intersects_any(rects.overlay[c.layer], r);
-    // The GPU copy follows by stamping; where it cannot (its pages are all held by this sync's
-    // stamps), the rect is uploaded with the stale ones.
-    if (confirmed_under && (!stamper_ || stamper_->submit(c.stamp).ok())) {
+    // The GPU copy follows by stamping where it holds the whole reach (a stamp reads all of it:
+    // a footprint's contact, a shockwave's field); where it cannot (a tile under the reach is
+    // not held, or the cache's pages are all held by this sync's stamps), the rect is uploaded
+    // with the stale ones.
+    const bool by_stamp = confirmed_under && (!stamper_ || holds_mip0(c.layer, r));
+    if (by_stamp && (!stamper_ || stamper_->submit(c.stamp).ok())) {
       rects.followed[c.layer].push_back(c.rect);
       dirty.push_back({c.layer, c.rect, stamper_ != nullptr});
       ++(stamper_ ? counters_.events_stamped : counters_.events_copied);
     } else {
-      stale.push_back(c.rect);
+      // Held tiles the levels already show as the display holds them: they need the event's
+      // samples only where the copy changes the display (it may hold them already: our own
+      // prediction, settling).
+      rects.add_stale(c.layer, c.rect, true);
       ++counters_.events_copied;
     }
   }
@@ -241,9 +252,8 @@ void DisplayTerrain::spread_under_overlay(SyncRects& rects) {
     grew = false;
     for (Pending& p : pending_) {
       if (p.retire || p.reapply) continue;
-      std::vector<RectI>& stale = rects.stale[p.stamp.layer];
-      if (intersects_any(stale, p.reach)) {
-        stale.push_back(p.reach);
+      if (intersects_any(rects.stale[p.stamp.layer], p.reach)) {
+        rects.add_stale(p.stamp.layer, p.reach);
         p.reapply = true;
         grew = true;
       }
@@ -258,9 +268,9 @@ void DisplayTerrain::copy_and_reapply(const SyncRects& rects, std::vector<Displa
     for (const RectI& r : followed) copy_from_store(layer, r, false);
   });
   rects.stale.for_each([&](Layer layer, const std::vector<RectI>& stale) {
-    for (const RectI& r : stale) {
-      copy_from_store(layer, r, true);
-      dirty.push_back({layer, r});
+    for (size_t i = 0; i < stale.size(); ++i) {
+      const int64_t changed = copy_from_store(layer, stale[i], true);
+      if (changed > 0 || !rects.quiet[layer][i]) dirty.push_back({layer, stale[i]});
     }
   });
   // The mirror now holds what every page stamped this sync holds.

@@ -161,13 +161,23 @@ class DisplayTerrain final : public HeightSource {
   // the GPU copy stamped them).
   struct SyncRects {
     PerLayer<std::vector<RectI>> stale, overlay, followed;
+    // Per stale rect: whether it needs the levels only where copying the confirmed samples
+    // changed the display (a settled prediction's reach, an event's rect: held tiles the levels
+    // show as the display holds them; a right prediction changes nothing). A region's rect
+    // always does (the levels may have shown a coarser mip there).
+    PerLayer<std::vector<bool>> quiet;
+    void add_stale(Layer layer, const RectI& r, bool is_quiet = false) {
+      stale[layer].push_back(r);
+      quiet[layer].push_back(is_quiet);
+    }
   };
   DisplayTerrain(const client::ConfirmedStore& store, const TextureRegistry* textures);
 
   bool holds_mip0(Layer layer, const RectI& reach) const;
   void stamp(const QuantizedStamp& q);  // an own stamp: on the GPU copy, then the CPU copy
   void finish(std::vector<DisplayDirty>& dirty);
-  void copy_from_store(Layer layer, const RectI& rect, bool upload);
+  // Returns the samples that changed; uploads them (the rect) where asked and any changed.
+  int64_t copy_from_store(Layer layer, const RectI& rect, bool upload);
   // Drops the display's copy (CPU and GPU) of tiles the store no longer holds, except under
   // an own stamp still shown: memory follows the subscription.
   void forget_unheld();

@@ -16,6 +16,7 @@
 #include "gl/gl_test_context.h"
 #include "integration/integration_util.h"
 #include "integration/server_process.h"
+#include "protocol/normal_map.h"
 
 namespace loam::test {
 namespace {
@@ -69,7 +70,8 @@ void expect_gpu_terrain_matches(render::ViewerSession& v) {
   }
 }
 
-// An own crater and a bot's, near the camera (in the viewer's mip-0 tiles), `n` times, the
+// An own crater and a bot's, near the camera (in the viewer's mip-0 tiles, held within 300 m of
+// the eye at (900, 1300) m: four tiles of the coarse layer), `n` times, the
 // viewer's frames going meanwhile (updates and renders); returns the last global sequence
 // stamped, once the viewer saw it and settled.
 uint64_t stamp_near_the_camera(render::ViewerSession& view, client::TerrainClient& bot,
@@ -83,7 +85,7 @@ uint64_t stamp_near_the_camera(render::ViewerSession& view, client::TerrainClien
   frame();  // the levels' regions are placed
   std::mt19937 rng(seed);
   const WorldParams& w = bot.welcome().world;
-  std::uniform_real_distribution<double> ux(750, 1300), uy(500, 1000), ur(6, 30);
+  std::uniform_real_distribution<double> ux(750, 1150), uy(960, 1450), ur(6, 30);
   std::vector<uint32_t> seqs;
   for (int i = 0; i < n; ++i) {
     auto s = bot.deform(crater_at(w, ux(rng), uy(rng), ur(rng), 2));
@@ -213,8 +215,28 @@ TEST(ViewerEndToEnd, GpuStampedChangesFillTheLevelsOnTheGpuAndNothingIsReadBack)
   expect_gpu_terrain_matches(view);
   EXPECT_TRUE(store_matches(view.client(), replayed_world(dir, last)));
 
-  // The change layers: what the CPU computes from the heights, to their half-float precision.
+  // The level normals the GPU recomputed after each stamp are the reference normal map of the
+  // display's samples, bit for bit, over the held tiles the stamps fell on (the stencils reach
+  // 2 level samples, 4 at the world's edges: a margin of 16 mip-0 samples up to level 3).
   render::ErrorClipmapRenderer& r = *view.error_clipmap();
+  for (int32_t l = 0; l < 4; ++l) {
+    const int64_t m = int64_t(1) << l;
+    const RectI held{272, 272, 752, 752};  // mip-0 samples, inside tiles 1-2 x 1-2
+    const RectI in = RectI{ceil_div(held.x0, m), ceil_div(held.y0, m), held.x1 / m, held.y1 / m}.intersect(
+        RectI{r.region(l).x0 + 4, r.region(l).y0 + 4, r.region(l).x1 - 4, r.region(l).y1 - 4});
+    if (in.empty()) continue;
+    for (int64_t ty = 1; ty <= 2; ++ty)
+      for (int64_t tx = 1; tx <= 2; ++tx)
+        ASSERT_TRUE(view.client().store().holds({Layer::kCoarse, 0, int32_t(tx), int32_t(ty)}));
+    const auto want = generate_decimated_normal_map(view.display().world(), l, in);
+    const auto got = r.read_level_normals(l, in);
+    ASSERT_EQ(got.size(), want.size());
+    size_t bad = 0;
+    for (size_t i = 0; i < got.size(); ++i) bad += got[i] != want[i];
+    EXPECT_EQ(bad, 0u) << "level " << l;
+  }
+
+  // The change layers: what the CPU computes from the heights, to their half-float precision.
   const RectI world = view.client().welcome().world.sample_rect();
   ASSERT_EQ(world.x0 % 1024, 0);  // every level reads its mip, change layer included
   ASSERT_EQ(world.y0 % 1024, 0);
