@@ -346,15 +346,17 @@ void ErrorClipmapRenderer::update_normals(int32_t l, const RectI& changed) {
                        scale_.meters_per_sample * double(s));
 }
 
-std::vector<uint16_t> ErrorClipmapRenderer::read_level_heights(int32_t l, const RectI& rect) const {
+template <class T>
+std::vector<T> ErrorClipmapRenderer::read_level_texels(GLuint texture, GLenum format, GLenum type, int32_t l,
+                                                       const RectI& rect) const {
   glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
   const int64_t n = region_;
-  std::vector<uint16_t> layer(size_t(n * n));
-  glPixelStorei(GL_PACK_ALIGNMENT, 2);
+  std::vector<T> layer(size_t(n * n));
+  glPixelStorei(GL_PACK_ALIGNMENT, GLint(sizeof(T)));
   const Level& level = level_[size_t(l)];
-  glGetTextureSubImage(levels_texture_.get(), 0, 0, 0, level.layer, GLsizei(n), GLsizei(n), 1, GL_RED_INTEGER,
-                       GL_UNSIGNED_SHORT, GLsizei(layer.size() * sizeof(uint16_t)), layer.data());
-  std::vector<uint16_t> out;
+  glGetTextureSubImage(texture, 0, 0, 0, level.layer, GLsizei(n), GLsizei(n), 1, format, type,
+                       GLsizei(layer.size() * sizeof(T)), layer.data());
+  std::vector<T> out;
   out.reserve(size_t(rect.area()));
   for (int64_t y = rect.y0; y < rect.y1; ++y) {
     for (int64_t x = rect.x0; x < rect.x1; ++x)
@@ -363,22 +365,13 @@ std::vector<uint16_t> ErrorClipmapRenderer::read_level_heights(int32_t l, const 
   return out;
 }
 
+std::vector<uint16_t> ErrorClipmapRenderer::read_level_heights(int32_t l, const RectI& rect) const {
+  return read_level_texels<uint16_t>(levels_texture_.get(), GL_RED_INTEGER, GL_UNSIGNED_SHORT, l, rect);
+}
+
 std::vector<float> ErrorClipmapRenderer::read_level_change(int32_t l, const RectI& rect) const {
-  std::vector<float> out;
-  if (!change_texture_) return out;
-  glMemoryBarrier(GL_TEXTURE_UPDATE_BARRIER_BIT);
-  const int64_t n = region_;
-  std::vector<float> layer(size_t(n * n));
-  glPixelStorei(GL_PACK_ALIGNMENT, 4);
-  const Level& level = level_[size_t(l)];
-  glGetTextureSubImage(change_texture_.get(), 0, 0, 0, level.layer, GLsizei(n), GLsizei(n), 1, GL_RED,
-                       GL_FLOAT, GLsizei(layer.size() * sizeof(float)), layer.data());
-  out.reserve(size_t(rect.area()));
-  for (int64_t y = rect.y0; y < rect.y1; ++y) {
-    for (int64_t x = rect.x0; x < rect.x1; ++x)
-      out.push_back(layer[size_t(floor_mod(y + level.offset_y, n) * n + floor_mod(x + level.offset_x, n))]);
-  }
-  return out;
+  if (!change_texture_) return {};
+  return read_level_texels<float>(change_texture_.get(), GL_RED, GL_FLOAT, l, rect);
 }
 
 size_t ErrorClipmapRenderer::set_fill_level(int32_t l) {

@@ -182,6 +182,10 @@ class ErrorClipmapRenderer {
   };
   ErrorClipmapRenderer() = default;
   int64_t upload(int32_t l, const RectI& rect);
+  // Level l's texels of `rect` in one of the level array textures (tests).
+  template <class T>
+  std::vector<T> read_level_texels(GLuint texture, GLenum format, GLenum type, int32_t l,
+                                   const RectI& rect) const;
   // Level l's place for the GPU fill (written where it changed; returns the bytes written).
   size_t set_fill_level(int32_t l);
   // Instances of the selected blocks (and the walls on the world's edges) outside `frustum`'s

@@ -7,6 +7,7 @@
 #include <random>
 #include <vector>
 
+#include "../unit/stamps_test_util.h"
 #include "gl_test_context.h"
 #include "gpu/gpu_stamper.h"
 #include "protocol/stamps/stamp_apply.h"
@@ -235,12 +236,7 @@ TEST(GpuStamp, RepeatedProfileTablesUploadOnlyTheHeaderAndMatchCpu) {
   ASSERT_TRUE(s.ok()) << s.error().describe();
   const WorldParams p = mirror.params();
   auto stamp = [&](StampKind kind, double x, double y, double r, double intensity) {
-    StampParams sp;
-    sp.kind = kind;
-    sp.center_x = x;
-    sp.center_y = y;
-    sp.radius = r;
-    sp.intensity = intensity;
+    StampParams sp = stamps_test::make_params(kind, x, y, r, intensity);
     sp.shape = 0.4;
     return validate_stamp(sp, p).value();
   };
