@@ -152,31 +152,31 @@ Status ViewerSession::update(const scene::Camera& camera, std::chrono::milliseco
   // The levels take each sample once: rects read on the CPU are merged where their union costs
   // no more than both (an event's changes to several held mips give nested extents), and a rect
   // inside one read on the CPU needs nothing of its own.
-  std::vector<terrain::DisplayDirty> todo;
+  std::vector<terrain::DisplayDirty> refresh;
   for (const terrain::DisplayDirty& d : dirty) {
     if (d.stamped_on_gpu) continue;
     terrain::DisplayDirty m = d;
     for (bool grew = true; grew;) {
       grew = false;
-      for (auto it = todo.begin(); it != todo.end(); ++it) {
+      for (auto it = refresh.begin(); it != refresh.end(); ++it) {
         const RectI u = it->rect.unite(m.rect);
         if (it->layer == m.layer && u.area() <= it->rect.area() + m.rect.area()) {
           m.rect = u;
-          todo.erase(it);
+          refresh.erase(it);
           grew = true;
           break;
         }
       }
     }
-    todo.push_back(m);
+    refresh.push_back(m);
   }
   for (const terrain::DisplayDirty& d : dirty) {
-    const bool covered = std::any_of(todo.begin(), todo.end(), [&](const terrain::DisplayDirty& o) {
+    const bool covered = std::any_of(refresh.begin(), refresh.end(), [&](const terrain::DisplayDirty& o) {
       return !o.stamped_on_gpu && o.layer == d.layer && o.rect.contains(d.rect);
     });
-    if (d.stamped_on_gpu && !covered) todo.push_back(d);
+    if (d.stamped_on_gpu && !covered) refresh.push_back(d);
   }
-  for (const terrain::DisplayDirty& d : todo) {
+  for (const terrain::DisplayDirty& d : refresh) {
     // The levels read the layer with mips (level l its mip l); the detail region the other.
     if (!layer_info(d.layer).has_mips) {
       if (renderer_) renderer_->invalidate_detail(d.rect);

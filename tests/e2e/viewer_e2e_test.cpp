@@ -52,6 +52,18 @@ QuantizedStamp crater_at(const WorldParams& w, double x, double y, double r, dou
   return *q;
 }
 
+// The coarse samples of `r` the viewer's display shows, and those its confirmed store holds.
+std::vector<uint16_t> shown_samples(render::ViewerSession& v, const RectI& r) {
+  std::vector<uint16_t> out(size_t(r.area()));
+  v.display().world().read_coarse(r, out);
+  return out;
+}
+std::vector<uint16_t> confirmed_samples(render::ViewerSession& v, const RectI& r) {
+  std::vector<uint16_t> out(size_t(r.area()));
+  v.client().store().mirror().read_coarse(r, out);
+  return out;
+}
+
 // The display's GPU copy holds its CPU copy in every resident tile (each read back whole), and
 // every level texture holds what the level's CPU read gives: no change the GPU path took was
 // lost or taken differently.
@@ -143,17 +155,12 @@ TEST_P(ViewerOfEitherScheme, OwnStampShowsBeforeTheServerAnswersAndSettlesWithou
   EXPECT_EQ(view.display().overlay_size(), 1u);
   (void)view.display().sync(view.client());
   const RectI r{475, 355, 525, 405};  // the crater's middle, samples
-  std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
-  view.display().world().read_coarse(r, shown);
-  view.client().store().mirror().read_coarse(r, confirmed);
-  EXPECT_NE(shown, confirmed) << "the overlay did not change the display";
+  EXPECT_NE(shown_samples(view, r), confirmed_samples(view, r)) << "the overlay did not change the display";
   view.invalidate(r);
   EXPECT_NE(render_view(view, cam, 160, 100), before) << "the crater does not show in the render";
 
   ASSERT_TRUE(view.wait_settled(cam, 30s));
-  view.display().world().read_coarse(r, shown);
-  view.client().store().mirror().read_coarse(r, confirmed);
-  EXPECT_EQ(shown, confirmed);
+  EXPECT_EQ(shown_samples(view, r), confirmed_samples(view, r));
   const terrain::DisplayCounters& k = view.display().counters();
   EXPECT_EQ(k.predicted, 1u);
   EXPECT_EQ(k.retired, 1u);
@@ -311,10 +318,7 @@ TEST(ViewerEndToEnd, RefusedOwnStampsAreUndoneOnTheGpuCopyFromTheStore) {
   EXPECT_GT(k.rejected, 0u);
   EXPECT_LT(k.rejected, 6u);
   const RectI r{400, 330, 640, 430};  // every crater's reach, samples
-  std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
-  view.display().world().read_coarse(r, shown);
-  view.client().store().mirror().read_coarse(r, confirmed);
-  EXPECT_EQ(shown, confirmed);
+  EXPECT_EQ(shown_samples(view, r), confirmed_samples(view, r));
   expect_gpu_terrain_matches(view);
 }
 
@@ -347,10 +351,7 @@ TEST(ViewerEndToEnd, ErrorDrivenClipmapViewerHoldsItsRegionsTilesAndShowsAStampO
   ASSERT_TRUE(view.deform(q).ok());
   ASSERT_TRUE(view.wait_settled(cam, 30s));
   const RectI r{475, 355, 525, 405};  // the crater's middle, samples
-  std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
-  view.display().world().read_coarse(r, shown);
-  view.client().store().mirror().read_coarse(r, confirmed);
-  EXPECT_EQ(shown, confirmed);
+  EXPECT_EQ(shown_samples(view, r), confirmed_samples(view, r));
   EXPECT_NE(render_view(view, cam, 160, 100), before) << "the crater does not show in the render";
   EXPECT_EQ(view.stats().hash_mismatches, 0u);
 }
@@ -438,10 +439,7 @@ TEST(ViewerEndToEnd, PredictionOverAnotherStampSequencedFirstCountsCorrectionsOn
     (void)view.display().sync(c);
     EXPECT_TRUE(view.wait_settled(cam, 30s));
     const RectI r{int64_t(x / 2) - 60, 320, int64_t(x / 2) + 60, 440};
-    std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
-    view.display().world().read_coarse(r, shown);
-    c.store().mirror().read_coarse(r, confirmed);
-    EXPECT_EQ(shown, confirmed);
+    EXPECT_EQ(shown_samples(view, r), confirmed_samples(view, r));
     return view.display().counters().corrections - before;
   };
   const uint64_t flatten = scenario(StampKind::kFlatten, 1000);
@@ -521,10 +519,7 @@ TEST(ViewerEndToEnd, ViewerReconnectsAfterTheServerRestartsAndConverges) {
   // the display follows the store at its next update.
   ASSERT_TRUE(view.wait_settled(cam, 30s));
   const RectI r{440, 320, 560, 440};
-  std::vector<uint16_t> shown(size_t(r.area())), confirmed(size_t(r.area()));
-  view.display().world().read_coarse(r, shown);
-  view.client().store().mirror().read_coarse(r, confirmed);
-  EXPECT_EQ(shown, confirmed);
+  EXPECT_EQ(shown_samples(view, r), confirmed_samples(view, r));
   EXPECT_EQ(view.display().counters().divergent_texels, 0u);
 }
 
