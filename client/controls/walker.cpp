@@ -24,24 +24,25 @@ bool walkable(const glm::dvec3& n, const WalkerConfig& c) {
   return n.z >= std::cos(c.max_slope_degrees * std::numbers::pi / 180.0);
 }
 
-// Whether two faces it touches hold it up together: in a crease (a narrow valley, a faceted
-// crater floor) each face may be too steep to stand on while the two together, pushing from
-// either side, make a floor. Their summed normal then says how steep that floor is.
-bool crease_holds(const glm::dvec3& a, const glm::dvec3& b, const WalkerConfig& c, glm::dvec3& support) {
-  const glm::dvec3 sum = a + b;
-  if (glm::length(sum) < 1e-9) return false;
-  const glm::dvec3 n = glm::normalize(sum);
+// Whether faces it touches hold it up together: in a crease (a narrow valley, a faceted crater
+// floor) or a pit of three faces each face may be too steep to stand on while together,
+// pushing from every side, they make a floor. Their summed normal then says how steep that
+// floor is.
+bool faces_hold(const glm::dvec3& normal_sum, const WalkerConfig& c, glm::dvec3& support) {
+  if (glm::length(normal_sum) < 1e-9) return false;
+  const glm::dvec3 n = glm::normalize(normal_sum);
   if (!walkable(n, c)) return false;
   support = n;
   return true;
 }
 
 // Moves the capsule by `motion`, sliding along what it meets (up to four contacts); returns
-// whether what it met holds it up (a walkable face, or two faces of a crease), and that normal.
+// whether what it met holds it up (a walkable face, or steep faces together), and that normal.
 bool move_and_slide(Walker& w, const query::TerrainSnapshot& s, glm::dvec3 motion, const WalkerConfig& c,
                     glm::dvec3& support) {
   bool supported = false;
   std::optional<glm::dvec3> steep;  // the last face met that was too steep on its own
+  glm::dvec3 steep_sum{0.0};        // every such face met
   for (int i = 0; i < 4 && glm::length(motion) > 1e-9; ++i) {
     const query::SweepResult r = query::sweep_capsule(s, capsule_at(w.feet, c), motion);
     if (!r.contact) {
@@ -65,13 +66,52 @@ bool move_and_slide(Walker& w, const query::TerrainSnapshot& s, glm::dvec3 motio
     if (walkable(n, c)) {
       supported = true;
       support = n;
-    } else if (steep && !supported && crease_holds(*steep, n, c, support)) {
+    } else if (!supported && steep &&
+               (faces_hold(*steep + n, c, support) || faces_hold(steep_sum + n, c, support))) {
       supported = true;
     } else {
       steep = n;
+      steep_sum += n;
     }
   }
   return supported;
+}
+
+// A short probe down from the feet (`probe` metres): whether the ground there holds the walker
+// (a walkable face, or up to three steep faces it slides between), where, and its normal.
+bool probe_ground(Walker& w, const query::TerrainSnapshot& s, double probe, const WalkerConfig& c,
+                  glm::dvec3& support) {
+  glm::dvec3 at = w.feet, rest{0.0, 0.0, -probe}, sum{0.0}, first{0.0};
+  for (int k = 0; k < 3; ++k) {
+    const double len = glm::length(rest);
+    if (len < 1e-9) return false;
+    const query::SweepResult r = query::sweep_capsule(s, capsule_at(at, c), rest);
+    if (!r.contact || r.contact->started_inside) return false;
+    const glm::dvec3 n = r.contact->normal;
+    at += rest * std::max(0.0, r.contact->t - kSkin / len);
+    if (k == 0 && walkable(n, c)) {
+      w.feet = at;
+      support = n;
+      return true;
+    }
+    sum += n;
+    if (k > 0 && faces_hold(sum, c, support)) {
+      w.feet = at;
+      return true;
+    }
+    // The rest of the probe along the face (after two faces, along the crease they make).
+    rest *= 1.0 - r.contact->t;
+    if (k == 0) {
+      first = n;
+      rest -= n * glm::dot(rest, n);
+    } else {
+      const glm::dvec3 crease = glm::cross(first, n);
+      if (glm::length(crease) < 1e-9) return false;
+      const glm::dvec3 d = glm::normalize(crease);
+      rest = d * glm::dot(rest, d);
+    }
+  }
+  return false;
 }
 
 void substep(Walker& w, const query::TerrainSnapshot& s, const WalkerInput& in, double dt,
@@ -109,32 +149,8 @@ void substep(Walker& w, const query::TerrainSnapshot& s, const WalkerInput& in, 
   // follows it up and down a slope or a step of up to snap_distance instead of leaving it).
   // Walking uphill moves it up along the ground; only a jump or a fall's rise leaves it.
   const bool walking = was_grounded && !jumped;
-  if (!supported && (walking || w.velocity.z <= 1e-9)) {
-    const double probe = walking ? c.snap_distance : 2.0 * kSkin;
-    const query::SweepResult r = query::sweep_capsule(s, capsule_at(w.feet, c), {0.0, 0.0, -probe});
-    if (r.contact && !r.contact->started_inside) {
-      const glm::dvec3 n = r.contact->normal;
-      if (walkable(n, c)) {
-        w.feet.z -= std::max(0.0, r.contact->t * probe - kSkin);
-        supported = true;
-        support = n;
-      } else {
-        // A steep face: the rest of the probe along it finds whether another face beside it
-        // closes a crease that holds the walker where it is.
-        const glm::dvec3 reached =
-            w.feet + glm::dvec3{0.0, 0.0, -std::max(0.0, r.contact->t * probe - kSkin)};
-        glm::dvec3 rest{0.0, 0.0, -probe * (1.0 - r.contact->t)};
-        rest -= n * glm::dot(rest, n);
-        if (glm::length(rest) > 1e-9) {
-          const query::SweepResult r2 = query::sweep_capsule(s, capsule_at(reached, c), rest);
-          if (r2.contact && !r2.contact->started_inside && crease_holds(n, r2.contact->normal, c, support)) {
-            w.feet = reached;
-            supported = true;
-          }
-        }
-      }
-    }
-  }
+  if (!supported && (walking || w.velocity.z <= 1e-9))
+    supported = probe_ground(w, s, walking ? c.snap_distance : 2.0 * kSkin, c, support);
   if (supported && (walking || w.velocity.z <= 1e-9)) {
     w.grounded = true;
     w.ground_normal = support;

@@ -264,10 +264,30 @@ int run_headless(const ViewerAppOptions& o) {
   print_stats(seconds_since(t0), s, f, frame_ms);
   print_coverage("headless", terrain_fraction(target->read_depth()));
   if (walker) {
-    std::printf("viewer walker: feet at %.2f, %.2f, %.2f m, ground %.2f m, %s\n", walker->feet.x,
-                walker->feet.y, walker->feet.z,
-                query::height_at(s.terrain(), walker->feet.x, walker->feet.y).value_or(-1.0),
-                walker->grounded ? "standing" : "in the air");
+    // The terrain settled since the walker last stepped (the last events came in): it takes
+    // half a second on the terrain the final view shows, as a player would see it come to rest.
+    for (int i = 0; i < 30; ++i)
+      controls::step_walker(*walker, s.terrain(), controls::WalkerInput{}, 1.0 / 60.0);
+    std::printf(
+        "viewer walker: feet at %.2f, %.2f, %.2f m, ground %.2f m, %s (%.2f s in the air, ground normal "
+        "%.2f, "
+        "%.2f, %.2f)\n",
+        walker->feet.x, walker->feet.y, walker->feet.z,
+        query::height_at(s.terrain(), walker->feet.x, walker->feet.y).value_or(-1.0),
+        walker->grounded ? "standing" : "in the air", walker->airborne_s, walker->ground_normal.x,
+        walker->ground_normal.y, walker->ground_normal.z);
+    if (!walker->grounded) {
+      // What it is caught on: the heights around its feet, 0.25 m apart.
+      std::printf("viewer walker: heights around the feet (rows north to south, 0.25 m apart):\n");
+      for (int j = 4; j >= -4; --j) {
+        for (int i = -4; i <= 4; ++i) {
+          std::printf(" %8.3f",
+                      query::height_at(s.terrain(), walker->feet.x + 0.25 * i, walker->feet.y + 0.25 * j)
+                          .value_or(-1.0));
+        }
+        std::printf("\n");
+      }
+    }
   }
   std::printf(
       "viewer coverage: %lld frames, %.2f%% with a level on a coarser mip, %.2f%% waiting over 0.5 s, "

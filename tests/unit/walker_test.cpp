@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include "client/query/snapshot_builder.h"
 #include "client/query/terrain_query.h"
@@ -194,6 +195,75 @@ TEST(Walker, BadTimeStepsChangeNothing) {
   step_walker(w, *s, {1, 0, 0}, -1.0);
   step_walker(w, *s, {1, 0, 0}, 0.0);
   EXPECT_EQ(w.feet, before.feet);
+}
+
+// As the viewer's walk mode digs: on ground of any slope and roughness, at 1 and 2 m a sample,
+// among earlier craters and mounds, a crater dug under the walker's feet takes it to its floor,
+// where it stands every frame, whatever the frame times.
+TEST(Walker, ACraterDugUnderItOnRoughGroundHoldsItStandingEveryFrame) {
+  for (uint32_t seed = 1; seed <= 40; ++seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0, 1);
+    WorldParams wp = params();
+    wp.meters_per_sample = seed % 2 ? 2.0 : 1.0;
+    wp.meters_per_unit = 0.02;
+    wp.height_offset = -200;
+    const double slope = rise_of(double(seed % 5) * 8.0), rough = double(seed % 3) * 0.5;
+    World world(wp);
+    {
+      const RectI rr = wp.sample_rect();
+      std::vector<uint16_t> sm(size_t(rr.area()));
+      for (int64_t y = 0; y < rr.y1; ++y)
+        for (int64_t x = 0; x < rr.x1; ++x)
+          sm[size_t(y * rr.x1 + x)] = quantize_height(
+              wp, 100.0 + slope * double(x) * wp.meters_per_sample + rough * std::sin(double(x * 7 + y * 3)));
+      (void)world.write_coarse(rr, sm);
+      (void)world.commit(1);
+    }
+    auto stamp = [&](StampKind k, double x, double y, double r, double in, double shape) {
+      StampParams p;
+      p.kind = k;
+      p.center_x = x;
+      p.center_y = y;
+      p.radius = r;
+      p.intensity = in;
+      p.shape = shape;
+      const auto q = validate_stamp(p, world.params());
+      if (q) (void)apply_stamp(world, *q);
+    };
+    const double M = 128 * wp.meters_per_sample;
+    const int prior = int(u(rng) * 6);
+    for (int i = 0; i < prior; ++i) {
+      const double r = 3 + u(rng) * 20;
+      const bool raise = u(rng) < 0.33;
+      stamp(raise ? StampKind::kGaussian : StampKind::kCrater, M + (u(rng) - 0.5) * 30,
+            M + (u(rng) - 0.5) * 30, r, raise ? 0.2 * r : 0.25 * r, raise ? 0.0 : 0.3);
+    }
+    (void)world.commit(2);
+    auto s = snap(world);
+    const double cx = M + (u(rng) - 0.5) * 4, cy = M + (u(rng) - 0.5) * 4;
+    Walker w = place_walker(*s, cx, cy);
+    for (int i = 0; i < 120; ++i) step_walker(w, *s, {}, 1.0 / 60);
+    const double before = w.feet.z;
+    stamp(StampKind::kCrater, w.feet.x, w.feet.y, 12, 3, 0.3);
+    (void)world.commit(3);
+    s = snap(world);
+    auto frame = [&] {
+      const double elapsed = 0.005 + u(rng) * 0.3;
+      for (double left = elapsed; left > 1e-9; left -= 1.0 / 60.0)
+        step_walker(w, *s, {}, std::min(left, 1.0 / 60.0));
+    };
+    for (int i = 0; i < 60; ++i) frame();
+    int air = 0;
+    for (int i = 0; i < 120; ++i) {
+      frame();
+      air += !w.grounded;
+    }
+    EXPECT_EQ(air, 0) << "seed " << seed << ": in the air " << air << " of 120 frames, feet at " << w.feet.x
+                      << ", " << w.feet.y << ", " << w.feet.z << " m, ground " << ground(*s, w) << " m";
+    EXPECT_LT(w.feet.z, before - 1.0) << "seed " << seed << ": it fell into the crater";
+    EXPECT_GE(w.feet.z - ground(*s, w), -1e-6) << "seed " << seed;
+  }
 }
 
 }  // namespace
