@@ -1,5 +1,6 @@
 #include "dem/dem_georef.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -16,7 +17,108 @@ std::string fmt(const char* f, double a) {
   return buf;
 }
 
+double rad(double deg) { return deg * kPi / 180.0; }
+
+// Great-circle angle between two points, radians.
+double central_angle(const GeoCentre& a, const GeoCentre& b) {
+  const double dlat = rad(b.lat - a.lat), dlon = rad(b.lon - a.lon);
+  const double h = std::sin(dlat / 2) * std::sin(dlat / 2) +
+                   std::cos(rad(a.lat)) * std::cos(rad(b.lat)) * std::sin(dlon / 2) * std::sin(dlon / 2);
+  return 2.0 * std::asin(std::min(1.0, std::sqrt(h)));
+}
+
 }  // namespace
+
+Result<LocalProjection> parse_local_projection(std::string_view text) {
+  if (text == "none") return LocalProjection::kNone;
+  if (text == "aeqd") return LocalProjection::kAzimuthalEquidistant;
+  if (text == "utm") return LocalProjection::kUtm;
+  return make_error(ErrorCode::kInvalidArgument, "project",
+                    "'" + std::string(text) + "' is not none, aeqd or utm");
+}
+
+const char* to_string(LocalProjection p) {
+  switch (p) {
+    case LocalProjection::kNone: return "none";
+    case LocalProjection::kAzimuthalEquidistant: return "aeqd";
+    case LocalProjection::kUtm: return "utm";
+  }
+  return "none";
+}
+
+std::optional<GeoCentre> geographic_centre(const Georef& g, int64_t width, int64_t height) {
+  if (!g.has_transform || g.crs != Georef::Crs::kGeographic) return std::nullopt;
+  const double* t = g.transform;
+  const double x = double(width) / 2, y = double(height) / 2, deg = g.angular_unit_deg;
+  const GeoCentre c{(t[0] + t[1] * x + t[2] * y) * deg, (t[3] + t[4] * x + t[5] * y) * deg};
+  if (!std::isfinite(c.lon) || !std::isfinite(c.lat) || std::fabs(c.lat) >= 90.0) return std::nullopt;
+  return c;
+}
+
+int utm_zone(double lon) {
+  const double wrapped = lon - 360.0 * std::floor((lon + 180.0) / 360.0);
+  return std::clamp(int(std::floor((wrapped + 180.0) / 6.0)) + 1, 1, 60);
+}
+
+std::string geographic_distortion(const Georef& g, int64_t width, int64_t height, LocalProjection p) {
+  const auto centre = geographic_centre(g, width, height);
+  if (!centre) return "";
+  const double* t = g.transform;
+  const double deg = g.angular_unit_deg;
+  auto at = [&](double x, double y) {
+    return GeoCentre{(t[0] + t[1] * x + t[2] * y) * deg, (t[3] + t[4] * x + t[5] * y) * deg};
+  };
+  const double w = double(width), h = double(height);
+  const GeoCentre probes[8] = {at(0, 0),     at(w, 0),     at(0, h),     at(w, h),
+                               at(w / 2, 0), at(w / 2, h), at(0, h / 2), at(w, h / 2)};
+  char buf[320];
+  switch (p) {
+    case LocalProjection::kNone: {
+      // East-west spacing goes with cos(latitude); Loam's square samples take the centre's.
+      const double c = std::cos(rad(centre->lat));
+      double worst = 0;
+      for (const GeoCentre& q : probes)
+        worst = std::max(worst, std::fabs(std::cos(rad(std::clamp(q.lat, -90.0, 90.0))) / c - 1.0));
+      const double x_m = c * std::hypot(t[1], t[4]), y_m = std::hypot(t[2], t[5]);
+      const double square = std::sqrt(x_m * y_m);
+      std::snprintf(buf, sizeof buf,
+                    "geographic samples: east-west distances off by up to %.2f%% at the northern or southern "
+                    "edge; squaring the samples stretches east-west by %+.2f%% and north-south by %+.2f%% "
+                    "(--project aeqd or utm warps to square metres)",
+                    100.0 * worst, 100.0 * (square / x_m - 1.0), 100.0 * (square / y_m - 1.0));
+      return buf;
+    }
+    case LocalProjection::kAzimuthalEquidistant: {
+      // Exact along lines from the centre; across them the scale is c / sin(c).
+      double worst = 0;
+      for (const GeoCentre& q : probes) {
+        const double a = central_angle(*centre, q);
+        if (a > 1e-12) worst = std::max(worst, a / std::sin(a) - 1.0);
+      }
+      std::snprintf(buf, sizeof buf,
+                    "warped to an azimuthal equidistant projection at %.4f, %.4f: distances from the centre "
+                    "exact, across them off by up to %.3f%% at the corners",
+                    centre->lat, centre->lon, 100.0 * worst);
+      return buf;
+    }
+    case LocalProjection::kUtm: {
+      // Transverse Mercator's scale: k0 / sqrt(1 - B^2), B = cos(lat) sin(lon - lon0).
+      const int zone = utm_zone(centre->lon);
+      const double lon0 = -183.0 + 6.0 * zone;
+      double worst = std::fabs(0.9996 - 1.0);
+      for (const GeoCentre& q : probes) {
+        const double b = std::cos(rad(q.lat)) * std::sin(rad(q.lon - lon0));
+        if (std::fabs(b) < 1.0) worst = std::max(worst, std::fabs(0.9996 / std::sqrt(1.0 - b * b) - 1.0));
+      }
+      std::snprintf(
+          buf, sizeof buf,
+          "warped to UTM zone %d%s: distances off by up to %.3f%% (scale %.4f on the central meridian)", zone,
+          centre->lat >= 0 ? "N" : "S", 100.0 * worst, 0.9996);
+      return buf;
+    }
+  }
+  return "";
+}
 
 Result<std::optional<GeoSpacing>> spacing_from_georef(const Georef& g, int64_t width, int64_t height,
                                                       const std::string& name) {

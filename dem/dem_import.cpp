@@ -14,17 +14,32 @@ std::string ImportReport::summary() const {
   std::snprintf(buf, sizeof buf,
                 "source            %s (scale from %s)\n"
                 "samples           %lld x %lld -> %d x %d tiles of %d%s\n"
-                "heights           %.3f .. %.3f m, %lld NoData filled with %.3f m\n"
+                "heights           %.3f .. %.3f m\n"
                 "quantization      offset %.6f m, %.6g m/unit, %.6g m/sample%s\n"
                 "headroom          %.1f m below, %.1f m above\n"
                 "error             max %.6g m, rms %.6g m%s\n",
                 source.c_str(), scale_source.c_str(), (long long)width, (long long)height, tiles_x, tiles_y,
-                kTileSize, apron.c_str(), min_m, max_m, (long long)nodata_count, nodata_fill_m, height_offset,
-                meters_per_unit, meters_per_sample, anisotropy != 1.0 ? " (source samples not square)" : "",
-                headroom_below_m, headroom_above_m, max_error_m, rms_error_m, exact ? " (exact)" : "");
+                kTileSize, apron.c_str(), min_m, max_m, height_offset, meters_per_unit, meters_per_sample,
+                anisotropy != 1.0 ? " (source samples not square)" : "", headroom_below_m, headroom_above_m,
+                max_error_m, rms_error_m, exact ? " (exact)" : "");
   std::string out = buf;
+  if (nodata_count > 0) {
+    char nd[256];
+    if (nodata_fill.mode == NodataFill::Mode::kInterpolate) {
+      std::snprintf(
+          nd, sizeof nd,
+          "nodata            %lld samples: %lld interpolated, %lld beyond %d samples of data at %.3f m\n",
+          (long long)nodata_count, (long long)nodata_interpolated,
+          (long long)(nodata_count - nodata_interpolated), kNodataSearchSamples, nodata_fill_m);
+    } else {
+      std::snprintf(nd, sizeof nd, "nodata            %lld samples filled with %.3f m (%s)\n",
+                    (long long)nodata_count, nodata_fill_m, nodata_fill.to_string().c_str());
+    }
+    out += nd;
+  }
   if (!scale_note.empty()) out += "spacing           " + scale_note + "\n";
   if (orientation != "north-up") out += "orientation       " + orientation + "\n";
+  if (!distortion.empty()) out += "distortion        " + distortion + "\n";
   return out;
 }
 
@@ -61,9 +76,11 @@ Result<WorldParams> import_params(const DemInfo& dem, const DemStats& stats, con
   if (!std::isfinite(options.headroom) || options.headroom < 0 || options.headroom > 10) {
     return make_error(ErrorCode::kInvalidArgument, "headroom", "must be in 0..10");
   }
-  const double lo = stats.lo, hi = stats.hi;
-  if (!(lo <= hi))
+  if (!(stats.lo <= stats.hi))
     return make_error(ErrorCode::kInvalidArgument, name, "no valid sample in the imported area");
+  const bool fill_value = stats.nodata > 0 && options.nodata_fill.mode == NodataFill::Mode::kValue;
+  const double lo = fill_value ? std::min(stats.lo, options.nodata_fill.value_m) : stats.lo;
+  const double hi = fill_value ? std::max(stats.hi, options.nodata_fill.value_m) : stats.hi;
   if (std::fabs(lo) > 1e6 || std::fabs(hi) > 1e6) {
     return make_error(ErrorCode::kInvalidArgument, name, "heights beyond +-1000 km are not terrain");
   }
@@ -114,20 +131,22 @@ Result<WorldParams> import_params(const DemInfo& dem, const DemStats& stats, con
   return p;
 }
 
-RowQuantizer::RowQuantizer(const WorldParams& p, const DemStats& stats) : params(p) {
+RowQuantizer::RowQuantizer(const WorldParams& p, const DemStats& stats, const NodataFill& fill) : params(p) {
   const double apron_m =
       stats.edge_count ? std::clamp(stats.edge_sum / double(stats.edge_count), stats.lo, stats.hi) : stats.lo;
-  fill_q = quantize_height(p, stats.lo);
+  fill_q = quantize_height(p, fill.mode == NodataFill::Mode::kValue ? fill.value_m : stats.lo);
   apron_q = quantize_height(p, apron_m);
 }
 
-void RowQuantizer::quantize(std::span<const double> data, std::span<uint16_t> out) {
+void RowQuantizer::quantize(std::span<const double> data, std::span<uint16_t> out,
+                            std::span<const double> source) {
   const size_t n = std::min(data.size(), out.size());
+  if (source.size() != data.size()) source = data;
   for (size_t x = 0; x < n; ++x) {
     const double v = data[x];
     uint16_t q = fill_q;
-    if (!std::isnan(v)) {
-      q = quantize_height(params, v);
+    if (!std::isnan(v)) q = quantize_height(params, v);
+    if (!std::isnan(source[x])) {
       const double err = std::fabs(params.height_meters(q) - v);
       max_err = std::max(max_err, err);
       sum_sq += err * err;
@@ -138,8 +157,35 @@ void RowQuantizer::quantize(std::span<const double> data, std::span<uint16_t> ou
   std::fill(out.begin() + ptrdiff_t(n), out.end(), apron_q);
 }
 
+ImportRows::ImportRows(const WorldParams& p, const DemStats& stats, const NodataFill& fill,
+                       int64_t data_width, Out out)
+    : q_(p, stats, fill), out_(std::move(out)), world_row_(size_t(p.sample_rect().width())) {
+  // Only a raster with NoData pays for the interpolation's rows in flight.
+  if (stats.nodata > 0 && fill.mode == NodataFill::Mode::kInterpolate)
+    filler_.emplace(data_width, [this](std::span<const double> row, std::span<const double> source) {
+      return quantize(row, source);
+    });
+}
+
+Status ImportRows::quantize(std::span<const double> row, std::span<const double> source) {
+  q_.quantize(row, world_row_, source);
+  ++rows_out_;
+  return out_(world_row_);
+}
+
+Status ImportRows::add(std::span<const double> data_row) {
+  return filler_ ? filler_->push(data_row) : quantize(data_row, data_row);
+}
+
+Status ImportRows::finish(int64_t world_rows) {
+  if (filler_) LOAM_TRY(filler_->finish());
+  while (rows_out_ < world_rows) LOAM_TRY(quantize({}, {}));  // below the data: the apron
+  return {};
+}
+
 ImportReport import_report(const DemInfo& dem, const DemStats& stats, const RectI& crop,
-                           const RowQuantizer& q) {
+                           const ImportRows& rows, const NodataFill& fill) {
+  const RowQuantizer& q = rows.quantizer();
   const WorldParams& p = q.params;
   ImportReport r;
   r.source = dem.name;
@@ -150,6 +196,8 @@ ImportReport import_report(const DemInfo& dem, const DemStats& stats, const Rect
   r.min_m = stats.lo;
   r.max_m = stats.hi;
   r.nodata_count = stats.nodata;
+  r.nodata_fill = fill;
+  r.nodata_interpolated = rows.interpolated();
   r.nodata_fill_m = p.height_meters(q.fill_q);
   r.apron_m = p.height_meters(q.apron_q);
   r.padded = int64_t(p.tiles_x) * kTileSize > crop.width() || int64_t(p.tiles_y) * kTileSize > crop.height();
@@ -166,6 +214,7 @@ ImportReport import_report(const DemInfo& dem, const DemStats& stats, const Rect
   r.scale_note = dem.scale_note;
   r.anisotropy = dem.anisotropy;
   r.orientation = dem.orientation;
+  r.distortion = dem.distortion;
   return r;
 }
 
@@ -190,18 +239,21 @@ Result<ImportedWorld> import_dem(const DemRaster& dem, const ImportOptions& opti
   if (!params) return params.error();
   const WorldParams& p = *params;
 
-  // Quantize, fill NoData with the minimum, pad with the apron.
+  // Fill NoData, quantize, pad with the apron.
   const RectI world = p.sample_rect();
   const int64_t ww = world.width(), wh = world.height();
   std::vector<uint16_t> samples(size_t(ww * wh));
-  RowQuantizer q(p, stats);
-  for (int64_t y = 0; y < wh; ++y) {
-    q.quantize(y < crop.height() ? row(crop.y0 + y) : std::span<const double>(),
-               std::span<uint16_t>(samples.data() + size_t(y * ww), size_t(ww)));
-  }
+  size_t at = 0;
+  ImportRows rows(p, stats, options.nodata_fill, crop.width(), [&](std::span<const uint16_t> r) {
+    std::copy(r.begin(), r.end(), samples.begin() + ptrdiff_t(at));
+    at += r.size();
+    return Status{};
+  });
+  for (int64_t y = crop.y0; y < crop.y1; ++y) LOAM_TRY(rows.add(row(y)));
+  LOAM_TRY(rows.finish(wh));
   auto built = World::from_samples(p, samples);
   if (!built) return built.error();
-  return ImportedWorld{std::move(*built), import_report(dem, stats, crop, q)};
+  return ImportedWorld{std::move(*built), import_report(dem, stats, crop, rows, options.nodata_fill)};
 }
 
 }  // namespace loam

@@ -141,6 +141,22 @@ struct DemStripsOpener {
   // read whole (read_dem_*), so the whole-raster cap applies; else the streamed side cap.
   static Result<DemStrips> open(std::unique_ptr<RasterSource> owned, const std::string& name,
                                 const std::string& sidecar_json, const DemScaleOptions& options, bool whole) {
+    // A geographic DEM warped to square metres first: everything below sees the warped raster.
+    std::string distortion;
+    if (options.project != LocalProjection::kNone) {
+      if (options.meters_per_sample || !sidecar_json.empty()) {
+        return fail(ErrorCode::kInvalidArgument, name,
+                    std::string("--project warps by the DEM's georeferencing, but ") +
+                        (options.meters_per_sample ? "--meters-per-sample" : "its sidecar") +
+                        " states the spacing: use one or the other");
+      }
+      const Georef g = owned->georef();
+      const int64_t w0 = owned->width(), h0 = owned->height();
+      auto projected = project_gdal_source(std::move(owned), options.project, name);
+      if (!projected) return projected.error();
+      owned = std::move(*projected);
+      distortion = geographic_distortion(g, w0, h0, options.project);
+    }
     RasterSource& src = *owned;
     const int64_t w = src.width(), h = src.height();
     if (w <= 0 || h <= 0) return fail(ErrorCode::kCorrupt, name, "image has no samples");
@@ -204,6 +220,8 @@ struct DemStripsOpener {
         dem.anisotropy = (*geo)->y_m / (*geo)->x_m;
         dem.scale_source = "georeferencing";
         dem.scale_note = (*geo)->note;
+        if (distortion.empty())
+          distortion = geographic_distortion(src.georef(), w, h, LocalProjection::kNone);
       }
     }
     if (!std::isfinite(dem.meters_per_sample) || dem.meters_per_sample <= 0 || dem.meters_per_sample > 1e5) {
@@ -226,6 +244,7 @@ struct DemStripsOpener {
     }
     if (dem.integer_source) dem.vertical_step = scale;
     dem.loam_world = side.loam_world;
+    dem.distortion = distortion;
     out.nodata_ = band.nodata;
     out.scale_ = scale;
     out.offset_ = offset;

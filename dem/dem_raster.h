@@ -37,6 +37,7 @@
 #include <string>
 #include <vector>
 
+#include "dem/dem_georef.h"
 #include "protocol/geometry.h"
 #include "protocol/result.h"
 
@@ -51,6 +52,10 @@ struct DemScaleOptions {
   std::optional<double> vertical_scale;     // meters per source unit
   std::optional<double> vertical_offset;    // meters at source value 0
   std::optional<int> band;                  // the height band (1-based); required for multi-band images
+  // A geographic DEM warped to a local projected CRS first (dem_georef.h), so its samples are
+  // square metres; kNone takes the centre's mean spacing. Only for GDAL rasters in degrees
+  // without a sidecar or --meters-per-sample stating the spacing.
+  LocalProjection project = LocalProjection::kNone;
 };
 
 // A Loam world's own quantization, when a sidecar carries it (exports do): importing such
@@ -77,6 +82,7 @@ struct DemInfo {
   // How the source's rows and columns were turned to give row 0 north and column 0 west:
   // "north-up", "south-up (rows flipped)", "east-left (columns flipped)" or both flipped.
   std::string orientation = "north-up";
+  std::string distortion;  // a geographic DEM's: how far distances are off (dem_georef.h)
 };
 
 struct DemRaster : DemInfo {

@@ -1,7 +1,9 @@
 #include "dem/gdal_source.h"
 
+#include <cpl_string.h>
 #include <cpl_vsi.h>
 #include <gdal.h>
+#include <gdal_utils.h>
 #include <ogr_srs_api.h>
 
 #include <algorithm>
@@ -11,6 +13,7 @@
 #include <filesystem>
 #include <string_view>
 
+#include "dem/ascii_grid_check.h"
 #include "dem/gdal_errors.h"
 
 namespace loam {
@@ -48,13 +51,16 @@ Georef::Crs crs_kind(OGRSpatialReferenceH srs) {
 
 class GdalSource final : public RasterSource {
  public:
-  GdalSource(GDALDatasetH ds, std::string name, std::string vsimem_path)
-      : ds_(ds), name_(std::move(name)), vsimem_path_(std::move(vsimem_path)) {}
+  // `under`: the source a warped dataset reads, kept open until this one closes.
+  GdalSource(GDALDatasetH ds, std::string name, std::string vsimem_path,
+             std::unique_ptr<RasterSource> under = {})
+      : ds_(ds), name_(std::move(name)), vsimem_path_(std::move(vsimem_path)), under_(std::move(under)) {}
   ~GdalSource() override {
     GdalErrorCapture quiet;
     GDALClose(ds_);
     if (!vsimem_path_.empty()) VSIUnlink(vsimem_path_.c_str());
   }
+  GDALDatasetH dataset() const { return ds_; }
   GdalSource(const GdalSource&) = delete;
   GdalSource& operator=(const GdalSource&) = delete;
 
@@ -145,6 +151,7 @@ class GdalSource final : public RasterSource {
   GDALDatasetH ds_;
   std::string name_;
   std::string vsimem_path_;
+  std::unique_ptr<RasterSource> under_;
 };
 
 // A VRT may window, mosaic and scale raster files; it may not read any file as raw samples
@@ -170,7 +177,21 @@ Status check_vrt(GDALDatasetH ds, const std::string& name) {
                         "a VRT whose sources are VRTs is not accepted (one level of VRT only)");
     }
   }
-  return {};
+  // An ESRI ASCII grid is checked as text before GDAL reads it (ascii_grid_check.h), through a
+  // VRT as when it is opened itself.
+  char** files = GDALGetFileList(ds);
+  Status checked;
+  for (char** f = files; f && *f && checked.ok(); ++f) {
+    if (lower_extension(*f) != "asc") continue;
+    checked = check_ascii_grid_file(*f);
+    if (!checked.ok()) {
+      checked = make_error(
+          checked.error().code, name,
+          "its source " + std::filesystem::path(*f).filename().string() + ": " + checked.error().describe());
+    }
+  }
+  CSLDestroy(files);
+  return checked;
 }
 
 Result<std::unique_ptr<RasterSource>> open_path(const std::string& gdal_path, const std::string& name,
@@ -225,6 +246,61 @@ Result<std::unique_ptr<RasterSource>> open_gdal_memory(std::span<const uint8_t> 
   if (!f) return make_error(ErrorCode::kIo, name, "cannot map the bytes into GDAL's memory files");
   VSIFCloseL(f);
   return open_path(path, name, ext, path);
+}
+
+Result<std::unique_ptr<RasterSource>> project_gdal_source(std::unique_ptr<RasterSource> source,
+                                                          LocalProjection projection,
+                                                          const std::string& name) {
+  auto* gdal = dynamic_cast<GdalSource*>(source.get());
+  if (!gdal)
+    return make_error(ErrorCode::kUnsupported, name, "only rasters read through GDAL can be projected");
+  const Georef g = source->georef();
+  const auto centre = geographic_centre(g, source->width(), source->height());
+  if (g.crs != Georef::Crs::kGeographic || !centre) {
+    return make_error(ErrorCode::kInvalidArgument, name,
+                      "--project warps a geographic DEM (degrees) to metres; this one's CRS is '" +
+                          (g.crs_name.empty() ? std::string("none") : g.crs_name) + "'");
+  }
+  GdalErrorCapture errors;
+  // The target: the source's datum, projected about the raster's centre.
+  OGRSpatialReferenceH srs = OSRNewSpatialReference(nullptr);
+  OSRCopyGeogCSFrom(srs, GDALGetSpatialRef(gdal->dataset()));
+  OGRErr err = OGRERR_NONE;
+  if (projection == LocalProjection::kUtm) {
+    err = OSRSetUTM(srs, utm_zone(centre->lon), centre->lat >= 0 ? TRUE : FALSE);
+  } else {
+    OSRSetProjCS(srs, "Loam local azimuthal equidistant");
+    err = OSRSetAE(srs, centre->lat, centre->lon, 0.0, 0.0);
+  }
+  char* wkt = nullptr;
+  if (err == OGRERR_NONE) err = OSRExportToWkt(srs, &wkt);
+  OSRDestroySpatialReference(srs);
+  if (err != OGRERR_NONE || !wkt) {
+    CPLFree(wkt);
+    return make_error(ErrorCode::kUnsupported, name,
+                      "cannot build the local projection: " + errors.text("OSR error"));
+  }
+  const std::string target = wkt;
+  CPLFree(wkt);
+  const char* argv[] = {"-of",     "VRT",        "-t_srs", target.c_str(), "-r",   "bilinear", "-ot",
+                        "Float64", "-dstnodata", "nan",    "-et",          "0.05", nullptr};
+  GDALWarpAppOptions* options = GDALWarpAppOptionsNew(const_cast<char**>(argv), nullptr);
+  if (!options)
+    return make_error(ErrorCode::kUnsupported, name, "cannot set up the warp: " + errors.text("options"));
+  static std::atomic<uint64_t> counter{0};
+  const std::string path = "/vsimem/loam_warp_" + std::to_string(counter.fetch_add(1)) + ".vrt";
+  GDALDatasetH in = gdal->dataset();
+  int usage_error = 0;
+  GDALDatasetH out = GDALWarp(path.c_str(), nullptr, 1, &in, options, &usage_error);
+  GDALWarpAppOptionsFree(options);
+  if (!out || errors.failed()) {
+    if (out) GDALClose(out);
+    VSIUnlink(path.c_str());
+    return make_error(
+        ErrorCode::kUnsupported, name,
+        "cannot warp to " + std::string(to_string(projection)) + ": " + errors.text("GDALWarp failed"));
+  }
+  return std::unique_ptr<RasterSource>(new GdalSource(out, name, path, std::move(source)));
 }
 
 }  // namespace loam

@@ -14,6 +14,7 @@
 #include <span>
 #include <string>
 
+#include "dem/dem_georef.h"
 #include "dem/raster_source.h"
 
 namespace loam {
@@ -28,5 +29,13 @@ Result<std::unique_ptr<RasterSource>> open_gdal_file(const std::string& path, co
 // source. `name` is used for messages and for drivers that read the name (SRTM HGT).
 Result<std::unique_ptr<RasterSource>> open_gdal_memory(std::span<const uint8_t> bytes,
                                                        const std::string& name, const std::string& ext);
+
+// Warps a geographic raster opened here to the local projected CRS `projection` names (its
+// datum kept), as gdalwarp would: square samples of the size GDAL suggests for the raster,
+// bilinear resampling, heights as float64 and NaN outside the source's footprint. The source's
+// NoData stays NoData. Read lazily, strip by strip, like any raster. Errors name `name`.
+Result<std::unique_ptr<RasterSource>> project_gdal_source(std::unique_ptr<RasterSource> source,
+                                                          LocalProjection projection,
+                                                          const std::string& name);
 
 }  // namespace loam

@@ -71,22 +71,16 @@ Result<PackImportReport> import_dem_to_pack(const std::string& dem_path, const s
     return writer->add(mip, tx, ty, s);
   });
   report.pyramid_bytes = pyramid.buffer_bytes();
-  RowQuantizer q(*params, stats);
-  std::vector<uint16_t> world_row(size_t(params->sample_rect().width()));
-  LOAM_TRY(for_each_row([&](int64_t, std::span<const double> row) -> Status {
-    q.quantize(row, world_row);
-    return pyramid.add_row(world_row);
-  }));
-  // Rows below the data: the apron.
-  while (!pyramid.done()) {
-    q.quantize({}, world_row);
-    LOAM_TRY(pyramid.add_row(world_row));
-  }
+  ImportRows rows(*params, stats, options.nodata_fill, crop.width(),
+                  [&](std::span<const uint16_t> r) { return pyramid.add_row(r); });
+  LOAM_TRY(for_each_row([&](int64_t, std::span<const double> row) { return rows.add(row); }));
+  LOAM_TRY(rows.finish(params->sample_rect().height()));
+  if (!pyramid.done()) return make_error(ErrorCode::kCorrupt, info.name, "the tile rows did not complete");
   auto summary = writer->finish();
   if (!summary) return summary.error();
   report.write_seconds = seconds_since(t1);
   report.pack = *summary;
-  report.import = import_report(info, stats, crop, q);
+  report.import = import_report(info, stats, crop, rows, options.nodata_fill);
   return report;
 }
 

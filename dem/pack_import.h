@@ -3,7 +3,8 @@
 // quantization needs (range, NoData, the border's mean: dem_import.h); the second quantizes
 // each row and feeds a TileRowPyramid, whose tiles of every mip go to the pack as they are
 // complete. Peak memory is about 2 x 256 world rows plus one strip of source rows (8 MiB of
-// doubles) and GDAL's block cache, whatever the raster's height.
+// doubles) and GDAL's block cache, whatever the raster's height; a raster with NoData to
+// interpolate adds the fill's 96 rows in flight (24 bytes a sample: dem/nodata_fill.h).
 //
 // The pack's samples equal import_dem()'s world for the same raster and options, tile for
 // tile at every mip (the tests pin it), so a session on the pack plays exactly as one on

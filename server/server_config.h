@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "dem/dem_georef.h"
+#include "dem/nodata_fill.h"
 #include "protocol/stamps/stamp_validate.h"
 
 namespace loam::server {
@@ -17,13 +19,15 @@ struct ServerConfig {
   std::string port_file;  // when set, the bound port is written there once listening
   // TLS for client connections: the certificate chain and its key (PEM). Both or neither.
   std::string tls_cert_file, tls_key_file;
-  std::string metrics_bind;               // HOST:PORT of the Prometheus /metrics endpoint; empty: none
-  std::string dem_path;                   // empty: the embedded terrain `terrain` names
-  std::string terrain = "crop";           // crop | refined (server/terrain_source.h)
-  uint32_t prefetch_tiles = 64;           // base tiles made ahead off the tick thread (0: off)
-  uint64_t cache_mb = 256;                // clean tiles kept in memory: the base's and persisted edits
-  int dem_band = 0;                       // the DEM's height band (1-based); 0: its only band
-  std::vector<std::string> stamp_images;  // texture-stamp image files to register
+  std::string metrics_bind;      // HOST:PORT of the Prometheus /metrics endpoint; empty: none
+  std::string dem_path;          // empty: the embedded terrain `terrain` names
+  std::string terrain = "crop";  // crop | refined (server/terrain_source.h)
+  uint32_t prefetch_tiles = 64;  // base tiles made ahead off the tick thread (0: off)
+  uint64_t cache_mb = 256;       // clean tiles kept in memory: the base's and persisted edits
+  int dem_band = 0;              // the DEM's height band (1-based); 0: its only band
+  NodataFill nodata_fill;        // what the DEM's NoData samples become
+  LocalProjection project = LocalProjection::kNone;  // a geographic DEM warped to metres first
+  std::vector<std::string> stamp_images;             // texture-stamp image files to register
   std::string data_dir = "loam-data";
   std::string backend = "cpu";  // auto | gpu | cpu
   uint32_t tick_hz = 30;

@@ -120,11 +120,11 @@ struct StorageOpener {
   // A folder without a log: a new session on the initial terrain, its segment 0 written.
   static Result<OpenedStorage> open_fresh(Storage storage, const std::string& data_dir,
                                           const std::string& dem_path, const StampLimits& limits,
-                                          const std::vector<std::string>& stamp_images, int dem_band,
+                                          const std::vector<std::string>& stamp_images, const DemChoice& dem,
                                           const std::string& terrain_kind, bool read_only,
                                           RecoveryReport& report) {
     log::InitialTerrain initial;
-    auto world = load_initial_terrain(dem_path, &initial, dem_band, terrain_kind);
+    auto world = load_initial_terrain(dem_path, &initial, dem, terrain_kind);
     if (!world) return world.error();
     if (initial.import_params == kPackImportParams && !read_only)
       LOAM_TRY(keep_pack_in_session(dem_path, data_dir));
@@ -317,7 +317,7 @@ struct StorageOpener {
 
   static Result<OpenedStorage> open(const std::string& data_dir, const std::string& dem_path,
                                     const StampLimits& limits, const std::vector<std::string>& stamp_images,
-                                    int dem_band, const std::string& terrain_kind, bool read_only) {
+                                    const DemChoice& dem, const std::string& terrain_kind, bool read_only) {
     LOAM_TRY(validate_limits(limits));
     if (read_only) {
       if (list_segments(data_dir).empty())
@@ -338,7 +338,7 @@ struct StorageOpener {
         return make_error(ErrorCode::kCorrupt, data_dir,
                           "snapshots without a log: refusing to guess the session");
       }
-      return open_fresh(std::move(storage), data_dir, dem_path, limits, stamp_images, dem_band, terrain_kind,
+      return open_fresh(std::move(storage), data_dir, dem_path, limits, stamp_images, dem, terrain_kind,
                         read_only, report);
     }
 
@@ -388,12 +388,12 @@ struct StorageOpener {
 
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
                                    const StampLimits& limits, const std::vector<std::string>& stamp_images,
-                                   int dem_band, const std::string& terrain) {
-  return StorageOpener::open(data_dir, dem_path, limits, stamp_images, dem_band, terrain, false);
+                                   const DemChoice& dem, const std::string& terrain) {
+  return StorageOpener::open(data_dir, dem_path, limits, stamp_images, dem, terrain, false);
 }
 
 Result<OpenedStorage> read_session(const std::string& data_dir) {
-  return StorageOpener::open(data_dir, "", StampLimits{}, {}, 0, kTerrainCrop, true);
+  return StorageOpener::open(data_dir, "", StampLimits{}, {}, {}, kTerrainCrop, true);
 }
 
 Status Storage::resume(uint64_t last_seq) {

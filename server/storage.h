@@ -152,12 +152,12 @@ struct OpenedStorage {
 // `limits` are the options' stamp limits: a fresh session records them; a recovered one replays
 // under the recorded ones and records these for what follows. `stamp_images` are texture-stamp
 // image files to register; they are stored in the folder, and every image stored there (and in
-// the loaded snapshot) is registered before any replay. `dem_band` names the DEM's height band
-// (0: its only band). `terrain` names the embedded terrain used without a DEM (terrain_source.h).
+// the loaded snapshot) is registered before any replay. `dem` names the DEM's height band and
+// NoData fill (terrain_source.h). `terrain` names the embedded terrain used without a DEM (terrain_source.h).
 Result<OpenedStorage> open_storage(const std::string& data_dir, const std::string& dem_path,
                                    const StampLimits& limits,
-                                   const std::vector<std::string>& stamp_images = {}, int dem_band = 0,
-                                   const std::string& terrain = kTerrainCrop);
+                                   const std::vector<std::string>& stamp_images = {},
+                                   const DemChoice& dem = {}, const std::string& terrain = kTerrainCrop);
 
 // Bytes of the regular files under `dir`, recursively (0 where it is absent).
 uint64_t folder_bytes(const std::string& dir);

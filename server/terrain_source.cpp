@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
+#include <string_view>
 
 #include "dem/default_terrain.h"
 #include "dem/dem_import.h"
@@ -17,8 +19,9 @@ namespace loam::server {
 namespace {
 constexpr const char* kDefaultParams = "embedded default terrain";
 constexpr const char* kRefinedParams = "embedded default terrain refined";
-constexpr const char* kDemParams = "default import options";
-constexpr const char* kBandPrefix = "default import options, band ";
+constexpr const char* kLegacyDemParams = "default import options";
+constexpr const char* kLegacyBandPrefix = "default import options, band ";
+constexpr const char* kDemPrefix = "dem import: ";
 constexpr const char* kPackParams = kPackImportParams;
 
 bool is_pack_path(const std::string& path) {
@@ -32,21 +35,16 @@ Result<World> load_pack_world(const std::string& path) {
   return World((*pack)->params(), *pack);
 }
 
-// The import parameters a log records for a DEM, and the band they name (0: none).
-std::string dem_params(int band) { return band > 0 ? kBandPrefix + std::to_string(band) : kDemParams; }
-
-Result<int> band_of(const std::string& params) {
-  if (params == kDemParams) return 0;
-  const std::string prefix = kBandPrefix;
-  if (params.rfind(prefix, 0) == 0 && params.size() > prefix.size() && params.size() <= prefix.size() + 4) {
-    int band = 0;
-    for (size_t i = prefix.size(); i < params.size(); ++i) {
-      if (params[i] < '0' || params[i] > '9') band = -1;
-      if (band >= 0) band = band * 10 + (params[i] - '0');
-    }
-    if (band > 0) return band;
+// A band number of 1 to 5 digits.
+std::optional<int> parse_band(std::string_view digits) {
+  if (digits.empty() || digits.size() > 5) return std::nullopt;
+  int band = 0;
+  for (const char c : digits) {
+    if (c < '0' || c > '9') return std::nullopt;
+    band = band * 10 + (c - '0');
   }
-  return make_error(ErrorCode::kUnsupported, "log.initial", "unknown DEM import parameters '" + params + "'");
+  if (band < 1 || band > 65535) return std::nullopt;
+  return band;
 }
 Result<World> load_refined_world() {
   auto base = refined_default_base();
@@ -55,8 +53,55 @@ Result<World> load_refined_world() {
 }
 }  // namespace
 
-Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band,
-                                   const std::string& terrain) {
+std::string dem_import_params(const DemChoice& choice) {
+  std::string s = kDemPrefix;
+  if (choice.band > 0) s += "band " + std::to_string(choice.band) + ", ";
+  if (choice.project != LocalProjection::kNone)
+    s += std::string("project ") + to_string(choice.project) + ", ";
+  return s + "nodata " + choice.nodata_fill.to_string();
+}
+
+Result<DemChoice> parse_dem_import_params(const std::string& params) {
+  auto unknown = [&] {
+    return make_error(ErrorCode::kUnsupported, "log.initial",
+                      "unknown DEM import parameters '" + params + "'");
+  };
+  const NodataFill legacy_fill{NodataFill::Mode::kMin, 0};
+  if (params == kLegacyDemParams) return DemChoice{0, legacy_fill};
+  std::string_view s = params;
+  if (const std::string_view prefix = kLegacyBandPrefix; s.substr(0, prefix.size()) == prefix) {
+    const auto band = parse_band(s.substr(prefix.size()));
+    if (!band) return unknown();
+    return DemChoice{*band, legacy_fill};
+  }
+  if (const std::string_view prefix = kDemPrefix; s.substr(0, prefix.size()) != prefix) return unknown();
+  s.remove_prefix(std::string_view(kDemPrefix).size());
+  DemChoice c;
+  if (constexpr std::string_view band = "band "; s.substr(0, band.size()) == band) {
+    const size_t comma = s.find(", ");
+    if (comma == std::string_view::npos) return unknown();
+    const auto b = parse_band(s.substr(band.size(), comma - band.size()));
+    if (!b) return unknown();
+    c.band = *b;
+    s.remove_prefix(comma + 2);
+  }
+  if (constexpr std::string_view project = "project "; s.substr(0, project.size()) == project) {
+    const size_t comma = s.find(", ");
+    if (comma == std::string_view::npos) return unknown();
+    const auto p = parse_local_projection(s.substr(project.size(), comma - project.size()));
+    if (!p || *p == LocalProjection::kNone) return unknown();
+    c.project = *p;
+    s.remove_prefix(comma + 2);
+  }
+  if (constexpr std::string_view nodata = "nodata "; s.substr(0, nodata.size()) != nodata) return unknown();
+  auto fill = NodataFill::parse(s.substr(std::string_view("nodata ").size()));
+  if (!fill) return unknown();
+  c.nodata_fill = *fill;
+  return c;
+}
+
+Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described,
+                                   const DemChoice& dem_choice, const std::string& terrain) {
   if (dem_path.empty() && terrain == kTerrainRefined) {
     auto world = load_refined_world();
     if (!world) return world.error();
@@ -90,10 +135,13 @@ Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerr
   Result<ImportedWorld> imported = [&]() -> Result<ImportedWorld> {
     if (dem_path.empty()) return load_default_terrain();
     DemScaleOptions options;
-    if (band > 0) options.band = band;
+    if (dem_choice.band > 0) options.band = dem_choice.band;
+    options.project = dem_choice.project;
     auto dem = read_dem_file(dem_path, options);
     if (!dem) return dem.error();
-    return import_dem(*dem);
+    ImportOptions import;
+    import.nodata_fill = dem_choice.nodata_fill;
+    return import_dem(*dem, import);
   }();
   if (!imported) return imported.error();
   if (described) {
@@ -107,7 +155,7 @@ Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerr
       std::error_code ec;
       const auto abs = std::filesystem::absolute(dem_path, ec);
       described->dem_path = ec ? dem_path : abs.string();
-      described->import_params = dem_params(band);
+      described->import_params = dem_import_params(dem_choice);
     }
   }
   return std::move(imported->world);
@@ -242,9 +290,9 @@ Result<World> load_described_terrain(const log::InitialTerrain& initial, const W
           w.set_initial_is_base(true);
           return w;
         }
-        auto band = band_of(initial.import_params);
-        if (!band) return band.error();
-        return load_initial_terrain(initial.dem_path, nullptr, *band);
+        auto choice = parse_dem_import_params(initial.import_params);
+        if (!choice) return choice.error();
+        return load_initial_terrain(initial.dem_path, nullptr, *choice);
       }
       case log::InitialSource::kSnapshot: {
         const auto path =

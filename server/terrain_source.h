@@ -6,6 +6,8 @@
 
 #include <string>
 
+#include "dem/dem_georef.h"
+#include "dem/nodata_fill.h"
 #include "dem/refined_default.h"
 #include "protocol/log/log_format.h"
 #include "protocol/result.h"
@@ -20,11 +22,25 @@ inline constexpr const char* kTerrainRefined = "refined";  // the crop refined 1
 // What a log records as the import parameters of a session on a tile pack.
 inline constexpr const char* kPackImportParams = "tile pack";
 
+// How a DEM file is read into a session: its height band (0: its only band), the local
+// projection a geographic DEM is warped to, and what its NoData samples become. The log
+// records them, so replay imports the DEM the same way.
+struct DemChoice {
+  int band = 0;
+  NodataFill nodata_fill;
+  LocalProjection project = LocalProjection::kNone;
+};
+
+// The import parameters a log records for a DEM read with `choice`, and back. Logs written
+// before the NoData fill was a choice ("default import options[, band N]") filled NoData with
+// the data minimum, and read back so.
+std::string dem_import_params(const DemChoice& choice);
+Result<DemChoice> parse_dem_import_params(const std::string& params);
+
 // Loads a DEM file (a tile pack, .loampack, is opened as the world's base: nothing imported),
-// or without one the embedded terrain `terrain` names, and describes it.
-// `band` names the DEM's height band (0: its only band); the description records it.
-Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described, int band = 0,
-                                   const std::string& terrain = kTerrainCrop);
+// or without one the embedded terrain `terrain` names, and describes it (with `dem`).
+Result<World> load_initial_terrain(const std::string& dem_path, log::InitialTerrain* described,
+                                   const DemChoice& dem = {}, const std::string& terrain = kTerrainCrop);
 
 // known_base (dem/refined_default.h) rebuilds the base a snapshot names.
 

@@ -110,6 +110,37 @@ bool write_geotiff(const fs::path& path, int w, int h, int epsg, const std::arra
   return ok;
 }
 
+// A projected float GeoTIFF with NoData (-9999): round holes of every size up to an "ocean"
+// wider than the interpolation's reach, so the fill's cost and what it reaches are measured.
+bool write_holed_geotiff(const fs::path& path, int w, int h) {
+  if (!write_geotiff(path, w, h, 32632, {600000, 10, 0, 5200000, 0, -10})) return false;
+  GdalErrorCapture quiet;
+  GDALDatasetH ds = GDALOpen(path.string().c_str(), GA_Update);
+  if (!ds) return false;
+  GDALRasterBandH band = GDALGetRasterBand(ds, 1);
+  GDALSetRasterNoDataValue(band, -9999.0);
+  std::vector<float> row(static_cast<size_t>(w));
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(0, 1);
+  struct Hole {
+    double x, y, r;
+  };
+  std::vector<Hole> holes{{0.8 * w, 0.75 * h, 0.2 * w}};  // the ocean: 2 x 205 samples across
+  for (int i = 0; i < 60; ++i) holes.push_back({u(rng) * w, u(rng) * h, 2 + u(rng) * 30});
+  bool ok = true;
+  for (int y = 0; y < h && ok; ++y) {
+    ok = GDALRasterIO(band, GF_Read, 0, y, w, 1, row.data(), w, 1, GDT_Float32, 0, 0) == CE_None;
+    for (int x = 0; x < w; ++x) {
+      for (const Hole& o : holes) {
+        if ((x - o.x) * (x - o.x) + (y - o.y) * (y - o.y) <= o.r * o.r) row[size_t(x)] = -9999.0f;
+      }
+    }
+    ok = ok && GDALRasterIO(band, GF_Write, 0, y, w, 1, row.data(), w, 1, GDT_Float32, 0, 0) == CE_None;
+  }
+  GDALClose(ds);
+  return ok;
+}
+
 // DEMs in the formats shared/data lacks, written under `dir` (a temporary folder, kept between
 // runs so repeated runs skip the writing).
 std::vector<std::string> generated_dems(const Context& ctx, const fs::path& dir) {
@@ -144,6 +175,8 @@ std::vector<std::string> generated_dems(const Context& ctx, const fs::path& dir)
          "  </SimpleSource></VRTRasterBand>\n</VRTDataset>\n";
     return bool(v);
   });
+  make(dir / "nodata_holes_utm32_1024x1024.tif",
+       [](const fs::path& p) { return write_holed_geotiff(p, 1024, 1024); });
   if (!ctx.quick) make(dir / "N46E010.hgt", [](const fs::path& p) { return write_hgt(p, 3601); });
   return out;
 }
@@ -208,8 +241,26 @@ int run_import(const Context& ctx, Report& report) {
   Series read_series{"read (decode)", {}}, import_series{"quantize + tile", {}};
   std::vector<std::string> notes;
   int failures = 0;
+  // Every file as it comes, and the geographic GeoTIFF once more warped to square metres.
+  struct Case {
+    std::string path, label;
+    DemScaleOptions scale;
+    std::vector<std::string> args;
+  };
+  std::vector<Case> cases;
   for (const std::string& path : files) {
-    auto dem = read_dem_file(path);
+    const std::string name = fs::path(path).filename().string();
+    cases.push_back({path, name, {}, {}});
+    if (name.rfind("geographic_4326", 0) == 0) {
+      DemScaleOptions aeqd;
+      aeqd.project = LocalProjection::kAzimuthalEquidistant;
+      cases.push_back({path, name + " (--project aeqd)", aeqd, {"--project", "aeqd"}});
+    }
+  }
+  std::vector<std::string> nodata_notes, distortion_notes;
+  for (const Case& c : cases) {
+    const std::string& path = c.path;
+    auto dem = read_dem_file(path, c.scale);
     if (!dem) {
       std::fprintf(stderr, "import: %s\n", dem.error().describe().c_str());
       ++failures;
@@ -227,12 +278,14 @@ int run_import(const Context& ctx, Report& report) {
         ctx.quick ? MeasureOptions{.warmup = 0, .min_runs = 1, .max_runs = 1, .min_seconds = 0}
                   : MeasureOptions{.min_runs = 3, .max_runs = 1000, .min_seconds = 0.3};
     const Timing tr = measure(
-        ctx, [&] { (void)read_dem_file(path); }, opts);
+        ctx, [&] { (void)read_dem_file(path, c.scale); }, opts);
     const Timing ti = measure(
         ctx, [&] { (void)import_dem(*dem); }, opts);
     const Timing tt = measure(
-        ctx, [&] { (void)import_dem(*read_dem_file(path)); }, opts);
-    const auto [rss_mb, rc] = server_peak_rss_mb({"import", path});
+        ctx, [&] { (void)import_dem(*read_dem_file(path, c.scale)); }, opts);
+    std::vector<std::string> args{"import", path};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    const auto [rss_mb, rc] = server_peak_rss_mb(args);
     if (rc != 0) {
       std::fprintf(stderr, "import: loam-server import %s exited %d\n", path.c_str(), rc);
       ++failures;
@@ -250,10 +303,20 @@ int run_import(const Context& ctx, Report& report) {
     std::snprintf(buf[7], 64, "%.3g", r.rms_error_m);
     std::snprintf(buf[8], 64, "%.4g", r.meters_per_sample);
     std::snprintf(buf[9], 64, "%.1f", rss_mb);
-    const std::string name = fs::path(path).filename().string();
+    const std::string& name = c.label;
     table.add_row({name, dem->format, buf[0], buf[8], r.scale_source, buf[1], buf[2], buf[3], buf[4], buf[5],
                    buf[6], buf[7], r.exact ? "yes" : "no", buf[9]});
     if (!r.scale_note.empty()) notes.push_back("- `" + name + "`: " + r.scale_note);
+    if (!r.distortion.empty()) distortion_notes.push_back("- `" + name + "`: " + r.distortion);
+    if (r.nodata_count > 0) {
+      char nd[256];
+      std::snprintf(nd, sizeof nd,
+                    "- `%s`: %lld NoData samples (%.1f%%), %lld interpolated, %lld beyond reach at %.3f m",
+                    name.c_str(), (long long)r.nodata_count, 100.0 * double(r.nodata_count) / samples,
+                    (long long)r.nodata_interpolated, (long long)(r.nodata_count - r.nodata_interpolated),
+                    r.nodata_fill_m);
+      nodata_notes.push_back(nd);
+    }
     read_series.points.push_back({samples / 1e6, tr.median_s * 1e3});
     import_series.points.push_back({samples / 1e6, ti.median_s * 1e3});
     std::printf(
@@ -271,7 +334,10 @@ int run_import(const Context& ctx, Report& report) {
       "`loam-server import FILE` child process (getrusage through wait4), the program and GDAL included. "
       "Rows after the shared DEMs are generated by the suite (in a temporary folder, loam-bench-import): "
       "SRTM HGT (3 and 1 arc-second), an ESRI ASCII grid (no .prj: its cell size is taken as metres), "
-      "float GeoTIFFs in EPSG:4326 and UTM 32N, and a VRT window of the geographic one.");
+      "float GeoTIFFs in EPSG:4326 and UTM 32N (the geographic one also warped to square metres with "
+      "`--project aeqd`), a VRT window of the geographic one, and a UTM GeoTIFF with NoData holes of every "
+      "size up to an ocean wider than the interpolation's reach (NoData is interpolated by default: "
+      "docs/world.md).");
   report.table(std::move(table));
   char floor[512];
   const auto [floor_mb, floor_rc] = server_peak_rss_mb({"--version"});
@@ -284,6 +350,18 @@ int run_import(const Context& ctx, Report& report) {
       "loam-server import FILE` to a few MB (time reads slightly higher).",
       floor_mb, max_inherited_mb);
   if (floor_rc == 0) report.paragraph(floor);
+  if (!nodata_notes.empty()) {
+    std::string text =
+        "NoData filled (interpolated from the data within 64 samples along eight lines; beyond "
+        "that the data minimum):\n\n";
+    for (const auto& n : nodata_notes) text += n + "\n";
+    report.paragraph(text);
+  }
+  if (!distortion_notes.empty()) {
+    std::string text = "Distortion of geographic DEMs in Loam's square samples:\n\n";
+    for (const auto& n : distortion_notes) text += n + "\n";
+    report.paragraph(text);
+  }
   if (!notes.empty()) {
     std::string text = "Spacing derived from the georeferencing:\n\n";
     for (const auto& n : notes) text += n + "\n";

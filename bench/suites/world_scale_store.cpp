@@ -115,7 +115,7 @@ SnapshotBench bench_snapshots(const Context& ctx, uint64_t stamps, uint64_t ever
       (fs::temp_directory_path() / ("loam_bench_snapshots_" + std::to_string(::getpid()))).string();
   fs::remove_all(dir);
   {
-    auto opened = server::open_storage(dir, "", StampLimits{}, {}, 0, server::kTerrainRefined);
+    auto opened = server::open_storage(dir, "", StampLimits{}, {}, {}, server::kTerrainRefined);
     if (!opened) {
       r.note = opened.error().describe();
       return r;
@@ -202,7 +202,7 @@ SnapshotBench bench_snapshots(const Context& ctx, uint64_t stamps, uint64_t ever
   }
   // A restart: the newest snapshot plus the log after it.
   const auto t1 = std::chrono::steady_clock::now();
-  auto reopened = server::open_storage(dir, "", StampLimits{}, {}, 0, server::kTerrainRefined);
+  auto reopened = server::open_storage(dir, "", StampLimits{}, {}, {}, server::kTerrainRefined);
   r.restart_s = seconds_since(t1);
   if (!reopened) {
     r.note = "restart failed: " + reopened.error().describe();

@@ -22,13 +22,17 @@ struct ImportOptions {
   std::string dem, png, pack;
   std::optional<int> band;
   std::optional<double> mps, vscale, voffset;
+  NodataFill nodata_fill;
+  LocalProjection project = LocalProjection::kNone;
 };
 
 int import_to_pack(const ImportOptions& o, const DemScaleOptions& scale) {
   if (!o.png.empty()) throw std::runtime_error("--png and --pack are separate imports: choose one");
   if (o.pack.size() < 9 || o.pack.substr(o.pack.size() - 9) != kPackExtension)
     throw std::runtime_error("--pack: the file name must end in .loampack");
-  auto r = import_dem_to_pack(o.dem, o.pack, scale);
+  loam::ImportOptions options;
+  options.nodata_fill = o.nodata_fill;
+  auto r = import_dem_to_pack(o.dem, o.pack, scale, options);
   if (!r) die(r.error());
   const PackSummary& p = r->pack;
   const double mib = double(r->import.width) * double(r->import.height) * 2.0 / double(1 << 20);
@@ -50,10 +54,13 @@ int import(const ImportOptions& o) {
   scale.meters_per_sample = o.mps;
   scale.vertical_scale = o.vscale;
   scale.vertical_offset = o.voffset;
+  scale.project = o.project;
   if (!o.pack.empty()) return import_to_pack(o, scale);
   auto dem = read_dem_file(o.dem, scale);
   if (!dem) die(dem.error());
-  auto w = import_dem(*dem);
+  loam::ImportOptions options;
+  options.nodata_fill = o.nodata_fill;
+  auto w = import_dem(*dem, options);
   if (!w) die(w.error());
   std::printf("%sworld hash        %s\n", w->report.summary().c_str(), hex64(w->world.world_hash()).c_str());
   if (!o.png.empty()) {
@@ -78,6 +85,28 @@ Command add_import(CLI::App& app) {
       ->check(cli::FiniteRange(0, 1e6, cli::Bound::kOpen));
   import_cmd->add_option("--vertical-offset", o->voffset, "Metres at source value 0")
       ->check(cli::FiniteRange(-1e7, 1e7));
+  import_cmd
+      ->add_option_function<std::string>(
+          "--nodata-fill",
+          [o](const std::string& v) {
+            auto fill = NodataFill::parse(v);
+            if (!fill) throw CLI::ValidationError("--nodata-fill", fill.error().message);
+            o->nodata_fill = *fill;
+          },
+          "What NoData samples become: interpolate (from the data within 64 samples), min (the data "
+          "minimum) or value:H (H metres)")
+      ->default_str("interpolate");
+  import_cmd
+      ->add_option_function<std::string>(
+          "--project",
+          [o](const std::string& v) {
+            auto p = parse_local_projection(v);
+            if (!p) throw CLI::ValidationError("--project", p.error().message);
+            o->project = *p;
+          },
+          "Warp a geographic DEM (degrees) to square metres first: aeqd (azimuthal equidistant at its "
+          "centre) or utm (its centre's zone); none takes the centre's mean spacing")
+      ->default_str("none");
   import_cmd->add_option("--png", o->png, "Also write the imported world as PNG + sidecar");
   import_cmd->add_option("--pack", o->pack,
                          "Write the world as a tile pack (.loampack) for serve --dem, reading the DEM in "

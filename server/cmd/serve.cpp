@@ -25,7 +25,7 @@ int serve(const ServerConfig& config) {
   const auto access = load_access_tokens(config);
   if (!access) die(access.error());
   auto opened = open_storage(config.data_dir, config.dem_path, config.stamp_limits, config.stamp_images,
-                             config.dem_band, config.terrain);
+                             {config.dem_band, config.nodata_fill, config.project}, config.terrain);
   if (!opened) die(opened.error());
   opened->terrain.mutable_world().set_base_cache_budget(size_t(config.cache_mb) << 20);
   opened->storage.set_retention({config.keep_snapshots, config.log_retention_bytes});
@@ -114,6 +114,28 @@ void add_serve_options(CLI::App* serve_cmd, ServeOptions* o) {
   serve_cmd->add_option("--dem-band", c.dem_band, "The DEM's height band, 1-based (0: its only band)")
       ->capture_default_str()
       ->check(cli::IntRange(0, 65535));
+  serve_cmd
+      ->add_option_function<std::string>(
+          "--nodata-fill",
+          [&c](const std::string& v) {
+            auto fill = NodataFill::parse(v);
+            if (!fill) throw CLI::ValidationError("--nodata-fill", fill.error().message);
+            c.nodata_fill = *fill;
+          },
+          "What the DEM's NoData samples become: interpolate (from the data within 64 samples), min (the "
+          "data minimum) or value:H (H metres); the log records it")
+      ->default_str("interpolate");
+  serve_cmd
+      ->add_option_function<std::string>(
+          "--project",
+          [&c](const std::string& v) {
+            auto p = parse_local_projection(v);
+            if (!p) throw CLI::ValidationError("--project", p.error().message);
+            c.project = *p;
+          },
+          "Warp a geographic DEM (degrees) to square metres first: aeqd (azimuthal equidistant at its "
+          "centre) or utm (its centre's zone); none takes the centre's mean spacing. The log records it")
+      ->default_str("none");
   serve_cmd->add_option("--data-dir", c.data_dir, "Log and snapshot folder")->capture_default_str();
   serve_cmd->add_option("--stamp-image", c.stamp_images,
                         "Grayscale image (PNG/TIFF/EXR) to register for texture stamps (repeatable)");

@@ -1,6 +1,7 @@
-// `serve --dem FILE --dem-band N`: the band is recorded in the log's import parameters, so
-// recovery and `replay` read the same band of a multi-band image, and a multi-band image
-// without a named band is refused at start.
+// `serve --dem FILE --dem-band N --nodata-fill F`: the band and the NoData fill are recorded in
+// the log's import parameters, so recovery and `replay` read the same band of a multi-band image
+// and fill its NoData the same way; a multi-band image without a named band is refused at start;
+// logs written before the fill was a choice replay with the minimum fill they were made with.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -76,10 +77,10 @@ TEST(DemBand, ServeDemBandIsRecordedSoReplayReadsTheSameBand) {
 
   uint64_t green = 0, blue = 0;
   {
-    auto opened = server::open_storage((dir / "green").string(), dem, {}, {}, 2);
+    auto opened = server::open_storage((dir / "green").string(), dem, {}, {}, {.band = 2, .nodata_fill = {}});
     ASSERT_TRUE(opened.ok()) << opened.error().describe();
     green = opened->terrain.world().world_hash();
-    auto other = server::open_storage((dir / "blue").string(), dem, {}, {}, 3);
+    auto other = server::open_storage((dir / "blue").string(), dem, {}, {}, {.band = 3, .nodata_fill = {}});
     ASSERT_TRUE(other.ok()) << other.error().describe();
     blue = other->terrain.world().world_hash();
   }
@@ -89,6 +90,80 @@ TEST(DemBand, ServeDemBandIsRecordedSoReplayReadsTheSameBand) {
   ASSERT_TRUE(replayed.ok()) << replayed.error().describe();
   EXPECT_EQ(replayed->world.world_hash(), green) << "replay must read band 2 again";
   fs::remove_all(dir);
+}
+
+// An ESRI ASCII grid with a hole of NoData in a slope.
+void write_holed_grid(const fs::path& path) {
+  std::ofstream f(path);
+  f << "ncols 40\nnrows 30\nxllcorner 0\nyllcorner 0\ncellsize 10\nNODATA_value -9999\n";
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      const bool hole = (x - 20) * (x - 20) + (y - 15) * (y - 15) <= 36;
+      f << (hole ? -9999.0 : 100.0 + 2.0 * x + y) << (x + 1 < 40 ? " " : "\n");
+    }
+  }
+}
+
+TEST(DemBand, NodataFillIsRecordedSoReplayFillsTheSameWay) {
+  const fs::path dir = fs::temp_directory_path() / ("loam_dem_fill_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  write_holed_grid(dir / "hole.asc");
+  const std::string dem = (dir / "hole.asc").string();
+  std::vector<uint64_t> hashes;
+  for (const char* fill : {"interpolate", "min", "value:90"}) {
+    const std::string data = (dir / fill).string();
+    {
+      auto opened =
+          server::open_storage(data, dem, {}, {}, {.band = 0, .nodata_fill = *NodataFill::parse(fill)});
+      ASSERT_TRUE(opened.ok()) << opened.error().describe();
+      hashes.push_back(opened->terrain.world().world_hash());
+    }
+    auto replayed = server::replay_log(server::list_segments(data), data);
+    ASSERT_TRUE(replayed.ok()) << replayed.error().describe();
+    EXPECT_EQ(replayed->world.world_hash(), hashes.back()) << "replay must fill with " << fill << " again";
+  }
+  EXPECT_NE(hashes[0], hashes[1]);
+  EXPECT_NE(hashes[1], hashes[2]);
+  EXPECT_NE(hashes[0], hashes[2]);
+  fs::remove_all(dir);
+}
+
+TEST(DemBand, ImportParametersOfOldAndNewLogsReadBack) {
+  using server::DemChoice;
+  const NodataFill min{NodataFill::Mode::kMin, 0};
+  auto legacy = server::parse_dem_import_params("default import options");
+  ASSERT_TRUE(legacy.ok());
+  EXPECT_EQ(legacy->band, 0);
+  EXPECT_EQ(legacy->nodata_fill, min) << "logs before the choice filled with the minimum";
+  auto legacy_band = server::parse_dem_import_params("default import options, band 2");
+  ASSERT_TRUE(legacy_band.ok());
+  EXPECT_EQ(legacy_band->band, 2);
+  EXPECT_EQ(legacy_band->nodata_fill, min);
+  for (const DemChoice& c :
+       {DemChoice{}, DemChoice{3, min}, DemChoice{0, {NodataFill::Mode::kValue, -1.5}},
+        DemChoice{2, min, LocalProjection::kUtm}, DemChoice{0, {}, LocalProjection::kAzimuthalEquidistant}}) {
+    const std::string text = server::dem_import_params(c);
+    auto back = server::parse_dem_import_params(text);
+    ASSERT_TRUE(back.ok()) << text;
+    EXPECT_EQ(back->band, c.band) << text;
+    EXPECT_EQ(back->nodata_fill, c.nodata_fill) << text;
+    EXPECT_EQ(back->project, c.project) << text;
+  }
+  EXPECT_EQ(server::dem_import_params({}), "dem import: nodata interpolate");
+  EXPECT_EQ(server::dem_import_params({2, {NodataFill::Mode::kValue, 7}, LocalProjection::kNone}),
+            "dem import: band 2, nodata value:7");
+  EXPECT_EQ(server::dem_import_params({2, min, LocalProjection::kUtm}),
+            "dem import: band 2, project utm, nodata min");
+  for (const char* bad :
+       {"", "default import options, band 0", "default import options, band x", "dem import: nodata",
+        "dem import: band 2 nodata min", "dem import: band 99999, nodata min", "dem import: nodata mean",
+        "dem import: nodata min, band 2", "dem import: project none, nodata min",
+        "dem import: project lcc, nodata min", "dem import: nodata min, project utm"}) {
+    auto r = server::parse_dem_import_params(bad);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_EQ(r.error().code, ErrorCode::kUnsupported);
+  }
 }
 
 }  // namespace

@@ -50,7 +50,7 @@ class CoreHarness {
     // tests of the apply running past a tick set an apply wait of 0: the tick never waits.
     if (config.apply_wait_ms == ServerConfig{}.apply_wait_ms) config.apply_wait_ms = 60000;
     wait_for_apply_ = config.apply_wait_ms > 0;
-    auto opened = open_storage(config.data_dir, "", config.stamp_limits, {}, 0, terrain);
+    auto opened = open_storage(config.data_dir, "", config.stamp_limits, {}, {}, terrain);
     EXPECT_TRUE(opened.ok()) << (opened.ok() ? "" : opened.error().describe());
     core_ = std::make_unique<ReplicationCore>(config, std::move(*opened), now_);
   }

@@ -95,7 +95,7 @@ class Transcript {
     dir_ = std::filesystem::temp_directory_path() / ("loam_core_transcript_" + std::to_string(::getpid()));
     std::filesystem::remove_all(dir_);
     config.data_dir = dir_.string();
-    auto opened = open_storage(config.data_dir, "", config.stamp_limits, {}, 0, kTerrainCrop);
+    auto opened = open_storage(config.data_dir, "", config.stamp_limits, {}, {}, kTerrainCrop);
     EXPECT_TRUE(opened.ok()) << (opened.ok() ? "" : opened.error().describe());
     // A 16x16 ramp, registered before the core starts, for the texture stamp.
     std::vector<uint16_t> ramp(16 * 16);

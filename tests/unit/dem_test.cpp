@@ -342,6 +342,25 @@ TEST(DemImport, EverySharedDemRoundTripsWithinReportedError) {
   fs::remove_all(dir);
 }
 
+// The reports built on the shared DEMs (lod, codec, import) import them as before the NoData fill
+// became a choice: none of them holds NoData (their sidecars state the spacing, so no
+// projection applies either), so the default fill and the old minimum fill give the same world.
+TEST(DemImport, EverySharedDemImportsAsBeforeTheFillWasAChoice) {
+  const auto files = dems_in(LOAM_SHARED_DATA_DIR);
+  if (files.empty()) GTEST_SKIP() << "shared DEMs absent: " << LOAM_SHARED_DATA_DIR;
+  for (const auto& f : files) {
+    auto dem = read_dem_file(f.string());
+    ASSERT_TRUE(dem.ok()) << dem.error().describe();
+    EXPECT_EQ(dem->nodata_count, 0) << f;
+    EXPECT_EQ(dem->scale_source, "sidecar") << f;
+    ImportOptions min;
+    min.nodata_fill.mode = NodataFill::Mode::kMin;
+    auto a = import_dem(*dem), b = import_dem(*dem, min);
+    ASSERT_TRUE(a.ok() && b.ok()) << f;
+    EXPECT_EQ(a->world.world_hash(), b->world.world_hash()) << f;
+  }
+}
+
 TEST(DemImport, FloatSourceErrorIsAtMostHalfAUnit) {
   const fs::path dir = temp_dir();
   std::vector<float> px(300 * 200);
@@ -364,7 +383,7 @@ TEST(DemImport, FloatSourceErrorIsAtMostHalfAUnit) {
   fs::remove_all(dir);
 }
 
-TEST(DemImport, TiffNoDataIsFilledWithTheMinimumAndCounted) {
+TEST(DemImport, TiffNoDataFilledWithTheMinimumOrAValueWhenAsked) {
   const fs::path dir = temp_dir();
   std::vector<double> px(16 * 8, 100.0);
   px[5] = -9999.0;
@@ -380,11 +399,83 @@ TEST(DemImport, TiffNoDataIsFilledWithTheMinimumAndCounted) {
   EXPECT_EQ(dem->nodata_count, 2);
   EXPECT_EQ(dem->scale_source, "georeferencing");
   EXPECT_DOUBLE_EQ(dem->meters_per_sample, 30.0);
-  auto w = import_dem(*dem);
+  ImportOptions min;
+  min.nodata_fill = *NodataFill::parse("min");
+  auto w = import_dem(*dem, min);
   ASSERT_TRUE(w.ok());
   EXPECT_EQ(w->report.nodata_count, 2);
+  EXPECT_EQ(w->report.nodata_interpolated, 0);
   EXPECT_NEAR(w->report.nodata_fill_m, 20.0, w->report.meters_per_unit);
   EXPECT_EQ(w->world.coarse(5, 0), w->world.coarse(8, 2)) << "NoData sample gets the fill (the minimum)";
+  EXPECT_NE(w->report.summary().find("2 samples filled with 19.999 m (min)"), std::string::npos)
+      << w->report.summary();  // the minimum as quantized
+  // A value beyond the data's range widens the range quantized.
+  ImportOptions value;
+  value.nodata_fill = *NodataFill::parse("value:-50");
+  auto v = import_dem(*dem, value);
+  ASSERT_TRUE(v.ok());
+  EXPECT_NEAR(v->world.params().height_meters(v->world.coarse(5, 0)), -50.0, v->report.meters_per_unit);
+  EXPECT_NEAR(v->world.params().height_meters(v->world.coarse(2, 2)), 100.0, v->report.meters_per_unit);
+  EXPECT_LT(v->world.params().height_offset, -50.0);
+  // By default they are interpolated from the samples around them (all 100 m here).
+  auto i = import_dem(*dem);
+  ASSERT_TRUE(i.ok());
+  EXPECT_EQ(i->report.nodata_interpolated, 2);
+  EXPECT_NEAR(i->world.params().height_meters(i->world.coarse(5, 0)), 100.0, i->report.meters_per_unit);
+  fs::remove_all(dir);
+}
+
+// The case that filed the issue: a 95 x 90 Int16 GeoTIFF with 3,942 NoData samples came in as a
+// flat floor at its minimum with cliffs around it. Interpolated, the hole meets its rim.
+TEST(DemImport, AGeoTiffsNoDataHoleIsInterpolatedFromItsRimWithoutCliffs) {
+  const fs::path dir = temp_dir();
+  const int w = 95, h = 90;
+  std::vector<double> v = rough_terrain(w, h, 31);
+  int64_t hole = 0;
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if ((x - 50) * (x - 50) + (y - 40) * (y - 40) <= 35 * 35) {
+        v[size_t(y * w + x)] = -32768;
+        ++hole;
+      }
+    }
+  }
+  ASSERT_EQ(hole, 3853);
+  TestRaster r = single_band(w, h, GDT_Int16, v);
+  r.bands[0].nodata = -32768;
+  r.transform = std::array<double, 6>{500000, 30, 0, 5000000, 0, -30};
+  r.epsg = 32633;
+  write_raster(dir / "hole.tif", "GTiff", r);
+  auto dem = read_dem_file((dir / "hole.tif").string());
+  ASSERT_TRUE(dem.ok()) << dem.error().describe();
+  auto imported = import_dem(*dem);
+  ASSERT_TRUE(imported.ok()) << imported.error().describe();
+  const ImportReport& rep = imported->report;
+  EXPECT_EQ(rep.nodata_count, hole);
+  EXPECT_EQ(rep.nodata_interpolated, hole);
+  EXPECT_NE(rep.summary().find("3853 interpolated"), std::string::npos) << rep.summary();
+  const World& world = imported->world;
+  // The steepest step between neighbours inside the hole is no steeper than the data's own.
+  auto m = [&](int x, int y) { return world.params().height_meters(world.coarse(x, y)); };
+  auto in_hole = [&](int x, int y) { return (x - 50) * (x - 50) + (y - 40) * (y - 40) <= 35 * 35; };
+  double data_step = 0, hole_step = 0;
+  int64_t at_min = 0;
+  for (int y = 1; y < h; ++y) {
+    for (int x = 1; x < w; ++x) {
+      const double step = std::max(std::fabs(m(x, y) - m(x - 1, y)), std::fabs(m(x, y) - m(x, y - 1)));
+      const bool hole_edge = in_hole(x, y) || in_hole(x - 1, y) || in_hole(x, y - 1);
+      (hole_edge ? hole_step : data_step) = std::max(hole_edge ? hole_step : data_step, step);
+      at_min += in_hole(x, y) && std::fabs(m(x, y) - rep.min_m) < 1e-9;
+    }
+  }
+  EXPECT_LE(hole_step, data_step);
+  EXPECT_LT(at_min, hole / 100) << "no floor at the minimum";
+  // `min` gives the floor with its cliffs back, as before.
+  ImportOptions min;
+  min.nodata_fill.mode = NodataFill::Mode::kMin;
+  auto floor = import_dem(*dem, min);
+  ASSERT_TRUE(floor.ok());
+  EXPECT_EQ(floor->world.coarse(50, 40), quantize_height(floor->world.params(), rep.min_m));
   fs::remove_all(dir);
 }
 
@@ -413,6 +504,88 @@ TEST(DemImport, GeographicGeoTiffGetsMetresAtCentreLatitude) {
 // The spacing a geographic grid gets is the one shared/data's ETOPO5 sidecar states. The
 // sidecar used the usual series for metres per degree of WGS 84 (110574.275 m per degree of
 // latitude at the equator); Loam evaluates the ellipsoid's radii directly: they agree to 2e-6.
+// A plane in metres sampled on a geographic grid at 60 degrees north, where a sample is twice
+// as tall as it is wide. Warped to a local projection the samples are square metres, and the
+// plane's slopes come back in metres along both axes; unwarped, the report says how far off the
+// squared samples are.
+TEST(DemImport, GeographicDemWarpedToALocalProjectionHasSquareMetreSamples) {
+  const fs::path dir = temp_dir();
+  const int w = 120, h = 80;
+  const double d = 3.0 / 3600.0, lat0 = 60.0 + 40 * d, lon0 = 10.0;
+  const auto [mx, my] = wgs84_spacing(60.0, d, d);  // metres per sample at the centre
+  std::vector<double> v(size_t(w * h));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      v[size_t(y * w + x)] = 500.0 + 0.05 * (x - w / 2) * mx - 0.1 * (y - h / 2) * my;
+  TestRaster r = single_band(w, h, GDT_Float32, v);
+  r.transform = std::array<double, 6>{lon0, d, 0, lat0, 0, -d};
+  r.epsg = 4326;
+  write_raster(dir / "north.tif", "GTiff", r);
+  const std::string path = (dir / "north.tif").string();
+
+  auto plain = read_dem_file(path);
+  ASSERT_TRUE(plain.ok()) << plain.error().describe();
+  EXPECT_NEAR(plain->anisotropy, my / mx, 0.01);
+  EXPECT_NE(plain->distortion.find("east-west by +41."), std::string::npos) << plain->distortion;
+
+  for (const LocalProjection p : {LocalProjection::kAzimuthalEquidistant, LocalProjection::kUtm}) {
+    SCOPED_TRACE(to_string(p));
+    DemScaleOptions o;
+    o.project = p;
+    auto dem = read_dem_file(path, o);
+    ASSERT_TRUE(dem.ok()) << dem.error().describe();
+    EXPECT_DOUBLE_EQ(dem->anisotropy, 1.0);
+    EXPECT_GT(dem->meters_per_sample, mx * 0.9);
+    EXPECT_LT(dem->meters_per_sample, my * 1.1);
+    EXPECT_NE(dem->distortion.find(p == LocalProjection::kUtm ? "UTM zone 32N" : "azimuthal equidistant"),
+              std::string::npos)
+        << dem->distortion;
+    // The plane's slopes, per metre, along a row (east) and down a column (south), in the middle.
+    const int64_t W = dem->width, H = dem->height;
+    const double s = dem->meters_per_sample;
+    std::vector<double> east, south;
+    for (int64_t y = H / 4; y < 3 * H / 4; ++y) {
+      for (int64_t x = W / 4; x < 3 * W / 4; ++x) {
+        const double a = dem->meters[size_t(y * W + x)], b = dem->meters[size_t(y * W + x + 1)],
+                     c = dem->meters[size_t((y + 1) * W + x)];
+        if (std::isnan(a) || std::isnan(b) || std::isnan(c)) continue;
+        east.push_back((b - a) / s);
+        south.push_back((c - a) / s);
+      }
+    }
+    ASSERT_GT(east.size(), 100u);
+    std::nth_element(east.begin(), east.begin() + ptrdiff_t(east.size() / 2), east.end());
+    std::nth_element(south.begin(), south.begin() + ptrdiff_t(south.size() / 2), south.end());
+    // UTM zone 32's central meridian is 9 degrees east: its grid north turns by about a degree.
+    const double tol = p == LocalProjection::kUtm ? 0.004 : 0.002;
+    EXPECT_NEAR(east[east.size() / 2], 0.05, tol);
+    EXPECT_NEAR(south[south.size() / 2], -0.1, tol);
+    // The corners outside the warped footprint are NoData, interpolated on import.
+    auto imported = import_dem(*dem);
+    ASSERT_TRUE(imported.ok()) << imported.error().describe();
+    EXPECT_NE(imported->report.summary().find("distortion"), std::string::npos);
+  }
+  // Only a geographic raster is projected, and only by its georeferencing.
+  DemScaleOptions both;
+  both.project = LocalProjection::kAzimuthalEquidistant;
+  both.meters_per_sample = 30.0;
+  auto refused = read_dem_file(path, both);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_NE(refused.error().describe().find("--meters-per-sample"), std::string::npos)
+      << refused.error().describe();
+  TestRaster utm = single_band(16, 8, GDT_Float32, std::vector<double>(16 * 8, 10.0));
+  utm.transform = std::array<double, 6>{500000, 30, 0, 5000000, 0, -30};
+  utm.epsg = 32633;
+  write_raster(dir / "utm.tif", "GTiff", utm);
+  DemScaleOptions project;
+  project.project = LocalProjection::kUtm;
+  auto projected = read_dem_file((dir / "utm.tif").string(), project);
+  ASSERT_FALSE(projected.ok());
+  EXPECT_NE(projected.error().describe().find("geographic"), std::string::npos)
+      << projected.error().describe();
+  fs::remove_all(dir);
+}
+
 TEST(DemImport, GeographicSpacingMatchesTheEtopo5Sidecar) {
   const fs::path dir = temp_dir();
   const double west = -0.041667052558462606, east = 359.9616670525584;
@@ -546,6 +719,18 @@ TEST(DemImport, AsciiGridCellThatIsNotANumberIsRefusedNamingItsRowAndColumn) {
   auto mem = read_dem_memory(bytes, "banana.asc", "");
   ASSERT_FALSE(mem.ok());
   EXPECT_EQ(mem.error().describe(), "banana.asc: row 3, column 3 (line 9): 'banana' is not a number");
+  // Through a VRT the grid is checked the same way.
+  std::ofstream(dir / "over.vrt")
+      << "<VRTDataset rasterXSize=\"5\" rasterYSize=\"4\"><VRTRasterBand "
+         "dataType=\"Float32\" band=\"1\"><SimpleSource><SourceFilename "
+         "relativeToVRT=\"1\">banana.asc</SourceFilename><SourceBand>1</SourceBand>"
+         "</SimpleSource></VRTRasterBand></VRTDataset>";
+  auto through = read_dem_file((dir / "over.vrt").string());
+  ASSERT_FALSE(through.ok());
+  EXPECT_NE(through.error().describe().find("its source banana.asc"), std::string::npos)
+      << through.error().describe();
+  EXPECT_NE(through.error().describe().find("row 3, column 3"), std::string::npos)
+      << through.error().describe();
   std::ofstream(dir / "clean.asc") << header << "1 2 3 4 5\n6 7 8 9 10\n11 12 13 14 15\n16 17 18 19 -9999\n";
   auto clean = read_dem_file((dir / "clean.asc").string());
   ASSERT_TRUE(clean.ok()) << clean.error().describe();

@@ -159,6 +159,10 @@ TEST(PackImport, PackTilesEqualTheWholeRasterImportAtEveryMip) {
     EXPECT_EQ(a.min_m, b.min_m);
     EXPECT_EQ(a.max_m, b.max_m);
     EXPECT_EQ(a.nodata_count, b.nodata_count);
+    EXPECT_EQ(a.nodata_interpolated, b.nodata_interpolated);
+    if (c.holes) {
+      EXPECT_GT(a.nodata_interpolated, 0);
+    }
     EXPECT_EQ(a.apron_m, b.apron_m);
     EXPECT_EQ(a.max_error_m, b.max_error_m);
     EXPECT_DOUBLE_EQ(a.rms_error_m, b.rms_error_m);
