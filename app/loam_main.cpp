@@ -14,17 +14,19 @@
 
 namespace {
 
-loam::ImportedWorld load(const std::string& dem_path, std::optional<double> mps, std::optional<double> vscale,
-                         std::optional<int> band) {
+// How a DEM file is read: the scale options and the import's NoData fill.
+struct DemReading {
   loam::DemScaleOptions scale;
-  scale.meters_per_sample = mps;
-  scale.vertical_scale = vscale;
-  scale.band = band;
+  loam::ImportOptions import;
+};
+
+loam::ImportedWorld load(const std::string& dem_path, const DemReading& reading) {
+  const loam::DemScaleOptions& scale = reading.scale;
   loam::Result<loam::ImportedWorld> imported = [&]() -> loam::Result<loam::ImportedWorld> {
     if (dem_path.empty()) return loam::load_default_terrain();
     auto dem = loam::read_dem_file(dem_path, scale);
     if (!dem) return dem.error();
-    return loam::import_dem(*dem);
+    return loam::import_dem(*dem, reading.import);
   }();
   if (!imported) throw std::runtime_error(imported.error().describe());
   return std::move(*imported);
@@ -52,23 +54,46 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
 
   std::string dem_path;
-  std::optional<double> mps, vscale;
-  std::optional<int> band;
+  DemReading reading;
+  // The options every command that reads a DEM takes alike.
+  auto dem_options = [&reading](CLI::App* cmd) {
+    cmd->add_option("--band", reading.scale.band,
+                    "The DEM's height band, 1-based (required for multi-band images)")
+        ->check(CLI::Range(1, 65535));
+    cmd->add_option_function<std::string>(
+           "--nodata-fill",
+           [&reading](const std::string& v) {
+             auto fill = loam::NodataFill::parse(v);
+             if (!fill) throw CLI::ValidationError("--nodata-fill", fill.error().message);
+             reading.import.nodata_fill = *fill;
+           },
+           "What NoData samples become: interpolate (from the data within 64 samples), min or value:H")
+        ->default_str("interpolate");
+    cmd->add_option_function<std::string>(
+           "--project",
+           [&reading](const std::string& v) {
+             auto p = loam::parse_local_projection(v);
+             if (!p) throw CLI::ValidationError("--project", p.error().message);
+             reading.scale.project = *p;
+           },
+           "Warp a geographic DEM to square metres first: aeqd or utm (none: the centre's mean spacing)")
+        ->default_str("none");
+  };
   auto* summary =
       app.add_subcommand("summary", "Load a terrain (default: the embedded one) and print its summary");
   summary->add_option(
       "--dem", dem_path,
       "DEM file (GeoTIFF, PNG, SRTM .hgt, ESRI .asc, VRT, EXR) instead of the embedded default");
-  summary->add_option("--band", band, "The DEM's height band, 1-based (required for multi-band images)")
-      ->check(CLI::Range(1, 65535));
-  summary->add_option("--meters-per-sample", mps, "Horizontal spacing (overrides sidecar/GeoTIFF)");
-  summary->add_option("--vertical-scale", vscale, "Meters per source unit for integer DEMs");
+  dem_options(summary);
+  summary->add_option("--meters-per-sample", reading.scale.meters_per_sample,
+                      "Horizontal spacing (overrides sidecar/GeoTIFF)");
+  summary->add_option("--vertical-scale", reading.scale.vertical_scale,
+                      "Meters per source unit for integer DEMs");
 
   std::string out_path;
   auto* exp = app.add_subcommand("export", "Write a terrain as 16-bit PNG (+ sidecar) or float EXR");
   exp->add_option("--dem", dem_path, "DEM file instead of the embedded default");
-  exp->add_option("--band", band, "The DEM's height band, 1-based (required for multi-band images)")
-      ->check(CLI::Range(1, 65535));
+  dem_options(exp);
   exp->add_option("output", out_path, "Output .png or .exr")->required();
 
   try {
@@ -77,7 +102,7 @@ int main(int argc, char** argv) {
     return app.exit(e);
   }
   try {
-    const loam::ImportedWorld w = load(dem_path, mps, vscale, band);
+    const loam::ImportedWorld w = load(dem_path, reading);
     if (*summary) {
       print_summary(w);
     } else if (*exp) {

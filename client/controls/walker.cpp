@@ -38,11 +38,18 @@ bool faces_hold(const glm::dvec3& normal_sum, const WalkerConfig& c, glm::dvec3&
 
 // Moves the capsule by `motion`, sliding along what it meets (up to four contacts); returns
 // whether what it met holds it up (a walkable face, or steep faces together), and that normal.
+// Met by a second face while sliding along a first, it slides along the crease the two make;
+// met by a third, it stops. Wedged so (most of the motion spent against two faces or more,
+// however steep their crease) it rests on them: they hold it.
 bool move_and_slide(Walker& w, const query::TerrainSnapshot& s, glm::dvec3 motion, const WalkerConfig& c,
                     glm::dvec3& support) {
   bool supported = false;
   std::optional<glm::dvec3> steep;  // the last face met that was too steep on its own
   glm::dvec3 steep_sum{0.0};        // every such face met
+  glm::dvec3 planes[4];             // the faces met, for the creases they make
+  int faces = 0;
+  const glm::dvec3 start = w.feet;
+  const double asked = glm::length(motion);
   for (int i = 0; i < 4 && glm::length(motion) > 1e-9; ++i) {
     const query::SweepResult r = query::sweep_capsule(s, capsule_at(w.feet, c), motion);
     if (!r.contact) {
@@ -63,6 +70,21 @@ bool move_and_slide(Walker& w, const query::TerrainSnapshot& s, glm::dvec3 motio
     // Slide: the rest of the motion without its part into the surface; the velocity likewise.
     motion -= n * std::min(0.0, glm::dot(motion, n));
     w.velocity -= n * std::min(0.0, glm::dot(w.velocity, n));
+    // Sliding back into a face met before: along the crease of the two, or, a third, not at all.
+    for (int k = 0; k < faces; ++k) {
+      if (glm::dot(motion, planes[k]) >= -1e-12) continue;
+      const glm::dvec3 crease = glm::cross(planes[k], n);
+      if (glm::length(crease) < 1e-9 || faces >= 2) {
+        motion = glm::dvec3(0.0);
+        w.velocity = glm::dvec3(0.0);
+        break;
+      }
+      const glm::dvec3 d = glm::normalize(crease);
+      motion = d * glm::dot(motion, d);
+      w.velocity = d * glm::dot(w.velocity, d);
+      break;
+    }
+    if (faces < 4) planes[faces++] = n;
     if (walkable(n, c)) {
       supported = true;
       support = n;
@@ -73,6 +95,11 @@ bool move_and_slide(Walker& w, const query::TerrainSnapshot& s, glm::dvec3 motio
       steep = n;
       steep_sum += n;
     }
+  }
+  if (!supported && faces >= 2 && asked > 1e-9 && glm::length(w.feet - start) < 0.1 * asked &&
+      steep_sum.z > 1e-3) {
+    supported = true;
+    support = glm::normalize(steep_sum);
   }
   return supported;
 }
@@ -97,6 +124,13 @@ bool probe_ground(Walker& w, const query::TerrainSnapshot& s, double probe, cons
     sum += n;
     if (k > 0 && faces_hold(sum, c, support)) {
       w.feet = at;
+      return true;
+    }
+    // Wedged between faces it cannot slide between (a third one stops the crease at once): it
+    // rests on them.
+    if (k == 2 && glm::length(at - w.feet) < 0.01 && sum.z > 1e-3) {
+      w.feet = at;
+      support = glm::normalize(sum);
       return true;
     }
     // The rest of the probe along the face (after two faces, along the crease they make).

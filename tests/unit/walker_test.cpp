@@ -123,6 +123,62 @@ TEST(Walker, InACreaseOfTwoSteepFacesItStandsWhereTheyMeet) {
   }
 }
 
+// What the viewer's walker met at a crater's foot under load: a crease of two 53-degree faces
+// whose floor itself falls at 53 degrees before it levels out. Neither the faces nor the crease
+// hold it there; it slides down along the crease, as a ball would, and stands where the floor
+// levels (it stayed wedged in the air, motion and velocity spent bouncing between the faces).
+TEST(Walker, InASteepCreaseItSlidesDownAlongItAndStandsWhereItLevels) {
+  const World world = world_of([](double x, double y) {
+    const double floor = x < 128.0 ? 100.0 - 1.3 * (x - 128.0) : 100.0 - 0.2 * (x - 128.0);
+    return floor + 1.3 * std::abs(y - 128.0);
+  });
+  const auto s = snap(world);
+  Walker w = place_walker(*s, 120.0, 128.1);
+  EXPECT_FALSE(w.grounded);
+  int frames = 0;
+  while (!w.grounded && frames < 600) {
+    step_walker(w, *s, {}, 1.0 / 60);
+    ++frames;
+  }
+  ASSERT_TRUE(w.grounded) << "feet at " << w.feet.x << ", " << w.feet.y << ", " << w.feet.z;
+  EXPECT_GT(w.feet.x, 127.0) << "it slid down the crease to where the floor levels";
+  EXPECT_NEAR(w.feet.y, 128.0, 0.1);
+  EXPECT_GE(w.feet.z - ground(*s, w), -1e-6);
+  for (int i = 0; i < 120; ++i) {
+    step_walker(w, *s, {}, 1.0 / 60);
+    ASSERT_TRUE(w.grounded) << "frame " << i;
+  }
+}
+
+// A pit of three faces at 75 degrees, 120 degrees apart: no two of them make a floor, every
+// crease between two runs into the third. Wedged there it rests on them and stands, frame after
+// frame, instead of hanging in the air with its fall spent against the faces.
+TEST(Walker, WedgedInAPitOfSteepFacesItRestsOnThem) {
+  const double k = rise_of(75);
+  const World world = world_of([k](double x, double y) {
+    double m = -1e9;
+    for (int i = 0; i < 3; ++i) {
+      const double a = 2.0 * std::numbers::pi * i / 3.0 + 0.3;
+      m = std::max(m, std::cos(a) * (x - 128.0) + std::sin(a) * (y - 128.0));
+    }
+    return 100.0 + k * m;
+  });
+  const auto s = snap(world);
+  for (const double dx : {0.0, 0.12, -0.2}) {
+    Walker w;
+    w.feet = {128.0 + dx, 128.0 + 0.07, 104.0};
+    for (int i = 0; i < 180; ++i) step_walker(w, *s, {}, 1.0 / 60);
+    for (int i = 0; i < 60; ++i) {
+      step_walker(w, *s, {}, 1.0 / 60);
+      ASSERT_TRUE(w.grounded) << "dx " << dx << ", frame " << i << ", feet at " << w.feet.x << ", "
+                              << w.feet.y << ", " << w.feet.z;
+    }
+    EXPECT_NEAR(w.feet.x, 128.0, 0.4);
+    EXPECT_NEAR(w.feet.y, 128.0, 0.4);
+    EXPECT_GE(w.feet.z - ground(*s, w), -1e-6);
+  }
+}
+
 TEST(Walker, AJumpRisesAsHighAsItsTakeOffSpeedAllows) {
   World world(params(), 3200);
   const auto s = snap(world);
