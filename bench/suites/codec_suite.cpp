@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "bench/harness.h"
+#include "bench/suites/codec_eval_set.h"
 #include "dem/dem_import.h"
 #include "dem/dem_raster.h"
 #include "protocol/codec/fast_coder.h"
@@ -220,24 +221,14 @@ int run_codec(const Context& ctx, Report& report) {
   std::vector<World> worlds;
   int failures = 0;
 
-  for (const std::string& path : files) {
-    auto dem = read_dem_file(path);
-    if (!dem) {
-      std::fprintf(stderr, "codec: %s\n", dem.error().describe().c_str());
-      ++failures;
-      continue;
-    }
-    auto imported = import_dem(*dem);
-    if (!imported) {
-      std::fprintf(stderr, "codec: %s\n", imported.error().describe().c_str());
-      ++failures;
-      continue;
-    }
-    std::vector<Tile> tiles = world_tiles(imported->world, 0);
+  std::vector<bool> eval_dem;  // the evaluation set (codec_eval_set.h): reported apart
+  // One DEM through every codec: bytes, losslessness and speed.
+  auto add_dem = [&](const std::string& name, World world, bool counted, bool evaluation) {
+    std::vector<Tile> tiles = world_tiles(world, 0);
     if (ctx.quick && tiles.size() > 4) tiles.resize(4);
-    const std::string name = std::filesystem::path(path).stem().string();
     names.push_back(name);
-    shared_dem.push_back(path.rfind(ctx.source_dir + "/data", 0) != 0);
+    shared_dem.push_back(counted);
+    eval_dem.push_back(evaluation);
     samples_per_dem.push_back(double(tiles.size()) * kSide * kSide);
     for (const Codec& c : cs) {
       Cell cell;
@@ -281,7 +272,57 @@ int run_codec(const Context& ctx, Report& report) {
                 cells["loam fast"].back().bytes * 8 / samples_per_dem.back(),
                 cells["LERC (liblerc)"].back().bytes * 8 / samples_per_dem.back(),
                 cells["PNG16 (OIIO)"].back().bytes * 8 / samples_per_dem.back());
-    worlds.push_back(std::move(imported->world));
+    if (!evaluation) worlds.push_back(std::move(world));  // the delta, refinement and ISA runs: tuning set
+  };
+  for (const std::string& path : files) {
+    auto dem = read_dem_file(path);
+    if (!dem) {
+      std::fprintf(stderr, "codec: %s\n", dem.error().describe().c_str());
+      ++failures;
+      continue;
+    }
+    auto imported = import_dem(*dem);
+    if (!imported) {
+      std::fprintf(stderr, "codec: %s\n", imported.error().describe().c_str());
+      ++failures;
+      continue;
+    }
+    add_dem(std::filesystem::path(path).stem().string(), std::move(imported->world),
+            path.rfind(ctx.source_dir + "/data", 0) != 0, false);
+  }
+  // The evaluation set, checked against its frozen manifest first.
+  std::vector<std::string> skipped;
+  std::vector<EvalDem> eval = codec_evaluation_set(ctx.shared_data_dir, skipped);
+  std::vector<std::string> eval_what;
+  {
+    const std::string manifest_path = ctx.source_dir + "/bench/codec_eval_set.txt";
+    auto manifest = read_eval_manifest(manifest_path);
+    if (!manifest) {
+      std::fprintf(stderr, "codec: %s\n", manifest.error().describe().c_str());
+      for (const EvalDem& d : eval) std::fprintf(stderr, "%s\n", eval_manifest_line(d).c_str());
+      ++failures;
+    } else {
+      for (const EvalDem& d : eval) {
+        const auto m = std::find_if(manifest->begin(), manifest->end(),
+                                    [&](const EvalManifestEntry& e) { return e.name == d.name; });
+        if (m == manifest->end() || m->world_hash != d.imported.world.world_hash()) {
+          std::fprintf(stderr, "codec: evaluation DEM %s differs from the frozen manifest %s:\n%s\n",
+                       d.name.c_str(), manifest_path.c_str(), eval_manifest_line(d).c_str());
+          ++failures;
+        }
+      }
+      if (skipped.empty() && manifest->size() != eval.size()) {
+        std::fprintf(stderr, "codec: the manifest lists %zu evaluation DEMs, the recipes make %zu\n",
+                     manifest->size(), eval.size());
+        ++failures;
+      }
+    }
+    for (const std::string& s : skipped) std::printf("codec: evaluation DEM skipped: %s\n", s.c_str());
+  }
+  if (ctx.quick && eval.size() > 3) eval.erase(eval.begin() + 3, eval.end());
+  for (EvalDem& d : eval) {
+    eval_what.push_back(d.what);
+    add_dem(d.name, std::move(d.imported.world), true, true);
   }
   if (names.empty()) return failures + 1;
 
@@ -290,7 +331,10 @@ int run_codec(const Context& ctx, Report& report) {
     std::vector<std::string> cols = {"dem", "tiles"};
     for (const Codec& c : cs) cols.push_back(c.name);
     Table t("codec", cols);
+    size_t tuning = 0;
     for (size_t d = 0; d < names.size(); ++d) {
+      if (eval_dem[d]) continue;
+      ++tuning;
       std::vector<std::string> row = {names[d], fmt("%.0f", samples_per_dem[d] / (kSide * kSide))};
       for (const Codec& c : cs) row.push_back(fmt("%.3f", cells[c.name][d].bytes * 8 / samples_per_dem[d]));
       t.add_row(row);
@@ -299,11 +343,12 @@ int run_codec(const Context& ctx, Report& report) {
     for (const Codec& c : cs) {
       double lg = 0;
       for (size_t d = 0; d < names.size(); ++d)
-        lg += std::log(cells[c.name][d].bytes * 8 / samples_per_dem[d]);
-      gm.push_back(fmt("%.3f", std::exp(lg / double(names.size()))));
+        if (!eval_dem[d]) lg += std::log(cells[c.name][d].bytes * 8 / samples_per_dem[d]);
+      gm.push_back(fmt("%.3f", std::exp(lg / double(std::max<size_t>(tuning, 1)))));
     }
     t.add_row(gm);
     report.paragraph(
+        "**Tuning set** (data/ and ../shared/data, the DEMs the codec was developed against). "
         "Bits per sample (raw is 16) over all 256x256 mip-0 tiles of each DEM as Loam imports it "
         "(quantized with headroom, padding tiles included: what the server sends; the issue's baselines were "
         "taken on source samples, so absolute numbers differ). Every codec with a decoder is checked "
@@ -324,6 +369,7 @@ int run_codec(const Context& ctx, Report& report) {
     Table t("codec_ratios", {"dem", "best / LERC", "best / LERC+zstd", "best / PNG16", "best / MED+zstd-1",
                              "fast / MED+zstd-1"});
     for (size_t d = 0; d < names.size(); ++d) {
+      if (eval_dem[d]) continue;
       const double rl =
           std::max(ratio("loam best", "LERC (liblerc)", d), ratio("loam best", "LERC+zstd-9", d));
       const double rp = ratio("loam best", "PNG16 (OIIO)", d);
@@ -348,6 +394,56 @@ int run_codec(const Context& ctx, Report& report) {
         "LERC+zstd (the stricter peer) over the shared DEMs; default_terrain (a crop of etopo5) is shown, "
         "not counted.");
     report.table(std::move(t));
+  }
+
+  // The evaluation set: bits per sample, and best against the baselines.
+  double e_med19 = 0, e_png = 0, e_worst = 0;
+  std::string e_worst_name;
+  size_t n_eval = 0;
+  {
+    std::vector<std::string> cols = {"dem", "tiles"};
+    for (const Codec& c : cs) cols.push_back(c.name);
+    Table t("codec_eval", cols);
+    Table r("codec_eval_ratios", {"dem", "recipe", "best / MED+planes+zstd-19", "best / PNG16", "best / LERC",
+                                  "fast / MED+zstd-1"});
+    std::vector<double> lg(cs.size(), 0.0);
+    for (size_t d = 0, e = 0; d < names.size(); ++d) {
+      if (!eval_dem[d]) continue;
+      std::vector<std::string> row = {names[d], fmt("%.0f", samples_per_dem[d] / (kSide * kSide))};
+      for (size_t k = 0; k < cs.size(); ++k) {
+        const double bps = cells[cs[k].name][d].bytes * 8 / samples_per_dem[d];
+        row.push_back(fmt("%.3f", bps));
+        lg[k] += std::log(bps);
+      }
+      t.add_row(row);
+      const double rm = ratio("loam best", "MED+planes+zstd-19", d),
+                   rp = ratio("loam best", "PNG16 (OIIO)", d);
+      e_med19 += std::log(rm);
+      e_png += std::log(rp);
+      if (rm > e_worst) {
+        e_worst = rm;
+        e_worst_name = names[d];
+      }
+      r.add_row({names[d], eval_what[e++], fmt("%.3f", rm), fmt("%.3f", rp),
+                 fmt("%.3f", ratio("loam best", "LERC (liblerc)", d)),
+                 fmt("%.3f", ratio("loam fast", "MED+planes+zstd-1", d))});
+      ++n_eval;
+    }
+    if (n_eval > 0) {
+      std::vector<std::string> gm = {"geometric mean", ""};
+      for (size_t k = 0; k < cs.size(); ++k) gm.push_back(fmt("%.3f", std::exp(lg[k] / double(n_eval))));
+      t.add_row(gm);
+      e_med19 = std::exp(e_med19 / double(n_eval));
+      e_png = std::exp(e_png / double(n_eval));
+      r.add_row({"geometric mean", "", fmt("%.3f", e_med19), fmt("%.3f", e_png), "", ""});
+      report.paragraph(
+          "**Evaluation set** (bench/suites/codec_eval_set.h: DEMs the codec is never tuned against, made by "
+          "fixed recipes and frozen by their world hashes in bench/codec_eval_set.txt, which this run "
+          "checked). Bits per sample as above.");
+      report.table(std::move(t));
+      report.paragraph("Byte ratios on the evaluation set (lower is better), with each DEM's recipe.");
+      report.table(std::move(r));
+    }
   }
 
   // Table 3: speed per codec over all DEMs (one core).
@@ -549,7 +645,7 @@ int run_codec(const Context& ctx, Report& report) {
     auto pass = [](bool b) { return std::string(b ? "PASS" : "MISS"); };
     double fast_ratio = 0;
     for (size_t d = 0; d < names.size(); ++d)
-      fast_ratio = std::max(fast_ratio, ratio("loam fast", "MED+planes+zstd-1", d));
+      if (!eval_dem[d]) fast_ratio = std::max(fast_ratio, ratio("loam fast", "MED+planes+zstd-1", d));
     const auto [fe, fd] = speed["loam fast"];
     Table t("codec_targets", {"target", "measured", "result"});
     t.add_row({"best: geomean <= 0.65 x LERC", fmt("%.3f", g_lerc), pass(g_lerc <= 0.65)});
@@ -558,6 +654,13 @@ int run_codec(const Context& ctx, Report& report) {
         {"best: every shared DEM <= 0.80 x LERC", fmt("%.3f (worst)", max_lerc), pass(max_lerc <= 0.80)});
     t.add_row(
         {"best: every shared DEM <= 0.80 x PNG16", fmt("%.3f (worst)", max_png), pass(max_png <= 0.80)});
+    if (n_eval > 0) {
+      t.add_row({"evaluation set, best: geomean <= 0.92 x MED+planes+zstd-19", fmt("%.3f", e_med19),
+                 pass(e_med19 <= 0.92)});
+      t.add_row({"evaluation set, best: geomean <= 0.70 x PNG16", fmt("%.3f", e_png), pass(e_png <= 0.70)});
+      t.add_row({"evaluation set, best: no DEM over 1.02 x MED+planes+zstd-19",
+                 fmt("%.3f (worst: ", e_worst) + e_worst_name + ")", pass(e_worst <= 1.02)});
+    }
     t.add_row({"fast: encode >= 500 MB/s", fmt("%.0f MB/s", fe), pass(fe >= 500)});
     t.add_row({"fast: decode >= 1000 MB/s", fmt("%.0f MB/s", fd), pass(fd >= 1000)});
     t.add_row({"fast: bytes <= MED+zstd-1 on every DEM", fmt("%.3f (worst ratio)", fast_ratio),
