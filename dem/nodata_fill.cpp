@@ -65,12 +65,29 @@ void NodataInterpolator::add(Row& r, size_t x, const Seen& s, double step_sq) {
   r.sum[x] += w * s.v;
 }
 
+NodataInterpolator::Seen NodataInterpolator::further(const Seen& s) {
+  return s.steps == kNone ? s : Seen{s.v, s.steps + 1};
+}
+
+void NodataInterpolator::carry(std::vector<Seen>& c, const std::vector<double>& row, int dx) {
+  const size_t w = row.size();
+  for (size_t x = 0; x < w; ++x) {
+    const int64_t from = int64_t(x) - dx;
+    if (!std::isnan(row[x]))
+      next_[x] = {row[x], 0};
+    else if (from < 0 || from >= int64_t(w))
+      next_[x] = {0, kNone};
+    else
+      next_[x] = further(c[size_t(from)]);
+  }
+  c.swap(next_);
+}
+
 // The lines that reach a new row from the rows above it (the carries hold, per column, the
 // nearest valid sample at or above the previous row) and along the row itself.
 void NodataInterpolator::look_up_and_sideways(Row& r) {
   const size_t w = r.v.size();
   const bool holes = std::any_of(r.v.begin(), r.v.end(), [](double v) { return std::isnan(v); });
-  auto step = [&](const Seen& s) { return s.steps == kNone ? s : Seen{s.v, s.steps + 1}; };
   if (holes) {
     r.sum_w.assign(w, 0.0);
     r.sum.assign(w, 0.0);
@@ -80,11 +97,11 @@ void NodataInterpolator::look_up_and_sideways(Row& r) {
         left = {r.v[x], 0};
         continue;
       }
-      left = step(left);
+      left = further(left);
       add(r, x, left, 1.0);
-      add(r, x, step(above_[x]), 1.0);
-      if (x > 0) add(r, x, step(above_left_[x - 1]), 2.0);
-      if (x + 1 < w) add(r, x, step(above_right_[x + 1]), 2.0);
+      add(r, x, further(above_[x]), 1.0);
+      if (x > 0) add(r, x, further(above_left_[x - 1]), 2.0);
+      if (x + 1 < w) add(r, x, further(above_right_[x + 1]), 2.0);
     }
     Seen right{0, kNone};
     for (size_t x = w; x-- > 0;) {
@@ -92,26 +109,14 @@ void NodataInterpolator::look_up_and_sideways(Row& r) {
         right = {r.v[x], 0};
         continue;
       }
-      right = step(right);
+      right = further(right);
       add(r, x, right, 1.0);
     }
   }
   // The carries move down to this row.
-  auto carry = [&](std::vector<Seen>& c, int dx) {
-    for (size_t x = 0; x < w; ++x) {
-      const int64_t from = int64_t(x) - dx;
-      if (!std::isnan(r.v[x]))
-        next_[x] = {r.v[x], 0};
-      else if (from < 0 || from >= int64_t(w))
-        next_[x] = {0, kNone};
-      else
-        next_[x] = step(c[size_t(from)]);
-    }
-    c.swap(next_);
-  };
-  carry(above_, 0);
-  carry(above_left_, 1);
-  carry(above_right_, -1);
+  carry(above_, r.v, 0);
+  carry(above_left_, r.v, 1);
+  carry(above_right_, r.v, -1);
 }
 
 // The lines from below: a sweep up through every row in flight, adding to the first
@@ -120,32 +125,19 @@ void NodataInterpolator::look_down(size_t first_done) {
   const size_t w = size_t(width_);
   below_.assign(w, {0, kNone});
   below_left_ = below_right_ = below_;
-  auto step = [&](const Seen& s) { return s.steps == kNone ? s : Seen{s.v, s.steps + 1}; };
   for (size_t i = rows_.size(); i-- > 0;) {
     Row& r = rows_[i];
     if (i < first_done && !r.sum_w.empty()) {
       for (size_t x = 0; x < w; ++x) {
         if (!std::isnan(r.v[x])) continue;
-        add(r, x, step(below_[x]), 1.0);
-        if (x > 0) add(r, x, step(below_left_[x - 1]), 2.0);
-        if (x + 1 < w) add(r, x, step(below_right_[x + 1]), 2.0);
+        add(r, x, further(below_[x]), 1.0);
+        if (x > 0) add(r, x, further(below_left_[x - 1]), 2.0);
+        if (x + 1 < w) add(r, x, further(below_right_[x + 1]), 2.0);
       }
     }
-    auto carry = [&](std::vector<Seen>& c, int dx) {
-      for (size_t x = 0; x < w; ++x) {
-        const int64_t from = int64_t(x) - dx;
-        if (!std::isnan(r.v[x]))
-          next_[x] = {r.v[x], 0};
-        else if (from < 0 || from >= int64_t(w))
-          next_[x] = {0, kNone};
-        else
-          next_[x] = step(c[size_t(from)]);
-      }
-      c.swap(next_);
-    };
-    carry(below_, 0);
-    carry(below_left_, 1);
-    carry(below_right_, -1);
+    carry(below_, r.v, 0);
+    carry(below_left_, r.v, 1);
+    carry(below_right_, r.v, -1);
   }
 }
 

@@ -62,7 +62,11 @@ class NodataInterpolator {
     double v = 0;
     int32_t steps = 0;
   };
+  static Seen further(const Seen& s);  // one step further along its line
   void add(Row& r, size_t x, const Seen& s, double step_sq);
+  // Moves a carry (the nearest valid sample along a line, per column) one row on, to `row`;
+  // dx: the line's column step per row (0 straight, 1 and -1 the diagonals).
+  void carry(std::vector<Seen>& c, const std::vector<double>& row, int dx);
   void look_up_and_sideways(Row& r);
   void look_down(size_t first_done);
   Status emit_front(size_t count);

@@ -14,6 +14,7 @@
 #include "protocol/stamps/stamp_apply.h"
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
+#include "stamps_test_util.h"
 
 namespace loam::controls {
 namespace {
@@ -28,8 +29,7 @@ WorldParams params() {
 
 // A world whose height at sample (x, y) is height(x, y) metres.
 template <class Height>
-World world_of(const Height& height) {
-  const WorldParams p = params();
+World world_of(const Height& height, const WorldParams& p = params()) {
   World w(p);
   const RectI r = p.sample_rect();
   std::vector<uint16_t> s(size_t(r.area()));
@@ -265,24 +265,13 @@ TEST(Walker, ACraterDugUnderItOnRoughGroundHoldsItStandingEveryFrame) {
     wp.meters_per_unit = 0.02;
     wp.height_offset = -200;
     const double slope = rise_of(double(seed % 5) * 8.0), rough = double(seed % 3) * 0.5;
-    World world(wp);
-    {
-      const RectI rr = wp.sample_rect();
-      std::vector<uint16_t> sm(size_t(rr.area()));
-      for (int64_t y = 0; y < rr.y1; ++y)
-        for (int64_t x = 0; x < rr.x1; ++x)
-          sm[size_t(y * rr.x1 + x)] = quantize_height(
-              wp, 100.0 + slope * double(x) * wp.meters_per_sample + rough * std::sin(double(x * 7 + y * 3)));
-      (void)world.write_coarse(rr, sm);
-      (void)world.commit(1);
-    }
+    World world = world_of(
+        [&](double x, double y) {
+          return 100.0 + slope * x * wp.meters_per_sample + rough * std::sin(x * 7 + y * 3);
+        },
+        wp);
     auto stamp = [&](StampKind k, double x, double y, double r, double in, double shape) {
-      StampParams p;
-      p.kind = k;
-      p.center_x = x;
-      p.center_y = y;
-      p.radius = r;
-      p.intensity = in;
+      StampParams p = stamps_test::make_params(k, x, y, r, in);
       p.shape = shape;
       const auto q = validate_stamp(p, world.params());
       if (q) (void)apply_stamp(world, *q);
