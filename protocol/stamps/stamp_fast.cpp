@@ -73,7 +73,24 @@ struct RowArgs {
   const int32_t* by_dist;  // nullptr: compute per sample through the stamp
   int32_t shift, lo, hi, target;
   int32_t radius_r;  // by_dist[radius_r] leaves a sample unchanged (vector rows past the disc)
+  // Vector rows without by_dist: the profile table, u = (dist << 16) / Rr as m and k, and
+  // value_at_dist_u's affine form (FastStamp::ValueForm).
+  const int32_t* table;
+  uint32_t div_m, div_k;
+  int32_t base, sign, offset, vlo, vhi, neutral;
+  bool raw;
 };
+
+// value8_direct for one dist (the vector rows' scalar remainder).
+inline int32_t value_direct(const RowArgs& a, int32_t dist) {
+  if (dist >= a.radius_r) return a.neutral;
+  const int32_t u = int32_t((uint64_t(uint32_t(dist) << 16) * a.div_m) >> a.div_k);
+  const int32_t i = u >> kProfileFracBits, f = u & ((1 << kProfileFracBits) - 1);
+  const int32_t t0 = a.table[i], t1 = a.table[std::min(i + 1, kProfileEntries)];
+  const int32_t t = t0 + (((t1 - t0) * f) >> kProfileFracBits);
+  if (a.raw) return t;
+  return std::clamp(a.sign * ((t + a.base + 128) >> 8) + a.offset, a.vlo, a.vhi);
+}
 
 // Portable row kernel: samples row[0..n) whose offsets are d0 + 256 i (Q8), |dyr| = b_abs.
 template <typename T, Op op, typename ValueFn>
@@ -155,12 +172,58 @@ LOAM_TARGET_AVX2 void isqrt_avx2(const uint32_t* in, uint32_t* out, size_t n) {
   for (; i < n; ++i) out[i] = isqrt_exact(in[i]);
 }
 
-// AVX2 row kernel, eight samples at a time. Needs the per-dist table. Per lane,
-// a = |d| >> s (< 2^14 inside the rect) and b share one 32-bit lane as two int16, so madd
-// gives d2 = a² + b² (< 2^29) exactly; see isqrt8. The caller pads rows to whole vectors with
-// samples of the rect outside the disc: their dist (>= Rr) is clamped to Rr, whose table
-// entry leaves the old value as it is. A remainder (rows narrower than a vector) runs scalar.
-template <typename T, Op op>
+// The smallest and the largest of eight lanes.
+LOAM_TARGET_AVX2 inline int32_t hmin8(__m256i v) {
+  __m128i m = _mm_min_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+  m = _mm_min_epi32(m, _mm_shuffle_epi32(m, 0x4E));
+  return _mm_cvtsi128_si32(_mm_min_epi32(m, _mm_shuffle_epi32(m, 0xB1)));
+}
+LOAM_TARGET_AVX2 inline int32_t hmax8(__m256i v) {
+  __m128i m = _mm_max_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+  m = _mm_max_epi32(m, _mm_shuffle_epi32(m, 0x4E));
+  return _mm_cvtsi128_si32(_mm_max_epi32(m, _mm_shuffle_epi32(m, 0xB1)));
+}
+
+// value_at_dist_u of eight dists straight from the profile table, for stamps smaller than their
+// per-dist table would be. dist is clamped to Rr, so u <= 65536 and both table indices stay in
+// [0, 1024]; lanes at dist >= Rr (rows padded past the disc) take the neutral value.
+// u = (dist << 16) · m >> k (ExactDivisor: dist << 16 < 2^30, m < 2^32) on the even and odd
+// lanes' 64-bit products; then table_lookup and round_q8 as the scalar code writes them.
+LOAM_TARGET_AVX2 inline __m256i value8_direct(const RowArgs& a, __m256i dist) {
+  const __m256i rr = _mm256_set1_epi32(a.radius_r);
+  const __m256i inside = _mm256_cmpgt_epi32(rr, dist);
+  const __m256i n = _mm256_slli_epi32(_mm256_min_epi32(dist, rr), 16);
+  const __m256i m = _mm256_set1_epi64x(int64_t(a.div_m));
+  const __m128i k = _mm_cvtsi32_si128(int32_t(a.div_k));
+  const __m256i even = _mm256_srl_epi64(_mm256_mul_epu32(n, m), k);
+  const __m256i odd =
+      _mm256_slli_epi64(_mm256_srl_epi64(_mm256_mul_epu32(_mm256_srli_epi64(n, 32), m), k), 32);
+  const __m256i u = _mm256_blend_epi32(even, odd, 0xAA);
+  const __m256i i = _mm256_srli_epi32(u, kProfileFracBits);
+  const __m256i f = _mm256_and_si256(u, _mm256_set1_epi32((1 << kProfileFracBits) - 1));
+  const __m256i t0 = _mm256_i32gather_epi32(a.table, i, 4);
+  const __m256i i1 =
+      _mm256_min_epi32(_mm256_add_epi32(i, _mm256_set1_epi32(1)), _mm256_set1_epi32(kProfileEntries));
+  const __m256i t1 = _mm256_i32gather_epi32(a.table, i1, 4);
+  const __m256i t = _mm256_add_epi32(
+      t0, _mm256_srai_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(t1, t0), f), kProfileFracBits));
+  __m256i v = t;
+  if (!a.raw) {
+    const __m256i r = _mm256_srai_epi32(_mm256_add_epi32(t, _mm256_set1_epi32(a.base + 128)), 8);
+    v = _mm256_add_epi32(_mm256_sign_epi32(r, _mm256_set1_epi32(a.sign)), _mm256_set1_epi32(a.offset));
+    v = _mm256_min_epi32(_mm256_max_epi32(v, _mm256_set1_epi32(a.vlo)), _mm256_set1_epi32(a.vhi));
+  }
+  return _mm256_blendv_epi8(_mm256_set1_epi32(a.neutral), v, inside);
+}
+
+// AVX2 row kernel, eight samples at a time, with the value per dist from by_dist (kDirect
+// false) or from the profile table (value8_direct). Per lane, a = |d| >> s (< 2^14 inside the
+// rect) and b share one 32-bit lane as two int16, so madd gives d2 = a² + b² (< 2^29) exactly;
+// see isqrt8. The caller pads rows to whole vectors with samples of the rect outside the disc:
+// their dist (>= Rr) gets the value that leaves the old one as it is. The first and last
+// changed sample are tracked as vector minima and maxima of the lane index (no per-vector
+// branch). A remainder (rows narrower than a vector) runs scalar.
+template <typename T, Op op, bool kDirect>
 LOAM_TARGET_AVX2 void radial_row_avx2(const RowArgs& a, T* row, int64_t d0, int32_t n, int32_t b_abs,
                                       RowChange& ch) {
   const __m256i lane = _mm256_setr_epi32(0, 256, 512, 768, 1024, 1280, 1536, 1792);
@@ -172,37 +235,80 @@ LOAM_TARGET_AVX2 void radial_row_avx2(const RowArgs& a, T* row, int64_t d0, int3
   const __m256i outside = _mm256_set1_epi32(a.radius_r);
   const __m256i lo = _mm256_set1_epi32(a.lo), hi = _mm256_set1_epi32(a.hi),
                 target = _mm256_set1_epi32(a.target);
-  int32_t first = -1, last = -1;
+  __m256i index = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i eight = _mm256_set1_epi32(8);
+  const __m256i none_first = _mm256_set1_epi32(INT32_MAX), none_last = _mm256_set1_epi32(-1);
+  __m256i first = none_first, last = none_last;
   int32_t i = 0;
   for (; i + 8 <= n; i += 8) {
-    const __m256i ab = _mm256_or_si256(_mm256_srl_epi32(_mm256_abs_epi32(d), shift), b_hi);
+    // Lanes of the padding past the rect may have offsets beyond 2^14: clamped to Rr, they
+    // stay outside the disc and d2 stays below 2^29.
+    const __m256i a_abs = _mm256_min_epi32(_mm256_srl_epi32(_mm256_abs_epi32(d), shift), outside);
+    const __m256i ab = _mm256_or_si256(a_abs, b_hi);
     const __m256i d2 = _mm256_madd_epi16(ab, ab);
-    const __m256i dist = _mm256_min_epi32(isqrt8(d2, one), outside);
-    const __m256i v = _mm256_i32gather_epi32(a.by_dist, dist, 4);
+    __m256i v;
+    if constexpr (kDirect) {
+      v = value8_direct(a, isqrt8(d2, one));
+    } else {
+      v = _mm256_i32gather_epi32(a.by_dist, _mm256_min_epi32(isqrt8(d2, one), outside), 4);
+    }
     const __m256i old = load8(row + i);
     const __m256i nv = combine8<op>(old, v, lo, hi, target);
     store8(row + i, nv);
-    const uint32_t changed =
-        ~uint32_t(_mm256_movemask_ps(_mm256_castsi256_ps(_mm256_cmpeq_epi32(nv, old)))) & 0xffu;
-    if (changed != 0) {
-      if (first < 0) first = i + std::countr_zero(changed);
-      last = i + 31 - std::countl_zero(changed);
-    }
+    const __m256i same = _mm256_cmpeq_epi32(nv, old);
+    first = _mm256_min_epi32(first, _mm256_blendv_epi8(index, none_first, same));
+    last = _mm256_max_epi32(last, _mm256_blendv_epi8(index, none_last, same));
+    index = _mm256_add_epi32(index, eight);
     d = _mm256_add_epi32(d, step);
   }
-  if (first >= 0) {
-    ch.first = first;
-    ch.last = last;
+  if (const int32_t l = hmax8(last); l >= 0) {
+    ch.first = hmin8(first);
+    ch.last = l;
   }
   if (i < n) {
     RowChange tail;
     radial_row_portable<T, op>(
-        a, [](int32_t) { return 0; }, row + i, d0 + int64_t(i) * 256, n - i, b_abs, tail);
+        a, [&](int32_t dist) { return value_direct(a, dist); }, row + i, d0 + int64_t(i) * 256, n - i, b_abs,
+        tail);
     if (tail.first >= 0) {
       if (ch.first < 0) ch.first = i + tail.first;
       ch.last = i + tail.last;
     }
   }
+}
+
+// The footprint's contact max(old · 256 − sole(dist)) over one row's disc span, eight samples
+// at a time: the n samples from `row` (a multiple of 8, padded with the tile row's samples
+// around the span) count only from lane `lead` for `count` lanes. The sole comes from the
+// per-dist table `sole` where there is one (gathered), else from the profile table. Padded
+// lanes' reduced offsets are clamped to Rr, so d2 stays below 2^29.
+template <typename T>
+LOAM_TARGET_AVX2 int32_t contact_row_avx2(const RowArgs& a, const int32_t* sole, const T* row, int64_t d0,
+                                          int32_t n, int32_t lead, int32_t count, int32_t b_abs) {
+  const __m256i lane = _mm256_setr_epi32(0, 256, 512, 768, 1024, 1280, 1536, 1792);
+  __m256i d = _mm256_add_epi32(_mm256_set1_epi32(int32_t(d0)), lane);
+  const __m256i step = _mm256_set1_epi32(8 * 256);
+  const __m128i shift = _mm_cvtsi32_si128(a.shift);
+  const __m256i b_hi = _mm256_set1_epi32(b_abs << 16);
+  const __m256i one = _mm256_set1_epi32(1);
+  const __m256i rr = _mm256_set1_epi32(a.radius_r);
+  const __m256i none = _mm256_set1_epi32(INT32_MIN);
+  const __m256i from = _mm256_set1_epi32(lead - 1), to = _mm256_set1_epi32(lead + count);
+  __m256i index = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i eight = _mm256_set1_epi32(8);
+  __m256i best = none;
+  for (int32_t i = 0; i < n; i += 8) {
+    const __m256i a_abs = _mm256_min_epi32(_mm256_srl_epi32(_mm256_abs_epi32(d), shift), rr);
+    const __m256i ab = _mm256_or_si256(a_abs, b_hi);
+    const __m256i dist = _mm256_min_epi32(isqrt8(_mm256_madd_epi16(ab, ab), one), rr);
+    const __m256i s = sole != nullptr ? _mm256_i32gather_epi32(sole, dist, 4) : value8_direct(a, dist);
+    const __m256i c = _mm256_sub_epi32(_mm256_slli_epi32(load8(row + i), 8), s);
+    const __m256i valid = _mm256_and_si256(_mm256_cmpgt_epi32(index, from), _mm256_cmpgt_epi32(to, index));
+    best = _mm256_max_epi32(best, _mm256_blendv_epi8(none, c, valid));
+    index = _mm256_add_epi32(index, eight);
+    d = _mm256_add_epi32(d, step);
+  }
+  return hmax8(best);
 }
 
 bool cpu_has_avx2() {
@@ -214,11 +320,18 @@ bool cpu_has_avx2() {
 
 }  // namespace
 
+ExactDivisor::ExactDivisor(uint32_t d) {
+  uint32_t l = 0;  // ceil(log2 d)
+  while ((uint64_t(1) << l) < d) ++l;
+  k = 30 + l;
+  m = ((uint64_t(1) << k) + d - 1) / d;
+}
+
 bool fast_isa_available(FastIsa isa) {
 #if LOAM_STAMP_AVX2
-  if (isa == FastIsa::kAvx2) return cpu_has_avx2();
+  if (isa == FastIsa::kAvx2 || isa == FastIsa::kAvx2Direct) return cpu_has_avx2();
 #else
-  if (isa == FastIsa::kAvx2) return false;
+  if (isa == FastIsa::kAvx2 || isa == FastIsa::kAvx2Direct) return false;
 #endif
   return true;
 }
@@ -233,7 +346,7 @@ void fast_isqrt_for_test(std::span<const uint32_t> in, std::span<uint32_t> out, 
   for (size_t i = 0; i < n; ++i) out[i] = isqrt_exact(in[i]);
 }
 
-FastStamp::FastStamp(const BakedStamp& b, FastIsa isa) : b_(b) {
+FastStamp::FastStamp(const BakedStamp& b, FastIsa isa) : b_(b), per_rr_(uint32_t(b.radius_r)) {
   const QuantizedStamp& q = b.q;
   lo_ = layer_min(q.layer);
   hi_ = layer_max(q.layer);
@@ -248,12 +361,12 @@ FastStamp::FastStamp(const BakedStamp& b, FastIsa isa) : b_(b) {
   if (q.kind == StampKind::kShockwave) op_ = Op::kNone;
   if (op_ == Op::kNone || b.rect.empty()) return;
 #if LOAM_STAMP_AVX2
-  avx2_ = (isa == FastIsa::kBest || isa == FastIsa::kAvx2) && cpu_has_avx2();
+  avx2_ = (isa == FastIsa::kBest || isa == FastIsa::kAvx2 || isa == FastIsa::kAvx2Direct) && cpu_has_avx2();
 #else
   (void)isa;
 #endif
   const int32_t rr = b.radius_r;
-  const bool force_tables = isa != FastIsa::kBest;
+  const bool force_tables = isa == FastIsa::kPortable || isa == FastIsa::kAvx2;
   if (q.kind == StampKind::kTexture) {
     // Per-axis tables cost 2·(2Rr − 1) entries: worth it once the rect has more samples.
     if (b.rect.area() < 4 * int64_t(rr) && !force_tables) return;
@@ -273,9 +386,36 @@ FastStamp::FastStamp(const BakedStamp& b, FastIsa isa) : b_(b) {
     build(tex_y_, t.height);
     return;
   }
-  // The per-dist table pays for itself once the rect has as many samples as it has entries.
+  // value_at_dist_u in the form vector rows compute it without the per-dist table.
+  form_.neutral = op_ == Op::kMin ? hi_ : op_ == Op::kMax ? lo_ : 0;
+  form_.vlo = INT32_MIN;
+  form_.vhi = INT32_MAX;
+  if (q.kind == StampKind::kFlatten) {
+    form_.raw = true;
+  } else if (q.kind == StampKind::kFootprint) {
+    form_.base = b.contact_q8 - q.intensity;
+    form_.vlo = lo_;
+    form_.vhi = hi_;
+  } else if (q.blend == BlendMode::kSubtract) {
+    form_.sign = -1;
+  } else if (q.blend == BlendMode::kMin || q.blend == BlendMode::kMax) {
+    form_.offset = q.target;
+    form_.vlo = lo_;
+    form_.vhi = hi_;
+  }
+  // Row spans depend on the row only; tiles clip them.
+  rows_.resize(size_t(b.rect.height()));
+  for (int64_t y = b.rect.y0; y < b.rect.y1; ++y) {
+    const int32_t b_abs = reduced_abs(y * 256 - q.center_y, b.shift);
+    const Span span = disc_row_span(b, b_abs, b.rect.x0, b.rect.x1);
+    rows_[size_t(y - b.rect.y0)] = {span.x0, span.x1, b_abs};
+  }
+  // The per-dist table pays for itself once the rect has as many samples as it has entries
+  // (portable rows), or sixteen times as many (AVX2 rows, whose value from the profile table
+  // costs a second gather and a few arithmetic steps per eight samples).
   // u(dist) = floor(dist·65536 / Rr) is stepped exactly with a remainder, not divided.
-  if (b.rect.area() < int64_t(rr) && !force_tables) return;
+  const int64_t pays = avx2_ ? 16 * int64_t(rr) : int64_t(rr);
+  if ((b.rect.area() < pays && !force_tables) || isa == FastIsa::kAvx2Direct) return;
   by_dist_.resize(size_t(rr) + 1);
   const uint32_t step = uint32_t(kUnitQ16) / uint32_t(rr), rem = uint32_t(kUnitQ16) % uint32_t(rr);
   uint32_t u = 0, acc = 0;
@@ -290,14 +430,7 @@ FastStamp::FastStamp(const BakedStamp& b, FastIsa isa) : b_(b) {
   }
   // Past the disc: the value that leaves every old value unchanged under op_ (old values
   // are inside the layer range).
-  by_dist_[size_t(rr)] = op_ == Op::kMin ? hi_ : op_ == Op::kMax ? lo_ : 0;
-  // Row spans depend on the row only; tiles clip them.
-  rows_.resize(size_t(b.rect.height()));
-  for (int64_t y = b.rect.y0; y < b.rect.y1; ++y) {
-    const int32_t b_abs = reduced_abs(y * 256 - q.center_y, b.shift);
-    const Span span = disc_row_span(b, b_abs, b.rect.x0, b.rect.x1);
-    rows_[size_t(y - b.rect.y0)] = {span.x0, span.x1, b_abs};
-  }
+  by_dist_[size_t(rr)] = form_.neutral;
 }
 
 int32_t FastStamp::value_from_delta(int32_t delta) const {
@@ -311,7 +444,7 @@ int32_t FastStamp::value_from_delta(int32_t delta) const {
 }
 
 int32_t FastStamp::value_at_dist(int32_t dist) const {
-  return value_at_dist_u(int32_t((uint32_t(dist) << 16) / uint32_t(b_.radius_r)));
+  return value_at_dist_u(int32_t(per_rr_.divide(uint32_t(dist) << 16)));
 }
 
 // What stamp_sample combines with the old value, as a function of u alone.
@@ -328,9 +461,24 @@ template <typename T>
 RectI FastStamp::apply_radial(T* tile, int64_t tx, int64_t ty) const {
   const RectI part = b_.rect.intersect(tile_rect(int32_t(tx), int32_t(ty)));
   if (part.empty()) return {};
-  const RowArgs args{
-      by_dist_.empty() ? nullptr : by_dist_.data(), b_.shift, lo_, hi_, b_.q.target, b_.radius_r};
-  const bool vector_rows = avx2_ && !by_dist_.empty();
+  const RowArgs args{by_dist_.empty() ? nullptr : by_dist_.data(),
+                     b_.shift,
+                     lo_,
+                     hi_,
+                     b_.q.target,
+                     b_.radius_r,
+                     b_.table.data(),
+                     uint32_t(per_rr_.m),
+                     per_rr_.k,
+                     form_.base,
+                     form_.sign,
+                     form_.offset,
+                     form_.vlo,
+                     form_.vhi,
+                     form_.neutral,
+                     form_.raw};
+  const bool vector_rows = avx2_;
+  const bool direct = by_dist_.empty();
   auto value = [this](int32_t dist) { return value_at_dist(dist); };
   RectI changed;
   for (int64_t y = part.y0; y < part.y1; ++y) {
@@ -346,10 +494,12 @@ RectI FastStamp::apply_radial(T* tile, int64_t tx, int64_t ty) const {
     }
     if (span.x1 <= span.x0) continue;
     if (vector_rows) {
-      // Whole vectors: pad with rect samples past the disc, right first, then left.
+      // Whole vectors: pad with the tile row's samples past the disc, right first, then left
+      // (a tile row is 256 samples, so no remainder is left). Past the disc they keep their
+      // values, past the rect too: the kernel clamps their reduced offset to Rr.
       const int64_t want = (span.x1 - span.x0 + 7) & ~int64_t(7);
-      span.x1 = std::min(part.x1, span.x0 + want);
-      span.x0 = std::max(part.x0, span.x1 - want);
+      span.x1 = std::min(tx * kTileSize + kTileSize, span.x0 + want);
+      span.x0 = std::max(tx * kTileSize, span.x1 - want);
     }
     T* row = tile + (y - ty * kTileSize) * kTileSize + (span.x0 - tx * kTileSize);
     const int64_t d0 = span.x0 * 256 - b_.q.center_x;
@@ -357,7 +507,8 @@ RectI FastStamp::apply_radial(T* tile, int64_t tx, int64_t ty) const {
     RowChange ch;
     auto run = [&]<Op op>() {
 #if LOAM_STAMP_AVX2
-      if (vector_rows) return radial_row_avx2<T, op>(args, row, d0, n, b_abs, ch);
+      if (vector_rows && direct) return radial_row_avx2<T, op, true>(args, row, d0, n, b_abs, ch);
+      if (vector_rows) return radial_row_avx2<T, op, false>(args, row, d0, n, b_abs, ch);
 #endif
       radial_row_portable<T, op>(args, value, row, d0, n, b_abs, ch);
     };
@@ -446,19 +597,32 @@ void footprint_contact_fast(BakedStamp& b, const World& world) {
   b.contact_q8 = 0;
   if (b.rect.empty()) return;
   const int32_t rr = b.radius_r;
-  // The sole height per dist, when the rect is large enough to pay for the table.
+  const ExactDivisor per_rr{uint32_t(rr)};
+  auto sole_at = [&](int32_t dist) {
+    return table_lookup(b.table, int32_t(per_rr.divide(uint32_t(dist) << 16)));
+  };
+#if LOAM_STAMP_AVX2
+  const bool avx2 = cpu_has_avx2();
+  RowArgs args{};
+  args.shift = b.shift;
+  args.radius_r = rr;
+  args.table = b.table.data();
+  args.div_m = uint32_t(per_rr.m);
+  args.div_k = per_rr.k;
+  args.raw = true;  // the sole height itself
+  // Large feet: the sole per dist, gathered (as the stamp's own per-dist table, when the rect
+  // has 16 samples per entry).
   std::vector<int32_t> sole;
-  if (b.rect.area() >= int64_t(rr)) {
-    sole.resize(size_t(rr));
-    for (int32_t dist = 0; dist < rr; ++dist) {
-      sole[size_t(dist)] = table_lookup(b.table, int32_t((uint32_t(dist) << 16) / uint32_t(rr)));
-    }
+  if (avx2 && b.rect.area() >= 16 * int64_t(rr)) {
+    sole.resize(size_t(rr) + 1);
+    for (int32_t dist = 0; dist <= rr; ++dist) sole[size_t(dist)] = sole_at(std::min(dist, rr - 1));
   }
-  int32_t best = 0;
+#endif
+  int32_t best = INT32_MIN;
   bool any = false;
   const RectI tiles = tiles_overlapping(b.rect);
-  visit_layer(b.q.layer, [&](auto row) {
-    using R = decltype(row);
+  visit_layer(b.q.layer, [&](auto layer_row) {
+    using R = decltype(layer_row);
     for (int64_t ty = tiles.y0; ty < tiles.y1; ++ty) {
       for (int64_t tx = tiles.x0; tx < tiles.x1; ++tx) {
         const RectI part = b.rect.intersect(tile_rect(int32_t(tx), int32_t(ty)));
@@ -469,24 +633,35 @@ void footprint_contact_fast(BakedStamp& b, const World& world) {
         for (int64_t y = part.y0; y < part.y1; ++y) {
           const int32_t b_abs = reduced_abs(y * 256 - b.q.center_y, b.shift);
           const Span span = disc_row_span(b, b_abs, part.x0, part.x1);
+          if (span.x1 <= span.x0) continue;
+          any = true;
           const size_t base = size_t((y - ty * kTileSize) * kTileSize - tx * kTileSize);
-          for (int64_t x = span.x0; x < span.x1; ++x) {
+          int64_t x = span.x0;
+#if LOAM_STAMP_AVX2
+          if (avx2 && !tile.empty()) {
+            // Whole vectors over the span, padded with the tile row (as the stamp's rows are).
+            const int64_t want = (span.x1 - span.x0 + 7) & ~int64_t(7);
+            const int64_t x1 = std::min(tx * kTileSize + kTileSize, span.x0 + want);
+            const int64_t x0 = std::max(tx * kTileSize, x1 - want);
+            best = std::max(best, contact_row_avx2(args, sole.empty() ? nullptr : sole.data(),
+                                                   tile.data() + base + size_t(x0), x0 * 256 - b.q.center_x,
+                                                   int32_t(x1 - x0), int32_t(span.x0 - x0),
+                                                   int32_t(span.x1 - span.x0), b_abs));
+            x = span.x1;
+          }
+#endif
+          for (; x < span.x1; ++x) {
             const uint32_t ar = uint32_t(reduced_abs(x * 256 - b.q.center_x, b.shift));
             const int32_t dist = int32_t(isqrt_exact(uint64_t(ar) * ar + uint64_t(b_abs) * uint64_t(b_abs)));
-            const int32_t s = sole.empty()
-                                  ? table_lookup(b.table, int32_t((uint32_t(dist) << 16) / uint32_t(rr)))
-                                  : sole[size_t(dist)];
             const int32_t old = tile.empty() ? 0 : int32_t(tile[base + size_t(x)]);
-            const int32_t c = old * 256 - s;
-            if (!any || c > best) best = c;
-            any = true;
+            best = std::max(best, old * 256 - sole_at(dist));
           }
         }
       }
     }
   });
   b.has_contact = any;
-  b.contact_q8 = best;
+  b.contact_q8 = any ? best : 0;
 }
 
 }  // namespace loam

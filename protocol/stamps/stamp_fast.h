@@ -27,8 +27,21 @@ namespace loam {
 
 // Which instruction set the fast kernel uses. kBest picks AVX2 where the CPU has it and skips
 // the per-stamp tables where a stamp is too small to pay for them. Naming an ISA forces the
-// tables (and that ISA, where the CPU has it) so tests reach every code path on every stamp.
-enum class FastIsa : uint8_t { kBest = 0, kPortable = 1, kAvx2 = 2 };
+// tables (and that ISA, where the CPU has it) so tests reach every code path on every stamp;
+// kAvx2Direct forces AVX2 without the per-dist table (each sample's value computed from the
+// profile table, as kBest does for stamps smaller than their per-dist table).
+enum class FastIsa : uint8_t { kBest = 0, kPortable = 1, kAvx2 = 2, kAvx2Direct = 3 };
+
+// floor(n / d) for n < 2^30 and 1 <= d < 2^15 by one multiply and a shift (Granlund and
+// Montgomery's round-up method: m = ceil(2^k / d), k = 30 + ceil(log2 d), so m·d − 2^k < d
+// <= 2^(k−30) and the error never reaches the next integer). The kernel's per-sample
+// u = (dist << 16) / Rr without a division; exact for every d (tested).
+struct ExactDivisor {
+  explicit ExactDivisor(uint32_t d);
+  uint32_t divide(uint32_t n) const { return uint32_t((uint64_t(n) * m) >> k); }
+  uint64_t m = 1;  // < 2^32
+  uint32_t k = 0;
+};
 
 // True when this build and this CPU can run `isa` (kBest and kPortable always can).
 bool fast_isa_available(FastIsa isa);
@@ -45,7 +58,7 @@ class FastStamp {
   explicit FastStamp(const BakedStamp& b, FastIsa isa = FastIsa::kBest);
 
   // Which kernel runs (for tests and the bench): AVX2 rows, and whether tables were built.
-  bool uses_avx2() const { return avx2_ && !by_dist_.empty(); }
+  bool uses_avx2() const { return avx2_; }
   bool uses_tables() const { return !by_dist_.empty() || !tex_x_.empty(); }
 
   // Applies the stamp to the part of b.rect inside tile (tx, ty), whose kTileSamples
@@ -76,6 +89,15 @@ class FastStamp {
   Op op_ = Op::kNone;
   bool avx2_ = false;
   int32_t lo_ = 0, hi_ = 0;  // layer range
+  ExactDivisor per_rr_{1};   // u = (dist << 16) / Rr
+  // value_at_dist_u as one affine step for vector rows without the per-dist table:
+  // v = clamp(sign · ((t + base + 128) >> 8) + offset, vlo, vhi), or v = t (flatten's weight).
+  struct ValueForm {
+    int32_t base = 0, sign = 1, offset = 0, vlo = 0, vhi = 0;
+    bool raw = false;
+    int32_t neutral = 0;  // leaves an old value unchanged under op_ (lanes past the disc)
+  };
+  ValueForm form_;
   // Radial: the value for every dist in [0, radius_r), or empty when the stamp has fewer
   // samples than the table would have entries (then value_at_dist runs per sample).
   // Entry radius_r leaves a sample unchanged (vector rows padded past the disc).

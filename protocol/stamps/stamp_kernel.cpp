@@ -1,7 +1,9 @@
 #include "protocol/stamps/stamp_kernel.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <vector>
 
 #include "protocol/stamps/stamp_validate.h"
 #include "protocol/world.h"
@@ -71,61 +73,133 @@ uint32_t texture_value(const StampTexture& t, int32_t ur, int32_t vr, int32_t rr
   return (v + 32768u) >> 16;
 }
 
+// round(scale · f) as bake_table rounds it: halves away from zero, by hand (no libm).
+int32_t round_entry(double scale, double f) {
+  const double v = scale * f;
+  return v >= 0 ? int32_t(v + 0.5) : -int32_t(-v + 0.5);
+}
+
+// Flatten's weight: 1 inside, smoothstep down to 0 over the outer `soft` fraction.
+double flatten_weight(double soft, double u) {
+  if (soft <= 0.0) return u < 1.0 ? 1.0 : 0.0;
+  const double inner = 1.0 - soft;
+  if (u <= inner) return 1.0;
+  const double t = (u - inner) / soft;
+  return 1.0 - t * t * (3.0 - 2.0 * t);
+}
+
+// The volume-conserving crater's separate bowl and rim entries (its table is bowl + H · rim).
+int32_t bowl_entry(double amp, int32_t i) {
+  return round_entry(amp, crater_bowl(double(i) / double(kProfileEntries)));
+}
+int32_t rim_entry(int32_t i) { return round_entry(65536.0, crater_rim(double(i) / double(kProfileEntries))); }
+
+// table_lookup over entries computed by `entry(i)` instead of read from a table (the
+// volume-conserving crater's bowl and rim are separate tables that are never stored).
+template <typename Entry>
+int32_t lookup_entries(const Entry& entry, int32_t u_q16) {
+  if (u_q16 <= 0) return entry(0);
+  if (u_q16 >= kUnitQ16) return entry(kProfileEntries);
+  const int32_t i = u_q16 >> kProfileFracBits;
+  const int32_t f = u_q16 & ((1 << kProfileFracBits) - 1);
+  const int32_t t0 = entry(i);
+  if (f == 0) return t0;  // the product below is 0 whatever entry i + 1 is
+  return t0 + (((entry(i + 1) - t0) * f) >> kProfileFracBits);
+}
+
+// The last tables baked on this thread, by profile, least recently used replaced first.
+class ProfileTableMemo {
+ public:
+  const ProfileTable& table(const StampProfile& profile) {
+    ++clock_;
+    Slot* victim = &slots_[0];
+    for (Slot& s : slots_) {
+      if (s.used != 0 && s.profile == profile) {
+        s.used = clock_;
+        return s.table;
+      }
+      if (s.used < victim->used) victim = &s;
+    }
+    victim->profile = profile;
+    for (int32_t i = 0; i <= kProfileEntries; ++i) victim->table[size_t(i)] = profile.entry(i);
+    victim->used = clock_;
+    return victim->table;
+  }
+
+ private:
+  struct Slot {
+    StampProfile profile;
+    ProfileTable table{};
+    uint64_t used = 0;  // 0: empty
+  };
+  std::array<Slot, 8> slots_{};
+  uint64_t clock_ = 0;
+};
+
+// The volume-conserving crater's rim height: sum(bowl) + H · sum(rim) = 0 over the samples
+// of b.rect inside the support (geometry only, never the terrain), so the material dug lands
+// on the rim to within per-sample rounding. u depends on a sample's dist alone, so samples are
+// counted per dist and each dist's lookups run once. H is capped at twice the depth for stamps
+// too small to have a rim sample (and is 0 when none exists).
+int64_t volume_conserving_rim(const BakedStamp& b) {
+  const int32_t rr = b.radius_r;
+  std::vector<int64_t> count(size_t(rr), 0);
+  for (int64_t y = b.rect.y0; y < b.rect.y1; ++y) {
+    const int64_t dy = reduce(y * 256 - b.q.center_y, b.shift);
+    for (int64_t x = b.rect.x0; x < b.rect.x1; ++x) {
+      const int64_t dx = reduce(x * 256 - b.q.center_x, b.shift);
+      const uint32_t dist = isqrt32(uint32_t(dx * dx + dy * dy));  // < 2^29
+      if (dist < uint32_t(rr)) ++count[dist];
+    }
+  }
+  const double amp = double(b.q.intensity);
+  int64_t sum_bowl = 0, sum_rim = 0;
+  for (int32_t dist = 0; dist < rr; ++dist) {
+    if (count[size_t(dist)] == 0) continue;
+    const int32_t u = int32_t((uint32_t(dist) << 16) / uint32_t(rr));
+    sum_bowl += count[size_t(dist)] * lookup_entries([&](int32_t i) { return bowl_entry(amp, i); }, u);
+    sum_rim += count[size_t(dist)] * lookup_entries(rim_entry, u);
+  }
+  int64_t h_q8 = sum_rim > 0 ? div_round(-sum_bowl * 65536, sum_rim) : 0;
+  const int64_t cap = 2 * std::abs(int64_t(b.q.intensity));
+  return std::clamp(h_q8, -cap, cap);
+}
+
 }  // namespace
+
+int32_t StampProfile::entry(int32_t i) const {
+  const double u = double(i) / double(kProfileEntries);
+  switch (kind) {
+    case StampKind::kTexture: return round_entry(amp, u);  // intensity ramp over the image value
+    case StampKind::kGaussian:
+    case StampKind::kShockwave: return round_entry(amp, gaussian(u));  // shockwave: its initial pulse
+    case StampKind::kCrater:
+      if (volume_conserving) return int32_t(bowl_entry(amp, i) + div_round(rim_q8 * rim_entry(i), 65536));
+      // Depth positive digs; the rim rises shape * depth above the surroundings.
+      return round_entry(amp, crater_bowl(u) + shape * crater_rim(u));
+    case StampKind::kFootprint: return round_entry(amp, shape * u * u);  // sole height above its lowest point
+    case StampKind::kFlatten: return round_entry(16384.0 * (amp / 65536.0), flatten_weight(shape, u));  // Q14
+  }
+  return 0;
+}
 
 Result<BakedStamp> bake_stamp(const QuantizedStamp& q, const WorldParams& world,
                               const TextureRegistry* textures) {
   BakedStamp b;
   b.q = q;
   const int64_t radius = int64_t(q.radius);
-  const double amp = double(q.intensity);  // Q8 layer units (flatten: Q16 strength)
-  switch (q.kind) {
-    case StampKind::kTexture: {
-      b.texture = textures != nullptr ? textures->find(q.texture_id) : nullptr;
-      if (b.texture == nullptr) {
-        return make_error(ErrorCode::kNotFound, "stamp.texture_id", "no registered texture has this id");
-      }
-      // The rotated square reaches radius * sqrt(2): 46341 / 32768 > sqrt(2).
-      b.support_q8 = (radius * 46341 + 32767) / 32768 + 1;
-      rotation_q15(q.rotation, b.cos_q15, b.sin_q15);
-      // Intensity ramp: texture value t (Q16) -> t * intensity, so the per-sample product
-      // stays in 32 bits.
-      b.table = bake_table(amp, [](double u) { return u; });
-      break;
+  b.profile.kind = q.kind;
+  b.profile.amp = double(q.intensity);
+  b.profile.shape = double(q.shape) / 65536.0;
+  b.support_q8 = radius;
+  if (q.kind == StampKind::kTexture) {
+    b.texture = textures != nullptr ? textures->find(q.texture_id) : nullptr;
+    if (b.texture == nullptr) {
+      return make_error(ErrorCode::kNotFound, "stamp.texture_id", "no registered texture has this id");
     }
-    case StampKind::kGaussian:
-    case StampKind::kShockwave:  // initial pulse
-      b.support_q8 = radius;
-      b.table = bake_table(amp, gaussian);
-      break;
-    case StampKind::kCrater: {
-      b.support_q8 = radius;
-      const double shape = double(q.shape) / 65536.0;
-      // Depth positive digs; the rim rises shape * depth above the surroundings.
-      b.table = bake_table(amp, [&](double u) { return crater_bowl(u) + shape * crater_rim(u); });
-      break;
-    }
-    case StampKind::kFootprint: {
-      b.support_q8 = radius;
-      const double shape = double(q.shape) / 65536.0;
-      // Sole height above its lowest point: shape * depth * u^2 (Q8 units).
-      b.table = bake_table(amp, [&](double u) { return shape * u * u; });
-      break;
-    }
-    case StampKind::kFlatten: {
-      b.support_q8 = radius;
-      const double soft = double(q.shape) / 65536.0;
-      const double strength = amp / 65536.0;
-      // Weight in Q14: strength inside, smoothstep down to 0 over the outer `soft` fraction.
-      b.table = bake_table(16384.0 * strength, [&](double u) {
-        if (soft <= 0.0) return u < 1.0 ? 1.0 : 0.0;
-        const double inner = 1.0 - soft;
-        if (u <= inner) return 1.0;
-        const double t = (u - inner) / soft;
-        return 1.0 - t * t * (3.0 - 2.0 * t);
-      });
-      break;
-    }
+    // The rotated square reaches radius * sqrt(2): 46341 / 32768 > sqrt(2).
+    b.support_q8 = (radius * 46341 + 32767) / 32768 + 1;
+    rotation_q15(q.rotation, b.cos_q15, b.sin_q15);
   }
   b.shift = reduction_shift(b.support_q8);
   b.radius_r = int32_t(std::max<int64_t>(1, radius >> b.shift));
@@ -133,30 +207,12 @@ Result<BakedStamp> bake_stamp(const QuantizedStamp& q, const WorldParams& world,
   const RectI r{ceil_div(q.center_x - b.support_q8, 256), ceil_div(q.center_y - b.support_q8, 256),
                 floor_div(q.center_x + b.support_q8, 256) + 1, floor_div(q.center_y + b.support_q8, 256) + 1};
   b.rect = r.intersect(world_rect);
-
   if (q.kind == StampKind::kCrater && (q.flags & kStampFlagVolumeConserving) != 0) {
-    // Rim height from the stamp's own samples: sum(bowl) + H * sum(rim) = 0 over the
-    // samples it covers (geometry only, never the terrain), so the material dug lands on the
-    // rim to within per-sample rounding. H is capped at twice the depth for stamps too small
-    // to have a rim sample (and is 0 when none exists).
-    const ProfileTable bowl = bake_table(amp, crater_bowl);
-    const ProfileTable rim = bake_table(65536.0, crater_rim);
-    int64_t sum_bowl = 0, sum_rim = 0;
-    for (int64_t y = r.y0; y < r.y1; ++y) {
-      for (int64_t x = r.x0; x < r.x1; ++x) {
-        const int32_t u = radial_u_q16(b, x, y);
-        if (u < 0) continue;
-        sum_bowl += table_lookup(bowl, u);
-        sum_rim += table_lookup(rim, u);
-      }
-    }
-    int64_t h_q8 = sum_rim > 0 ? div_round(-sum_bowl * 65536, sum_rim) : 0;
-    const int64_t cap = 2 * std::abs(int64_t(q.intensity));
-    h_q8 = std::clamp(h_q8, -cap, cap);
-    for (size_t i = 0; i < b.table.size(); ++i) {
-      b.table[i] = int32_t(bowl[i] + div_round(h_q8 * rim[i], 65536));
-    }
+    b.profile.volume_conserving = true;
+    b.profile.rim_q8 = volume_conserving_rim(b);
   }
+  thread_local ProfileTableMemo memo;
+  b.table = memo.table(b.profile);
   return b;
 }
 

@@ -26,6 +26,7 @@ using Rng = StampRng;
 std::vector<FastIsa> isas() {
   std::vector<FastIsa> v = {FastIsa::kBest, FastIsa::kPortable};
   if (fast_isa_available(FastIsa::kAvx2)) v.push_back(FastIsa::kAvx2);
+  if (fast_isa_available(FastIsa::kAvx2Direct)) v.push_back(FastIsa::kAvx2Direct);
   return v;
 }
 
@@ -34,6 +35,7 @@ const char* isa_name(FastIsa isa) {
     case FastIsa::kBest: return "best";
     case FastIsa::kPortable: return "portable";
     case FastIsa::kAvx2: return "avx2";
+    case FastIsa::kAvx2Direct: return "avx2 direct";
   }
   return "?";
 }
@@ -210,6 +212,30 @@ TEST(FastStamp, FloatSquareRootIsCorrectedToTheExactIntegerRootAroundEveryPerfec
     for (size_t i = 0; i < in.size(); ++i) bad += out[i] != isqrt32(in[i]);
     EXPECT_EQ(bad, 0u) << isa_name(isa) << " over " << in.size() << " values";
   }
+}
+
+// The kernel divides by the reduced radius with a multiply and a shift: for every divisor it
+// can meet (1 <= Rr < 2^14) the quotient must be the division's at every dist it divides
+// (dist <= Rr, numerator dist << 16), and at the numerators where a rounding error would show
+// first: just below each multiple of the divisor, up to the 2^30 bound.
+TEST(FastStamp, TheReciprocalOfTheReducedRadiusDividesExactlyForEveryRadius) {
+  uint64_t bad = 0, checked = 0;
+  for (uint32_t d = 1; d < (1u << 14); ++d) {
+    const ExactDivisor div(d);
+    EXPECT_LT(div.m, uint64_t(1) << 32) << d;
+    for (uint32_t dist = 0; dist <= d; ++dist) {
+      const uint32_t n = dist << 16;
+      bad += div.divide(n) != n / d;
+      ++checked;
+    }
+    for (uint32_t q = (1u << 30) / d; q > 0 && q + 64 > (1u << 30) / d; --q) {
+      const uint32_t n = q * d - 1;
+      bad += div.divide(n) != n / d;
+      bad += div.divide(n + 1) != (n + 1) / d;
+      checked += 2;
+    }
+  }
+  EXPECT_EQ(bad, 0u) << "over " << checked << " quotients";
 }
 
 TEST(FastStamp, ThousandsOfSeededRandomStampsMatchTheReferenceTexelForTexel) {

@@ -6,6 +6,8 @@
 #include <functional>
 #include <random>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "protocol/stamps/stamp_apply.h"
 #include "stamps_test_util.h"
@@ -657,6 +659,50 @@ TEST(StampDeterminism, TheSameStampSequenceTwiceGivesTheSameWorldHash) {
 TEST(StampDeterminism, SeededSequenceReproducesTheGoldenHashOnEveryCompiler) {
   EXPECT_EQ(seeded_sequence_hash(), determinism::kGoldenStampSequenceHash)
       << std::hex << seeded_sequence_hash();
+}
+
+// bake_stamp reuses the tables of recent profiles. Stamps whose profiles differ in one field
+// each (kind, intensity by one unit, shape, volume conservation, whose rim height depends on the
+// radius and the centre's sub-sample offset), baked in turn more times than the memo has slots,
+// must get the table a thread that never baked anything gets.
+TEST(StampProfile, AReusedTableIsBitForBitTheTableBakedAfresh) {
+  const WorldParams p = corner_world_params();
+  std::vector<QuantizedStamp> stamps;
+  for (const StampKind kind :
+       {StampKind::kGaussian, StampKind::kCrater, StampKind::kFootprint, StampKind::kFlatten}) {
+    for (const double intensity : {2.0, 2.0 + 1.0 / 256.0, 40.0}) {
+      StampParams s =
+          make_params(kind, 3.3, -7.9, 12.0, kind == StampKind::kFlatten ? intensity / 64.0 : intensity);
+      s.shape = 0.25;
+      stamps.push_back(must_validate(s, p));
+      s.shape = 0.5;
+      stamps.push_back(must_validate(s, p));
+      if (kind == StampKind::kCrater) {
+        s.volume_conserving = true;
+        stamps.push_back(must_validate(s, p));
+        s.radius = 12.5;  // another rim height from the same depth and shape
+        stamps.push_back(must_validate(s, p));
+        s.center_x += 0.4;
+        stamps.push_back(must_validate(s, p));
+      }
+    }
+  }
+  std::vector<ProfileTable> fresh(stamps.size());
+  for (size_t i = 0; i < stamps.size(); ++i) {
+    std::thread([&] {
+      auto b = bake_stamp(stamps[i], p);
+      ASSERT_TRUE(b.ok());
+      fresh[i] = b.value().table;
+    }).join();
+  }
+  for (int round = 0; round < 3; ++round) {
+    for (size_t i = 0; i < stamps.size(); ++i) {
+      const size_t k = (i * 7 + size_t(round)) % stamps.size();  // a different order each round
+      auto b = bake_stamp(stamps[k], p);
+      ASSERT_TRUE(b.ok());
+      EXPECT_EQ(b.value().table, fresh[k]) << "stamp " << k << " round " << round;
+    }
+  }
 }
 
 // stamp_reach bounds what a stamp may change without applying it (the client's overlay
