@@ -644,7 +644,7 @@ void footprint_contact_fast(BakedStamp& b, const World& world) {
             const int64_t x1 = std::min(tx * kTileSize + kTileSize, span.x0 + want);
             const int64_t x0 = std::max(tx * kTileSize, x1 - want);
             best = std::max(best, contact_row_avx2(args, sole.empty() ? nullptr : sole.data(),
-                                                   tile.data() + base + size_t(x0), x0 * 256 - b.q.center_x,
+                                                   tile.data() + (base + size_t(x0)), x0 * 256 - b.q.center_x,
                                                    int32_t(x1 - x0), int32_t(span.x0 - x0),
                                                    int32_t(span.x1 - span.x0), b_abs));
             x = span.x1;
