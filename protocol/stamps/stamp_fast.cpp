@@ -81,17 +81,6 @@ struct RowArgs {
   bool raw;
 };
 
-// value8_direct for one dist (the vector rows' scalar remainder).
-inline int32_t value_direct(const RowArgs& a, int32_t dist) {
-  if (dist >= a.radius_r) return a.neutral;
-  const int32_t u = int32_t((uint64_t(uint32_t(dist) << 16) * a.div_m) >> a.div_k);
-  const int32_t i = u >> kProfileFracBits, f = u & ((1 << kProfileFracBits) - 1);
-  const int32_t t0 = a.table[i], t1 = a.table[std::min(i + 1, kProfileEntries)];
-  const int32_t t = t0 + (((t1 - t0) * f) >> kProfileFracBits);
-  if (a.raw) return t;
-  return std::clamp(a.sign * ((t + a.base + 128) >> 8) + a.offset, a.vlo, a.vhi);
-}
-
 // Portable row kernel: samples row[0..n) whose offsets are d0 + 256 i (Q8), |dyr| = b_abs.
 template <typename T, Op op, typename ValueFn>
 void radial_row_portable(const RowArgs& a, const ValueFn& value, T* row, int64_t d0, int32_t n, int32_t b_abs,
@@ -219,10 +208,10 @@ LOAM_TARGET_AVX2 inline __m256i value8_direct(const RowArgs& a, __m256i dist) {
 // AVX2 row kernel, eight samples at a time, with the value per dist from by_dist (kDirect
 // false) or from the profile table (value8_direct). Per lane, a = |d| >> s (< 2^14 inside the
 // rect) and b share one 32-bit lane as two int16, so madd gives d2 = a² + b² (< 2^29) exactly;
-// see isqrt8. The caller pads rows to whole vectors with samples of the rect outside the disc:
-// their dist (>= Rr) gets the value that leaves the old one as it is. The first and last
-// changed sample are tracked as vector minima and maxima of the lane index (no per-vector
-// branch). A remainder (rows narrower than a vector) runs scalar.
+// see isqrt8. n is a multiple of 8: the caller pads rows to whole vectors with the tile row's
+// samples past the disc, whose dist (>= Rr) gets the value that leaves the old one as it is.
+// The first and last changed sample are tracked as vector minima and maxima of the lane index
+// (no per-vector branch).
 template <typename T, Op op, bool kDirect>
 LOAM_TARGET_AVX2 void radial_row_avx2(const RowArgs& a, T* row, int64_t d0, int32_t n, int32_t b_abs,
                                       RowChange& ch) {
@@ -239,8 +228,7 @@ LOAM_TARGET_AVX2 void radial_row_avx2(const RowArgs& a, T* row, int64_t d0, int3
   const __m256i eight = _mm256_set1_epi32(8);
   const __m256i none_first = _mm256_set1_epi32(INT32_MAX), none_last = _mm256_set1_epi32(-1);
   __m256i first = none_first, last = none_last;
-  int32_t i = 0;
-  for (; i + 8 <= n; i += 8) {
+  for (int32_t i = 0; i < n; i += 8) {
     // Lanes of the padding past the rect may have offsets beyond 2^14: clamped to Rr, they
     // stay outside the disc and d2 stays below 2^29.
     const __m256i a_abs = _mm256_min_epi32(_mm256_srl_epi32(_mm256_abs_epi32(d), shift), outside);
@@ -264,16 +252,6 @@ LOAM_TARGET_AVX2 void radial_row_avx2(const RowArgs& a, T* row, int64_t d0, int3
   if (const int32_t l = hmax8(last); l >= 0) {
     ch.first = hmin8(first);
     ch.last = l;
-  }
-  if (i < n) {
-    RowChange tail;
-    radial_row_portable<T, op>(
-        a, [&](int32_t dist) { return value_direct(a, dist); }, row + i, d0 + int64_t(i) * 256, n - i, b_abs,
-        tail);
-    if (tail.first >= 0) {
-      if (ch.first < 0) ch.first = i + tail.first;
-      ch.last = i + tail.last;
-    }
   }
 }
 
@@ -365,6 +343,23 @@ FastStamp::FastStamp(const BakedStamp& b, FastIsa isa) : b_(b), per_rr_(uint32_t
 #else
   (void)isa;
 #endif
+  // What the old value is combined with, from the profile table's t (value_of).
+  form_.neutral = op_ == Op::kMin ? hi_ : op_ == Op::kMax ? lo_ : 0;
+  form_.vlo = INT32_MIN;
+  form_.vhi = INT32_MAX;
+  if (q.kind == StampKind::kFlatten) {
+    form_.raw = true;
+  } else if (q.kind == StampKind::kFootprint) {
+    form_.base = b.contact_q8 - q.intensity;
+    form_.vlo = lo_;
+    form_.vhi = hi_;
+  } else if (q.blend == BlendMode::kSubtract) {
+    form_.sign = -1;
+  } else if (q.blend == BlendMode::kMin || q.blend == BlendMode::kMax) {
+    form_.offset = q.target;
+    form_.vlo = lo_;
+    form_.vhi = hi_;
+  }
   const int32_t rr = b.radius_r;
   const bool force_tables = isa == FastIsa::kPortable || isa == FastIsa::kAvx2;
   if (q.kind == StampKind::kTexture) {
@@ -385,23 +380,6 @@ FastStamp::FastStamp(const BakedStamp& b, FastIsa isa) : b_(b), per_rr_(uint32_t
     build(tex_x_, t.width);
     build(tex_y_, t.height);
     return;
-  }
-  // value_at_dist_u in the form vector rows compute it without the per-dist table.
-  form_.neutral = op_ == Op::kMin ? hi_ : op_ == Op::kMax ? lo_ : 0;
-  form_.vlo = INT32_MIN;
-  form_.vhi = INT32_MAX;
-  if (q.kind == StampKind::kFlatten) {
-    form_.raw = true;
-  } else if (q.kind == StampKind::kFootprint) {
-    form_.base = b.contact_q8 - q.intensity;
-    form_.vlo = lo_;
-    form_.vhi = hi_;
-  } else if (q.blend == BlendMode::kSubtract) {
-    form_.sign = -1;
-  } else if (q.blend == BlendMode::kMin || q.blend == BlendMode::kMax) {
-    form_.offset = q.target;
-    form_.vlo = lo_;
-    form_.vhi = hi_;
   }
   // Row spans depend on the row only; tiles clip them.
   rows_.resize(size_t(b.rect.height()));
@@ -433,28 +411,18 @@ FastStamp::FastStamp(const BakedStamp& b, FastIsa isa) : b_(b), per_rr_(uint32_t
   by_dist_[size_t(rr)] = form_.neutral;
 }
 
-int32_t FastStamp::value_from_delta(int32_t delta) const {
-  switch (b_.q.blend) {
-    case BlendMode::kAdd: return delta;
-    case BlendMode::kSubtract: return -delta;
-    case BlendMode::kMin:
-    case BlendMode::kMax: return std::clamp(b_.q.target + delta, lo_, hi_);
-  }
-  return 0;
-}
-
 int32_t FastStamp::value_at_dist(int32_t dist) const {
   return value_at_dist_u(int32_t(per_rr_.divide(uint32_t(dist) << 16)));
 }
 
-// What stamp_sample combines with the old value, as a function of u alone.
-int32_t FastStamp::value_at_dist_u(int32_t u) const {
-  const int32_t t = table_lookup(b_.table, u);
-  switch (b_.q.kind) {
-    case StampKind::kFootprint: return std::clamp(round_q8(b_.contact_q8 - b_.q.intensity + t), lo_, hi_);
-    case StampKind::kFlatten: return t;  // Q14 weight
-    default: return value_from_delta(round_q8(t));
-  }
+int32_t FastStamp::value_at_dist_u(int32_t u) const { return value_of(table_lookup(b_.table, u)); }
+
+// stamp_sample's per-kind step from the table value t to what is combined with the old value:
+// round_q8 and the blend's sign, target and saturation, the footprint's contact, or flatten's
+// weight itself (ValueForm; value8_direct computes the same on eight lanes).
+int32_t FastStamp::value_of(int32_t t) const {
+  if (form_.raw) return t;
+  return std::clamp(form_.sign * ((t + form_.base + 128) >> 8) + form_.offset, form_.vlo, form_.vhi);
 }
 
 template <typename T>
@@ -562,7 +530,7 @@ RectI FastStamp::apply_texture(T* tile, int64_t tx, int64_t ty) const {
         const uint32_t bot = row1[ax.i0] * (256u - ax.f) + row1[ax.i1] * ax.f;
         const uint32_t t = (top * (256u - ay.f) + bot * ay.f + 32768u) >> 16;
         const int32_t u = int32_t(t + (t >> 15));
-        const int32_t v = value_from_delta(round_q8(table_lookup(b_.table, u)));
+        const int32_t v = value_of(table_lookup(b_.table, u));
         const int32_t old = row[x];
         int32_t nv = old;
         switch (op_) {

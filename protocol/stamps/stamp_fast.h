@@ -83,14 +83,14 @@ class FastStamp {
   RectI apply_texture(T* tile, int64_t tx, int64_t ty) const;
   int32_t value_at_dist(int32_t dist) const;
   int32_t value_at_dist_u(int32_t u_q16) const;
-  int32_t value_from_delta(int32_t delta) const;
+  int32_t value_of(int32_t t) const;
 
   const BakedStamp& b_;
   Op op_ = Op::kNone;
   bool avx2_ = false;
   int32_t lo_ = 0, hi_ = 0;  // layer range
   ExactDivisor per_rr_{1};   // u = (dist << 16) / Rr
-  // value_at_dist_u as one affine step for vector rows without the per-dist table:
+  // How every kind turns the profile table's t into what it combines with the old value:
   // v = clamp(sign · ((t + base + 128) >> 8) + offset, vlo, vhi), or v = t (flatten's weight).
   struct ValueForm {
     int32_t base = 0, sign = 1, offset = 0, vlo = 0, vhi = 0;
